@@ -1,0 +1,86 @@
+"""Milliseconds per frame for the simulated sensors at 640x480 on the RRL example maze.
+
+Prints colour, depth and segmentation render times, the sensor models, and the
+whole sensor set (colour + aligned noisy depth + thermal + pose) per frame,
+plus the same with per-frame ground-truth boxes. Run: ``python bench/bench_sim.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+import sim.gl  # noqa: F401
+import mujoco  # noqa: E402
+
+from sim.scenario import apply_settings, load_scenario  # noqa: E402
+from sim.simulator import Simulation  # noqa: E402
+from sim.world import CAMERA_NAME  # noqa: E402
+
+
+def _ms(fn, n):
+    fn()  # warm up
+    t = time.perf_counter()
+    for i in range(n):
+        fn(i)
+    return (time.perf_counter() - t) / n * 1e3
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--frames", type=int, default=100)
+    ap.add_argument("--maze", default="rrl_arena")
+    args = ap.parse_args()
+    sc = apply_settings(load_scenario("default"), [f"maze.file={args.maze}"])
+    n = args.frames
+    with Simulation(sc) as s:
+        ks = np.linspace(0, s.n_frames - 1, n).astype(int)
+        r = s._renderer_ready()
+        d = s.world.data
+
+        def rgb(i=0):
+            s._set_camera(int(ks[i % n]))
+            r.update_scene(d, CAMERA_NAME)
+            r.render()
+
+        def depth(i=0):
+            s._set_camera(int(ks[i % n]))
+            r.enable_depth_rendering()
+            r.update_scene(d, CAMERA_NAME)
+            r.render()
+            r.disable_depth_rendering()
+
+        def seg(i=0):
+            s._set_camera(int(ks[i % n]))
+            r.enable_segmentation_rendering()
+            r.update_scene(d, CAMERA_NAME)
+            r.render()
+            r.disable_segmentation_rendering()
+
+        res = {
+            "colour render": _ms(rgb, n),
+            "depth render": _ms(depth, n),
+            "segmentation render": _ms(seg, n),
+        }
+        full = apply_settings(sc, [f"maze.file={args.maze}"])
+        sensors = apply_settings(full, ["sensors.truth_boxes=false"])
+    with Simulation(sensors) as s2:
+        ks2 = np.linspace(0, s2.n_frames - 1, n).astype(int)
+        res["whole sensor set (colour+depth+thermal+pose)"] = _ms(lambda i=0: s2.frame(int(ks2[i % n])), n)
+    with Simulation(full) as s3:
+        ks3 = np.linspace(0, s3.n_frames - 1, n).astype(int)
+        res["sensor set + ground-truth boxes"] = _ms(lambda i=0: s3.frame(int(ks3[i % n])), n)
+        print(f"maze {args.maze}: {s3.maze.rows}x{s3.maze.cols} cells, {len(s3.maze.wall_segments())} wall pieces, "
+              f"{len(s3.objects)} objects, 640x480")
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"MUJOCO_GL={os.environ.get('MUJOCO_GL')}, mujoco {mujoco.__version__}")
+    for k, v in res.items():
+        print(f"{k:48s} {v:7.2f} ms/frame")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,453 @@
+"""MuJoCo geometry of every POI type, as MJCF ``<body>`` elements (rendering only).
+
+``build_object`` returns ``<body name="poi_{id}_{type}" pos="x y z" euler="0 0 yaw">``
+whose geoms are named ``poi_{id}_{type}_{part}`` (sim/objects.py). The euler angle
+is in radians: the scene must declare ``<compiler angle="radian"/>`` (sim/world.py
+does). Children use ``quat`` and ``fromto`` only, so they do not depend on it.
+
+Local frame (sim/objects.py): origin at the object's reference point, +x the way
+the object faces (out of the wall), z up. Every geom has ``contype="0"
+conaffinity="0" group="0"``: nothing collides, everything renders.
+
+Reference points and extents, for a characteristic size ``s = obj.size_m``:
+
+- hazmat, qr, fire-extinguisher-sign: an ``s`` x ``s`` image; exit-sign: ``s`` wide
+  and ``s/2`` high. The origin is on the wall face, the image is a textured quad at
+  x = +3 mm (``QUAD_OFFSET_M``) over a thin backing; seen from +x it reads the
+  right way round (the texture's top row at +z, its left column at -y).
+- fire-extinguisher: ``s`` tall (0.5 m at RRL scale), radius 0.14 s, the origin at
+  half height (floor at z = -s/2).
+- valve: a hand wheel of diameter ``s`` centred on the origin, its axis along x, on a
+  pipe from the wall at x = -0.48 s (``VALVE_STANDOFF``, sim/placement.py uses
+  0.12 m for a 0.25 m wheel).
+- door: a leaf ``s`` wide and :func:`door_height_m` high centred on the origin on the
+  wall's centre line, in a frame ``DOOR_FRAME_M`` wide (:func:`door_frame_extent_m`).
+- baby-doll: ``s`` long from feet to head along y, lying on its back, the origin at
+  the torso centre, 0.06 s / 0.35 above the floor.
+- heat-source: an oil-radiator-like heater ``s`` tall, ``s`` wide, 0.4 s deep, with a
+  glowing orange-red grille on its +x face; the origin at its centroid.
+
+>>> from sim.mjcf import SceneAssets
+>>> from sim.objects import PlacedObject
+>>> body = build_object(PlacedObject(id=3, type="qr", text="Chart M"), SceneAssets())
+>>> body.get("name"), [g.get("name") for g in body.iter("geom")]
+('poi_3_qr', ['poi_3_qr_backing', 'poi_3_qr_face'])
+"""
+
+from __future__ import annotations
+
+import hashlib
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from maze_assets.hazmat import draw_hazmat
+from maze_assets.qr import draw_qr
+from maze_assets.signs import draw_exit_sign, draw_fire_extinguisher_sign
+from sim.mjcf import SceneAssets, fmt
+from sim.objects import PlacedObject
+
+FLAT_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign")
+TEXTURE_PX = 256
+QUAD_OFFSET_M = 0.003  # the image floats this far in front of the wall face
+BACKING_M = 0.002  # thickness of the card / plate behind the image
+VALVE_STANDOFF = 0.48  # wall face to wheel centre, in wheel diameters
+DOOR_FRAME_M = 0.05  # width of the jambs and the lintel
+DOOR_MAX_HEIGHT_M = 2.0
+DOLL_RRL_LENGTH_M = 0.35
+FIRE_EXTINGUISHER_RADIUS = 0.14  # body radius per unit height (0.07 m at 0.5 m)
+
+
+class ModelError(ValueError):
+    """An object that cannot be built (bad size or unknown type)."""
+
+
+def door_height_m(wall_height_m: float) -> float:
+    """Height of a door leaf in a wall of the given height: min(2.0, 0.9 * wall height).
+
+    >>> door_height_m(1.2), door_height_m(3.0)
+    (1.08, 2.0)
+    """
+    return min(DOOR_MAX_HEIGHT_M, 0.9 * wall_height_m)
+
+
+def door_frame_extent_m(size_m: float, wall_height_m: float) -> tuple[float, float]:
+    """(width, height above the floor) of a door's frame: the wall opening it fills.
+
+    >>> door_frame_extent_m(0.8, 1.2)
+    (0.9, 1.13)
+    """
+    return (size_m + 2 * DOOR_FRAME_M, round(door_height_m(wall_height_m) + DOOR_FRAME_M, 9))
+
+
+def flat_extent_m(type_: str, size_m: float) -> tuple[float, float]:
+    """(width, height) of a flat item's image, metres.
+
+    >>> flat_extent_m("exit-sign", 0.3)
+    (0.3, 0.15)
+    """
+    if type_ not in FLAT_TYPES:
+        raise ModelError(f"flat_extent_m: {type_!r} is not a flat type {FLAT_TYPES}")
+    return (size_m, size_m / 2) if type_ == "exit-sign" else (size_m, size_m)
+
+
+# --- small helpers ------------------------------------------------------------------------
+
+
+def _set_asset_attr(assets: SceneAssets, tag: str, name: str, **attrs: str) -> None:
+    """Set attributes SceneAssets has no argument for (mesh inertia, material emission)."""
+    for el in assets.asset.iter(tag):
+        if el.get("name") == name:
+            for k, v in attrs.items():
+                el.set(k, v)
+            return
+    raise KeyError(f"no <{tag} name={name!r}> in the scene assets")
+
+
+def _material(assets: SceneAssets, name: str, rgba, *, emission: float = 0.0, **kw) -> str:
+    """A shared material ``objmat_{name}`` (registered on first use)."""
+    full = f"objmat_{name}"
+    if not assets.has(full):
+        assets.material(full, rgba=rgba, **kw)
+        if emission:
+            _set_asset_attr(assets, "material", full, emission=fmt(emission))
+    return full
+
+
+def _quat_x_to(d) -> np.ndarray:
+    """Quaternion (w, x, y, z) turning +x onto the unit vector d (for boxes)."""
+    d = np.asarray(d, float) / np.linalg.norm(d)
+    x = np.array([1.0, 0.0, 0.0])
+    c = float(np.dot(x, d))
+    if c < -1 + 1e-12:
+        return np.array([0.0, 0.0, 0.0, 1.0])
+    axis = np.cross(x, d)
+    q = np.array([1.0 + c, *axis])
+    return q / np.linalg.norm(q)
+
+
+class _Body:
+    """Adds named, non-colliding geoms to one object body."""
+
+    def __init__(self, obj: PlacedObject, assets: SceneAssets) -> None:
+        self.obj, self.assets = obj, assets
+        self.el = ET.Element(
+            "body", name=obj.body_name, pos=fmt(obj.position), euler=fmt([0.0, 0.0, obj.yaw])
+        )
+        self._parts: set[str] = set()
+
+    def geom(self, part: str, material: str, **attrs) -> ET.Element:
+        if part in self._parts:
+            raise ModelError(f"{self.obj.body_name}: part {part!r} used twice")
+        self._parts.add(part)
+        a = {k: (v if isinstance(v, str) else fmt(v)) for k, v in attrs.items()}
+        return ET.SubElement(
+            self.el,
+            "geom",
+            name=f"{self.obj.body_name}_{part}",
+            material=material,
+            contype="0",
+            conaffinity="0",
+            group="0",
+            **a,
+        )
+
+    def box(self, part: str, material: str, lo, hi, quat=None) -> ET.Element:
+        """Axis-aligned box between corners lo and hi (local frame), optionally rotated."""
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        extra = {} if quat is None else {"quat": quat}
+        return self.geom(
+            part, material, type="box", pos=(lo + hi) / 2, size=np.abs(hi - lo) / 2, **extra
+        )
+
+    def capsule(self, part: str, material: str, p0, p1, r: float) -> ET.Element:
+        return self.geom(part, material, type="capsule", fromto=[*p0, *p1], size=r)
+
+    def cylinder(self, part: str, material: str, p0, p1, r: float) -> ET.Element:
+        return self.geom(part, material, type="cylinder", fromto=[*p0, *p1], size=r)
+
+    def sphere(self, part: str, material: str, p, r: float) -> ET.Element:
+        return self.geom(part, material, type="sphere", pos=p, size=r)
+
+    def ellipsoid(self, part: str, material: str, p, radii) -> ET.Element:
+        return self.geom(part, material, type="ellipsoid", pos=p, size=radii)
+
+
+# --- flat items ---------------------------------------------------------------------------
+
+
+def _flat_texture(obj: PlacedObject, assets: SceneAssets) -> tuple[str, float]:
+    """Register (once) the texture and material for a flat item; (material, emission)."""
+    if obj.type == "hazmat":
+        key, draw = f"hazmat_{obj.text}", lambda: draw_hazmat(obj.text, TEXTURE_PX)
+    elif obj.type == "qr":
+        digest = hashlib.sha1(obj.text.encode("utf-8")).hexdigest()[:12]
+        key, draw = f"qr_{digest}", lambda: draw_qr(obj.text, TEXTURE_PX)
+    elif obj.type == "exit-sign":
+        key, draw = "exit_sign", lambda: draw_exit_sign(TEXTURE_PX)
+    else:
+        key, draw = "fire_extinguisher_sign", lambda: draw_fire_extinguisher_sign(TEXTURE_PX)
+    tex, mat = f"objtex_{key}", f"objmat_{key}"
+    if not assets.has(tex):
+        assets.texture(tex, draw())
+    if not assets.has(mat):
+        # an exit sign is a lit box: it glows a little
+        assets.material(mat, texture=tex, specular=0.05, shininess=0.05)
+        if obj.type == "exit-sign":
+            _set_asset_attr(assets, "material", mat, emission="0.4")
+    return mat, 0.0
+
+
+def _quad_mesh(assets: SceneAssets, w: float, h: float) -> str:
+    """A w x h quad in the y-z plane at x = QUAD_OFFSET_M, facing +x, image upright.
+
+    Vertices 0..3 are top-left, top-right, bottom-right, bottom-left as seen from +x
+    (the viewer's right is +y); texcoord (0, 0) is the image's top-left pixel (checked
+    by rendering in tests/maze_assets/test_models.py).
+    """
+    name = f"objmesh_quad_{round(w * 1e4)}x{round(h * 1e4)}"
+    if assets.has(name):
+        return name
+    x = QUAD_OFFSET_M
+    V = [(x, -w / 2, h / 2), (x, w / 2, h / 2), (x, w / 2, -h / 2), (x, -w / 2, -h / 2)]
+    F = [(0, 3, 2), (0, 2, 1)]  # counter-clockwise seen from +x: the normal is +x
+    UV = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    assets.mesh(name, V, F, UV)
+    _set_asset_attr(assets, "mesh", name, inertia="shell")  # a flat mesh has no volume
+    return name
+
+
+def _flat(b: _Body) -> None:
+    obj = b.obj
+    w, h = flat_extent_m(obj.type, obj.size_m)
+    mat, _ = _flat_texture(obj, b.assets)
+    backing = _material(b.assets, "card", (0.95, 0.95, 0.94, 1.0))
+    b.box("backing", backing, (0.0, -w / 2, -h / 2), (BACKING_M, w / 2, h / 2))
+    b.geom("face", mat, type="mesh", mesh=_quad_mesh(b.assets, w, h))
+
+
+# --- free-standing and wall objects -------------------------------------------------------
+
+
+def _fire_extinguisher(b: _Body) -> None:
+    H = b.obj.size_m
+    r = FIRE_EXTINGUISHER_RADIUS * H
+    z0 = -H / 2  # floor
+    a = b.assets
+    red = _material(a, "extinguisher_red", (0.78, 0.05, 0.04, 1.0), specular=0.5, shininess=0.6)
+    black = _material(a, "rubber_black", (0.05, 0.05, 0.05, 1.0), specular=0.2)
+    steel = _material(a, "steel", (0.72, 0.72, 0.74, 1.0), specular=0.8, shininess=0.8)
+    white = _material(a, "label_white", (0.95, 0.95, 0.93, 1.0))
+    top = z0 + 0.72 * H
+    b.cylinder("base", black, (0, 0, z0), (0, 0, z0 + 0.03 * H), 1.02 * r)
+    b.cylinder("body", red, (0, 0, z0 + 0.02 * H), (0, 0, top), r)
+    b.ellipsoid("shoulder", red, (0, 0, top), (r, r, 0.45 * r))
+    b.cylinder("label", white, (0, 0, z0 + 0.30 * H), (0, 0, z0 + 0.56 * H), 1.01 * r)
+    b.box(
+        "label_text",
+        black,
+        (1.0 * r, -0.35 * r, z0 + 0.44 * H),
+        (1.02 * r, 0.35 * r, z0 + 0.47 * H),
+    )
+    b.cylinder("neck", steel, (0, 0, top + 0.4 * r), (0, 0, z0 + 0.84 * H), 0.28 * r)
+    b.box("valve", steel, (-0.35 * r, -0.3 * r, z0 + 0.83 * H), (0.45 * r, 0.3 * r, z0 + 0.90 * H))
+    b.cylinder(
+        "gauge", white, (0.45 * r, 0, z0 + 0.865 * H), (0.52 * r, 0, z0 + 0.865 * H), 0.2 * r
+    )
+    b.capsule("lever", black, (-0.2 * r, 0, z0 + 0.92 * H), (1.1 * r, 0, z0 + 0.975 * H), 0.07 * r)
+    b.capsule("handle", black, (-0.2 * r, 0, z0 + 0.89 * H), (1.1 * r, 0, z0 + 0.87 * H), 0.07 * r)
+    hose = [
+        (0.0, 0.3 * r, z0 + 0.86 * H),
+        (0.0, 1.25 * r, z0 + 0.80 * H),
+        (0.0, 1.30 * r, z0 + 0.62 * H),
+        (0.0, 1.18 * r, z0 + 0.42 * H),
+    ]
+    for k, (p, q) in enumerate(zip(hose[:-1], hose[1:], strict=False)):
+        b.capsule(f"hose_{k}", black, p, q, 0.09 * r)
+    b.cylinder("nozzle", black, hose[-1], (0.0, 1.12 * r, z0 + 0.28 * H), 0.16 * r)
+
+
+def _valve(b: _Body) -> None:
+    D = b.obj.size_m
+    a = b.assets
+    grey = _material(a, "pipe_grey", (0.55, 0.57, 0.58, 1.0), specular=0.5, shininess=0.5)
+    iron = _material(a, "cast_iron", (0.22, 0.23, 0.24, 1.0), specular=0.3)
+    steel = _material(a, "steel", (0.72, 0.72, 0.74, 1.0), specular=0.8, shininess=0.8)
+    if b.obj.id % 2 == 0:
+        wheel = _material(a, "wheel_red", (0.80, 0.08, 0.06, 1.0), specular=0.4, shininess=0.5)
+    else:
+        wheel = _material(a, "wheel_yellow", (0.95, 0.75, 0.05, 1.0), specular=0.4, shininess=0.5)
+    xw = -VALVE_STANDOFF * D  # wall face
+    b.cylinder("flange", grey, (xw, 0, 0), (xw + 0.025 * D, 0, 0), 0.18 * D)
+    b.cylinder("pipe", grey, (xw, 0, 0), (-0.20 * D, 0, 0), 0.08 * D)
+    b.ellipsoid("body", iron, (-0.15 * D, 0, 0), (0.09 * D, 0.14 * D, 0.14 * D))
+    b.cylinder("bonnet", iron, (-0.10 * D, 0, 0), (-0.03 * D, 0, 0), 0.07 * D)
+    b.cylinder("stem", steel, (-0.04 * D, 0, 0), (0.025 * D, 0, 0), 0.022 * D)
+    b.cylinder("hub", wheel, (-0.02 * D, 0, 0), (0.02 * D, 0, 0), 0.07 * D)
+    R, tube, n = 0.45 * D, 0.045 * D, 18
+    ang = np.linspace(0.0, 2 * np.pi, n + 1)
+    for k in range(n):
+        p = (0.0, R * np.cos(ang[k]), R * np.sin(ang[k]))
+        q = (0.0, R * np.cos(ang[k + 1]), R * np.sin(ang[k + 1]))
+        b.capsule(f"rim_{k}", wheel, p, q, tube)
+    for k in range(4):
+        t = np.pi / 4 + k * np.pi / 2
+        b.capsule(
+            f"spoke_{k}", wheel, (0.0, 0.0, 0.0), (0.0, R * np.cos(t), R * np.sin(t)), 0.6 * tube
+        )
+
+
+def _door(b: _Body, wall_height_m: float, wall_thickness_m: float) -> None:
+    W = b.obj.size_m
+    H = door_height_m(wall_height_m)
+    a = b.assets
+    wood = _material(a, "door_leaf", (0.55, 0.32, 0.16, 1.0), specular=0.2, shininess=0.3)
+    panel = _material(a, "door_panel", (0.47, 0.27, 0.13, 1.0), specular=0.2, shininess=0.3)
+    frame = _material(a, "door_frame", (0.93, 0.92, 0.88, 1.0), specular=0.2)
+    steel = _material(a, "steel", (0.72, 0.72, 0.74, 1.0), specular=0.8, shininess=0.8)
+    fw = DOOR_FRAME_M
+    fd = wall_thickness_m / 2 + 0.005  # frame half depth: 5 mm proud of each wall face
+    t = min(0.04, 0.8 * wall_thickness_m) / 2  # leaf half thickness
+    gap = 0.003
+    z0 = -H / 2
+    for side, s in (("left", 1), ("right", -1)):
+        y_in = s * W / 2
+        b.box(f"jamb_{side}", frame, (-fd, y_in, z0), (fd, y_in + s * fw, H / 2 + fw))
+    b.box("lintel", frame, (-fd, -W / 2, H / 2), (fd, W / 2, H / 2 + fw))
+    b.box("leaf", wood, (-t, -W / 2 + gap, z0 + gap), (t, W / 2 - gap, H / 2 - gap))
+    # two raised panels on each face
+    mw = 0.12 * W
+    zs = [(z0 + 0.10 * H, z0 + 0.45 * H), (z0 + 0.55 * H, z0 + 0.92 * H)]
+    for face, sx in (("front", 1), ("back", -1)):
+        for k, (za, zb) in enumerate(zs):
+            x0, x1 = sorted((sx * (t - 0.002), sx * (t + 0.006)))  # embedded: no z-fighting
+            b.box(f"panel_{face}_{k}", panel, (x0, -W / 2 + mw, za), (x1, W / 2 - mw, zb))
+    # lever handles on both faces, on the side away from the hinges (+y jamb holds the hinges)
+    zh = z0 + min(1.0, 0.5 * H)
+    yh = -W / 2 + 0.07
+    for face, sx in (("front", 1), ("back", -1)):
+        b.cylinder(f"rose_{face}", steel, (sx * t, yh, zh), (sx * (t + 0.012), yh, zh), 0.025)
+        b.capsule(f"neck_{face}", steel, (sx * t, yh, zh), (sx * (t + 0.05), yh, zh), 0.009)
+        b.capsule(
+            f"lever_{face}",
+            steel,
+            (sx * (t + 0.05), yh, zh),
+            (sx * (t + 0.05), yh + 0.11, zh),
+            0.011,
+        )
+    for k, zf in enumerate((0.15, 0.85)):
+        zz = z0 + zf * H
+        b.cylinder(
+            f"hinge_{k}", steel, (0, W / 2 - 0.005, zz - 0.04), (0, W / 2 - 0.005, zz + 0.04), 0.008
+        )
+
+
+def _baby_doll(b: _Body) -> None:
+    s = b.obj.size_m / DOLL_RRL_LENGTH_M  # metres below are at the RRL size (0.35 m long)
+    a = b.assets
+    skin = _material(a, "doll_skin", (0.96, 0.78, 0.66, 1.0), specular=0.2, shininess=0.3)
+    hair = _material(a, "doll_hair", (0.55, 0.36, 0.18, 1.0), specular=0.1)
+    dark = _material(a, "doll_eye", (0.08, 0.06, 0.06, 1.0))
+    lips = _material(a, "doll_mouth", (0.80, 0.35, 0.38, 1.0))
+    if b.obj.id % 2 == 0:
+        cloth = _material(a, "onesie_pink", (0.97, 0.70, 0.80, 1.0), specular=0.05)
+    else:
+        cloth = _material(a, "onesie_blue", (0.62, 0.80, 0.96, 1.0), specular=0.05)
+
+    def p(x, y, z):
+        return (x * s, y * s, z * s)
+
+    # lying on its back along y (head at +y), face up; torso centre at the origin, floor at -0.06
+    b.capsule("torso", cloth, p(0, -0.02, 0), p(0, 0.04, 0), 0.055 * s)
+    b.sphere("head", skin, p(0, 0.12, 0.0), 0.055 * s)
+    b.ellipsoid("hair", hair, p(0, 0.135, -0.005), (0.056 * s, 0.05 * s, 0.052 * s))
+    for side, sx in (("left", 1), ("right", -1)):
+        b.sphere(f"eye_{side}", dark, p(0.02 * sx, 0.125, 0.051), 0.007 * s)
+        b.capsule(
+            f"arm_{side}",
+            cloth,
+            p(0.062 * sx, 0.055, -0.02),
+            p(0.075 * sx, -0.02, -0.03),
+            0.021 * s,
+        )
+        b.sphere(f"hand_{side}", skin, p(0.077 * sx, -0.038, -0.032), 0.019 * s)
+        b.capsule(
+            f"leg_{side}",
+            cloth,
+            p(0.03 * sx, -0.06, -0.028),
+            p(0.035 * sx, -0.15, -0.032),
+            0.027 * s,
+        )
+    b.ellipsoid("mouth", lips, p(0, 0.095, 0.047), (0.012 * s, 0.005 * s, 0.004 * s))
+
+
+def _heat_source(b: _Body) -> None:
+    H = b.obj.size_m
+    a = b.assets
+    body = _material(a, "heater_body", (0.88, 0.88, 0.86, 1.0), specular=0.4, shininess=0.4)
+    fin = _material(a, "heater_fin", (0.80, 0.80, 0.78, 1.0), specular=0.4, shininess=0.4)
+    glow = _material(a, "heater_glow", (1.0, 0.32, 0.06, 1.0), emission=0.9, specular=0.1)
+    chrome = _material(a, "steel", (0.72, 0.72, 0.74, 1.0), specular=0.8, shininess=0.8)
+    dark = _material(a, "rubber_black", (0.05, 0.05, 0.05, 1.0), specular=0.2)
+    z0 = -H / 2
+    xb, xf = -0.20 * H, 0.20 * H  # back and front faces
+    nf = 7
+    pitch = H / nf
+    for k in range(nf):  # vertical fins behind the front panel
+        yc = -H / 2 + pitch * (k + 0.5)
+        b.box(
+            f"fin_{k}", fin, (xb, yc - 0.35 * pitch, z0 + 0.10 * H), (0.0, yc + 0.35 * pitch, H / 2)
+        )
+    b.box("panel", body, (0.0, -H / 2, z0 + 0.08 * H), (xf - 0.01 * H, H / 2, H / 2))
+    b.box("grille", glow, (xf - 0.01 * H, -0.40 * H, z0 + 0.25 * H), (xf, 0.40 * H, z0 + 0.85 * H))
+    for k in range(6):  # guard bars across the glowing grille
+        zz = z0 + 0.25 * H + (k + 0.5) * 0.6 * H / 6
+        b.capsule(
+            f"bar_{k}",
+            chrome,
+            (xf + 0.01 * H, -0.40 * H, zz),
+            (xf + 0.01 * H, 0.40 * H, zz),
+            0.008 * H,
+        )
+    b.box("base", dark, (xb - 0.05 * H, -0.45 * H, z0), (xf + 0.05 * H, -0.35 * H, z0 + 0.08 * H))
+    b.box("base_2", dark, (xb - 0.05 * H, 0.35 * H, z0), (xf + 0.05 * H, 0.45 * H, z0 + 0.08 * H))
+    b.cylinder(
+        "knob", dark, (0.05 * H, 0.35 * H, H / 2), (0.05 * H, 0.35 * H, H / 2 + 0.04 * H), 0.04 * H
+    )
+
+
+def build_object(
+    obj: PlacedObject,
+    assets: SceneAssets,
+    *,
+    wall_height_m: float = 1.2,
+    wall_thickness_m: float = 0.05,
+) -> ET.Element:
+    """The ``<body>`` of ``obj`` (see the module docstring for each type's geometry).
+
+    Textures and materials are registered in ``assets`` once and shared between
+    objects of the same look (same hazmat label, same QR text).
+    """
+    if not obj.size_m > 0:
+        raise ModelError(f"object {obj.id} ({obj.type}): size_m must be > 0, got {obj.size_m}")
+    b = _Body(obj, assets)
+    if obj.type in FLAT_TYPES:
+        _flat(b)
+    elif obj.type == "fire-extinguisher":
+        _fire_extinguisher(b)
+    elif obj.type == "valve":
+        _valve(b)
+    elif obj.type == "door":
+        if not (wall_height_m > 0 and wall_thickness_m > 0):
+            raise ModelError(
+                f"object {obj.id} (door): wall_height_m and wall_thickness_m must be > 0, "
+                f"got {wall_height_m}, {wall_thickness_m}"
+            )
+        _door(b, wall_height_m, wall_thickness_m)
+    elif obj.type == "baby-doll":
+        _baby_doll(b)
+    elif obj.type == "heat-source":
+        _heat_source(b)
+    else:  # PlacedObject already checks the type; this guards a new type without a model
+        raise ModelError(f"object {obj.id}: no model for type {obj.type!r}")
+    return b.el

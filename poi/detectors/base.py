@@ -1,0 +1,171 @@
+"""The detector protocol, the detector registry and the class-probability rule.
+
+A detector takes a :class:`poi.types.Frame` and returns a list of
+:class:`poi.types.Detection`. Each detector is a keyword-only dataclass of its
+settings, registered by name so a config can say
+``{"name": "onnx", "model": "m.onnx", "conf": 0.25}`` (STYLE.md, "Models and
+registries").
+
+>>> build_detector({"name": "thermal", "min_temp_c": 50.0}).min_temp_c
+50.0
+>>> build_detector({"name": "thermal", "min_tmp_c": 50.0})  # doctest: +ELLIPSIS
+Traceback (most recent call last):
+...
+poi.detectors.base.DetectorConfigError: detector 'thermal': unknown key 'min_tmp_c'; expected some of [...]
+>>> spread_class_probs(np.array([0.0, 0.8, 0.1, 0.1]), top=1)
+array([0. , 0.8, 0.1, 0.1])
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from poi.names import CLASS_INDEX, CLASSES, class_to_identity, identity_to_class
+from poi.types import Detection, Frame
+
+# The built-in detectors register themselves when poi.detectors is imported,
+# which importing this module (poi.detectors.base) always does first.
+
+
+class DetectorConfigError(ValueError):
+    """A detector spec or a detector's data (model, names file) is not usable."""
+
+
+@runtime_checkable
+class Detector(Protocol):
+    """Frame in, detections out."""
+
+    name: str
+
+    def detect(self, frame: Frame) -> list[Detection]: ...
+
+
+REGISTRY: dict[str, type] = {}
+
+
+def register(name: str) -> Callable[[type], type]:
+    """Class decorator: make a detector dataclass buildable as ``{"name": name, ...}``."""
+
+    def wrap(cls: type) -> type:
+        if name in REGISTRY and REGISTRY[name] is not cls:
+            raise DetectorConfigError(f"detector name {name!r} is already registered")
+        REGISTRY[name] = cls
+        return cls
+
+    return wrap
+
+
+def build_detector(spec: dict[str, Any]) -> Detector:
+    """Build the detector a spec names; every other key is one of its settings.
+
+    Unknown names and unknown keys raise :class:`DetectorConfigError` naming them.
+    """
+    if not isinstance(spec, dict):
+        raise DetectorConfigError(f"detector spec must be a mapping, got {type(spec).__name__}")
+    if "name" not in spec:
+        raise DetectorConfigError(f"detector spec has no 'name' key: {sorted(spec)}")
+    name = spec["name"]
+    if name not in REGISTRY:
+        raise DetectorConfigError(f"unknown detector {name!r}; expected one of {sorted(REGISTRY)}")
+    cls = REGISTRY[name]
+    settings = {
+        f.name for f in dataclasses.fields(cls) if f.init and f.name != "name"
+    }  # 'name' is the registry key, not a setting
+    kwargs = {k: v for k, v in spec.items() if k != "name"}
+    for key in kwargs:
+        if key not in settings:
+            raise DetectorConfigError(
+                f"detector {name!r}: unknown key {key!r}; expected some of {sorted(settings)}"
+            )
+    return cls(**kwargs)
+
+
+def spread_class_probs(scores: np.ndarray, top: int) -> np.ndarray:
+    """A distribution over classes from one detection's score vector (seed 1, section 2.1.5).
+
+    The top class keeps its score p; the remaining mass 1 - p is spread over the
+    other classes in proportion to their scores, or uniformly when they are all
+    zero: Pr(B | detected A) = (1 - p) Pr(B | A misclassified).
+    ``scores`` must be finite and in [0, 1]; the result sums to 1.
+    """
+    s = np.asarray(scores, dtype=np.float64)  # (K,)
+    K = s.shape[0]
+    if s.ndim != 1 or K == 0:
+        raise ValueError(f"scores must be a non-empty 1-D vector, got shape {s.shape}")
+    if not np.all(np.isfinite(s)) or s.min() < 0.0 or s.max() > 1.0:
+        raise ValueError("scores must be finite and in [0, 1]")
+    if not 0 <= top < K:
+        raise ValueError(f"top index {top} out of range for {K} classes")
+    p = float(s[top])
+    probs = np.zeros(K, dtype=np.float64)
+    probs[top] = p
+    if K == 1:
+        probs[top] = 1.0
+        return probs
+    others = np.ones(K, dtype=bool)
+    others[top] = False
+    rest = s[others]  # (K-1,)
+    total = float(rest.sum())
+    if total > 0.0:
+        # Pr(B | A misclassified) ~ score of B among the others.
+        probs[others] = (1.0 - p) * rest / total
+    else:
+        probs[others] = (1.0 - p) / (K - 1)
+    return probs
+
+
+def one_class_probs(class_name: str, p: float) -> np.ndarray:
+    """Class probabilities over CLASSES for a detector that knows only its top class.
+
+    ``class_name`` gets ``p``, every other class (1 - p) / (len(CLASSES) - 1)
+    (seed 1, section 2.1.5 with no information on the misclassification).
+
+    >>> pr = one_class_probs("heat-source", 0.9)
+    >>> round(float(pr[CLASS_INDEX["heat-source"]]), 3), round(float(pr.sum()), 6)
+    (0.9, 1.0)
+    """
+    scores = np.zeros(len(CLASSES))
+    k = CLASS_INDEX[class_name]
+    scores[k] = p
+    return spread_class_probs(scores, k)
+
+
+def canonical_class(model_name: str) -> str | None:
+    """The name in CLASSES a model's class name stands for, or None if unknown.
+
+    >>> canonical_class("Toxic"), canonical_class("QR code"), canonical_class("car")
+    ('inhalation-hazard', 'qr', None)
+    """
+    identity = class_to_identity(model_name)
+    if identity is None:
+        return None
+    return identity_to_class(*identity)
+
+
+def make_detection(
+    class_name: str,
+    box_xyxy: tuple[float, float, float, float],
+    confidence: float,
+    *,
+    source: str,
+    class_probs: np.ndarray | None,
+    text: str | None = None,
+) -> Detection:
+    """A Detection for a name in CLASSES, its type and text taken from the name."""
+    identity = class_to_identity(class_name)
+    if identity is None:
+        raise ValueError(f"class {class_name!r} is not in poi.names.CLASSES")
+    type_, label = identity
+    return Detection(
+        class_name=class_name,
+        type=type_,
+        text=label if text is None else text,
+        box_xyxy=tuple(float(v) for v in box_xyxy),
+        confidence=float(confidence),
+        source=source,
+        class_probs=class_probs,
+    )

@@ -1,0 +1,146 @@
+"""Canonical object types, hazmat labels and the aliases real teams write.
+
+Implements the "Type names" and "Hazmat labels" sections of RULES.md: matching is
+case-insensitive and treats spaces, ``_`` and ``-`` alike.
+
+The detector's class space (``CLASSES``) is the 16 hazmat labels followed by the
+eight other types, so one class name says both the type and, for hazmats, the
+label.
+
+>>> canonical_type("QR Code")
+'qr'
+>>> canonical_type("fire extinguisher")
+'fire-extinguisher'
+>>> canonical_label("Toxic")
+'inhalation-hazard'
+>>> class_to_identity("oxidizer")
+('hazmat', 'oxidizer')
+>>> class_to_identity("baby_doll")
+('baby-doll', '')
+>>> display_name("hazmat", "oxidizer")
+'Oxidizer'
+"""
+
+from __future__ import annotations
+
+TYPES: tuple[str, ...] = (
+    "hazmat",
+    "qr",
+    "door",
+    "valve",
+    "baby-doll",
+    "fire-extinguisher",
+    "exit-sign",
+    "fire-extinguisher-sign",
+    "heat-source",
+)
+
+HAZMAT_LABELS: tuple[str, ...] = (
+    "explosive",
+    "blasting-agent",
+    "flammable-gas",
+    "non-flammable-gas",
+    "oxygen",
+    "fuel-oil",
+    "dangerous-when-wet",
+    "flammable-solid",
+    "spontaneously-combustible",
+    "oxidizer",
+    "organic-peroxide",
+    "inhalation-hazard",
+    "poison",
+    "radioactive",
+    "corrosive",
+    "infectious-substance",
+)
+
+TYPE_ALIASES: dict[str, str] = {
+    "qrcode": "qr",
+    "qr-code": "qr",
+    "doll": "baby-doll",
+    "victim": "baby-doll",
+    "baby": "baby-doll",
+    "extinguisher": "fire-extinguisher",
+    "exit": "exit-sign",
+    "heat": "heat-source",
+    "hotspot": "heat-source",
+    "thermal": "heat-source",
+}
+
+LABEL_ALIASES: dict[str, str] = {
+    "explosives": "explosive",
+    "blasting-agents": "blasting-agent",
+    "flammable": "flammable-gas",
+    "flammable-liquid": "flammable-gas",
+    "dangerous": "dangerous-when-wet",
+    "poison-gas": "inhalation-hazard",
+    "toxic": "inhalation-hazard",
+    "infectious": "infectious-substance",
+    "organic-peroxides": "organic-peroxide",
+}
+
+# Detector class space: hazmat labels first, then every other type. Text-bearing
+# types other than hazmat (qr) get their text from a decoder, not the class.
+CLASSES: tuple[str, ...] = HAZMAT_LABELS + tuple(t for t in TYPES if t != "hazmat")
+CLASS_INDEX: dict[str, int] = {name: i for i, name in enumerate(CLASSES)}
+
+
+def normalise(name: str) -> str:
+    """Lower-case, trim, and map runs of spaces / ``_`` / ``-`` to one ``-``."""
+    out = []
+    prev_sep = False
+    for ch in name.strip().lower():
+        if ch in " _-\t":
+            if not prev_sep and out:
+                out.append("-")
+            prev_sep = True
+        else:
+            out.append(ch)
+            prev_sep = False
+    return "".join(out).strip("-")
+
+
+def canonical_type(name: str) -> str | None:
+    """The canonical type for ``name`` (aliases accepted), or None if unknown."""
+    key = normalise(name)
+    if key in TYPES:
+        return key
+    return TYPE_ALIASES.get(key)
+
+
+def canonical_label(name: str) -> str | None:
+    """The canonical hazmat label for ``name`` (aliases accepted), or None."""
+    key = normalise(name)
+    if key in HAZMAT_LABELS:
+        return key
+    return LABEL_ALIASES.get(key)
+
+
+def class_to_identity(class_name: str) -> tuple[str, str] | None:
+    """Map a detector class name to (type, text); hazmat labels give ('hazmat', label)."""
+    label = canonical_label(class_name)
+    if label is not None:
+        return ("hazmat", label)
+    typ = canonical_type(class_name)
+    if typ is None or typ == "hazmat":
+        return None
+    return (typ, "")
+
+
+def identity_to_class(type_: str, text: str = "") -> str:
+    """Inverse of :func:`class_to_identity`: the class name for a (type, text)."""
+    if type_ == "hazmat":
+        label = canonical_label(text)
+        if label is None:
+            raise ValueError(f"unknown hazmat label {text!r}; expected one of {HAZMAT_LABELS}")
+        return label
+    if type_ not in TYPES:
+        raise ValueError(f"unknown type {type_!r}; expected one of {TYPES}")
+    return type_
+
+
+def display_name(type_: str, text: str = "") -> str:
+    """What an operator reads: 'Oxidizer' for a hazmat, the QR text, or 'Fire extinguisher'."""
+    if text:
+        return text if type_ == "qr" else text.replace("-", " ").capitalize()
+    return type_.replace("-", " ").capitalize()

@@ -1,0 +1,160 @@
+"""The oracle detector: boxes from the simulator's ground truth, with a seeded noise model.
+
+For benchmarking the rest of the pipeline alone (issue: "Oracle detector"). It
+lives with the simulator because it reads ground truth, which ``poi`` never
+sees. Per visible object it
+
+* skips objects smaller than ``min_box_px`` or less visible than
+  ``min_visible_fraction``, and misses the rest with probability ``miss_rate``;
+* moves the box centre by N(0, sigma^2) per axis with sigma_u = a + b w,
+  sigma_v = a + b h (the form seed 1 section 2.1.4 fits) and jitters its size;
+* reports another class with probability ``confusion_rate``, drawn from a row of
+  a confusion matrix (default: another label of the same type for hazmats, any
+  class otherwise);
+* adds Poisson(``false_positives_per_frame``) boxes of random classes.
+
+QR text is left empty by default so the pipeline's QR reader decodes it from the
+pixels, as it would for a real detector (``qr_text: truth`` copies the truth).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from poi.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS, class_to_identity, identity_to_class
+from poi.types import Detection, Frame
+from sim.simulator import FrameTruth
+
+ORACLE_STREAM = 2
+
+
+@dataclass(kw_only=True)
+class OracleSettings:
+    seed: int = 0
+    miss_rate: float = 0.05
+    min_box_px: float = 12.0
+    min_visible_fraction: float = 0.35
+    center_sigma_a_px: float = 1.0
+    center_sigma_b: float = 0.03
+    size_jitter: float = 0.05
+    confusion_rate: float = 0.02
+    false_positives_per_frame: float = 0.01
+    confidence_range: tuple[float, float] = (0.55, 0.97)
+    qr_text: str = "decode"  # or "truth"
+    confusion: np.ndarray | None = field(default=None, repr=False)  # (C, C) rows: detected | actual
+
+    def __post_init__(self) -> None:
+        for name in ("miss_rate", "confusion_rate"):
+            v = getattr(self, name)
+            if not 0.0 <= v <= 1.0:
+                raise ValueError(f"oracle.{name}: expected a probability in [0, 1], got {v}")
+        if self.qr_text not in ("decode", "truth"):
+            raise ValueError(f"oracle.qr_text: expected 'decode' or 'truth', got {self.qr_text!r}")
+
+
+def default_confusion() -> np.ndarray:
+    """Pr(reported class | actual class, misclassified): hazmats among hazmats, others uniform."""
+    C = len(CLASSES)
+    M = np.zeros((C, C))
+    nh = len(HAZMAT_LABELS)
+    for a in range(C):
+        if a < nh:
+            M[a, :nh] = 1.0
+        else:
+            M[a, nh:] = 1.0
+        M[a, a] = 0.0
+        M[a] /= M[a].sum()
+    return M
+
+
+class OracleDetector:
+    """Implements the ``poi`` detector protocol; call :meth:`set_truth` before each ``detect``."""
+
+    name = "oracle"
+
+    def __init__(self, settings: OracleSettings | None = None) -> None:
+        self.settings = settings or OracleSettings()
+        self.confusion = (
+            self.settings.confusion if self.settings.confusion is not None else default_confusion()
+        )
+        self._truth: FrameTruth | None = None
+        self.last_timing_ms: dict[str, float] = {}
+
+    def set_truth(self, truth: FrameTruth) -> None:
+        self._truth = truth
+
+    def _probs(self, cls: int, conf: float) -> np.ndarray:
+        p = np.full(len(CLASSES), (1.0 - conf) / (len(CLASSES) - 1))
+        p[cls] = conf
+        return p
+
+    def detect(self, frame: Frame) -> list[Detection]:
+        s = self.settings
+        truth = self._truth
+        if truth is None or truth.index != frame.index:
+            raise RuntimeError(
+                f"oracle detector: no ground truth for frame {frame.index}; call set_truth first"
+            )
+        rng = np.random.default_rng([s.seed, ORACLE_STREAM, frame.index])
+        W, H = frame.intrinsics.width, frame.intrinsics.height
+        out: list[Detection] = []
+        for v in truth.visible:
+            x1, y1, x2, y2 = v.box_xyxy
+            w, h = x2 - x1, y2 - y1
+            draws = rng.random(3)
+            noise = rng.standard_normal(4)
+            if min(w, h) < s.min_box_px or v.visible_fraction < s.min_visible_fraction:
+                continue
+            if draws[0] < s.miss_rate:
+                continue
+            cx = 0.5 * (x1 + x2) + noise[0] * (s.center_sigma_a_px + s.center_sigma_b * w)
+            cy = 0.5 * (y1 + y2) + noise[1] * (s.center_sigma_a_px + s.center_sigma_b * h)
+            w2 = w * (1.0 + s.size_jitter * noise[2])
+            h2 = h * (1.0 + s.size_jitter * noise[3])
+            actual = CLASS_INDEX[identity_to_class(v.type, v.text)]
+            cls = actual
+            if draws[1] < s.confusion_rate:
+                cls = int(rng.choice(len(CLASSES), p=self.confusion[actual]))
+            conf = float(
+                s.confidence_range[0] + draws[2] * (s.confidence_range[1] - s.confidence_range[0])
+            )
+            typ, text = class_to_identity(CLASSES[cls])
+            if typ == "qr":
+                text = v.text if s.qr_text == "truth" and cls == actual else ""
+            box = (
+                float(np.clip(cx - w2 / 2, 0, W)),
+                float(np.clip(cy - h2 / 2, 0, H)),
+                float(np.clip(cx + w2 / 2, 0, W)),
+                float(np.clip(cy + h2 / 2, 0, H)),
+            )
+            out.append(
+                Detection(
+                    class_name=CLASSES[cls],
+                    type=typ,
+                    text=text,
+                    box_xyxy=box,
+                    confidence=conf,
+                    source="oracle",
+                    class_probs=self._probs(cls, conf),
+                )
+            )
+        for _ in range(int(rng.poisson(s.false_positives_per_frame))):
+            cls = int(rng.integers(len(CLASSES)))
+            bw, bh = rng.uniform(20, 120, 2)
+            cx, cy = rng.uniform(bw / 2, W - bw / 2), rng.uniform(bh / 2, H - bh / 2)
+            conf = float(rng.uniform(*s.confidence_range))
+            typ, text = class_to_identity(CLASSES[cls])
+            out.append(
+                Detection(
+                    class_name=CLASSES[cls],
+                    type=typ,
+                    text=text,
+                    box_xyxy=(cx - bw / 2, cy - bh / 2, cx + bw / 2, cy + bh / 2),
+                    confidence=conf,
+                    source="oracle",
+                    class_probs=self._probs(cls, conf),
+                )
+            )
+        return out

@@ -1,0 +1,301 @@
+"""Place the scenario's objects in the maze: explicitly, or at random with spacing rules.
+
+Sizes are for RoboCupRescue Robot League scale (1.2 m cells) and shrink with the
+cell size for smaller arenas (RMRC's 0.3 m lanes). Wall-mounted signs hang on
+wall faces at a height drawn from ``wall_height_m``; floor objects stand
+against a wall so the robot's route through the cell centres passes them; doors
+replace an inner wall piece ("in an opening").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from poi.names import HAZMAT_LABELS
+from sim.objects import PlacedObject
+from sim.scenario import ObjectsGenerate, ObjectSpec, Scenario
+
+RRL_CELL_M = 1.2
+
+# Characteristic sizes at RRL scale, metres (see sim/objects.py for their meaning).
+SIZE_AT_RRL_M: dict[str, float] = {
+    "hazmat": 0.25,
+    "qr": 0.20,
+    "exit-sign": 0.30,
+    "fire-extinguisher-sign": 0.20,
+    "valve": 0.25,
+    "fire-extinguisher": 0.50,
+    "baby-doll": 0.35,
+    "heat-source": 0.30,
+    "door": 0.80,
+}
+WALL_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign", "valve")
+FLOOR_TYPES = ("fire-extinguisher", "baby-doll", "heat-source")
+VALVE_PIPE_M = 0.12  # wheel centre stands this far off the wall at RRL scale
+BODY_TEMPERATURE_C = 37.0
+HEAT_SOURCE_C = (60.0, 90.0)
+QR_PREFIX = "Chart "
+
+
+class PlacementError(ValueError):
+    """Objects that do not fit the maze."""
+
+
+@dataclass(kw_only=True)
+class _Slot:
+    face: object  # sim.maze.WallFace
+    height_m: float
+    offset_m: float
+
+
+def _scale(maze) -> float:
+    return maze.settings.cell_size_m / RRL_CELL_M
+
+
+def default_size(type_: str, maze) -> float:
+    return SIZE_AT_RRL_M[type_] * _scale(maze)
+
+
+def qr_text(i: int) -> str:
+    """Competition-style QR contents: 'Chart A' .. 'Chart Z', then 'Chart AA', ...
+
+    >>> [qr_text(i) for i in (0, 1, 25, 26, 27)]
+    ['Chart A', 'Chart B', 'Chart Z', 'Chart AA', 'Chart AB']
+    """
+    letters = ""
+    n = i
+    while True:
+        letters = chr(ord("A") + n % 26) + letters
+        n = n // 26 - 1
+        if n < 0:
+            break
+    return QR_PREFIX + letters
+
+
+def _yaw(normal_xy: np.ndarray) -> float:
+    return float(np.arctan2(normal_xy[1], normal_xy[0]))
+
+
+def _along(normal_xy: np.ndarray) -> np.ndarray:
+    """Unit vector along a wall face, to the left of someone facing the wall."""
+    n = np.asarray(normal_xy, dtype=float)
+    # facing the wall means looking along -n; left of -n is rot(+90)(-n) = (n_y, -n_x)
+    return np.array([n[1], -n[0]])
+
+
+def object_at_face(
+    obj_id: int,
+    type_: str,
+    text: str,
+    face,
+    height_m: float,
+    offset_m: float,
+    size_m: float,
+    maze,
+    temperature_c: float | None,
+) -> PlacedObject:
+    """Build a PlacedObject on/against a wall face (see module doc for each type's reference point)."""
+    n = np.asarray(face.normal_xy, dtype=float)
+    base = np.asarray(face.center_xy, dtype=float) + _along(n) * offset_m
+    s = _scale(maze)
+    if type_ in ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign"):
+        pos = np.array([base[0], base[1], height_m])
+        mount = "wall"
+    elif type_ == "valve":
+        xy = base + n * VALVE_PIPE_M * s
+        pos = np.array([xy[0], xy[1], height_m])
+        mount = "wall"
+    elif type_ == "fire-extinguisher":
+        xy = base + n * (0.09 * s + 0.02 * s)
+        pos = np.array([xy[0], xy[1], size_m / 2.0])
+        mount = "floor"
+    elif type_ == "baby-doll":
+        xy = base + n * (0.10 * s)
+        pos = np.array([xy[0], xy[1], 0.06 * s])
+        mount = "floor"
+    elif type_ == "heat-source":
+        xy = base + n * (0.10 * s)
+        pos = np.array([xy[0], xy[1], 0.5 * size_m])
+        mount = "floor"
+    else:
+        raise PlacementError(f"object {obj_id}: type {type_!r} is not placed on a wall face")
+    return PlacedObject(
+        id=obj_id,
+        type=type_,
+        text=text,
+        position=pos,
+        yaw=_yaw(n),
+        mount=mount,
+        size_m=size_m,
+        temperature_c=temperature_c,
+        wall=face.wall,
+    )
+
+
+def door_in_wall(obj_id: int, segment, maze, size_m: float) -> PlacedObject:
+    """A door replacing wall piece ``segment``; reference point = leaf centre on the wall line."""
+    p0 = np.array([segment.x0, segment.y0])
+    p1 = np.array([segment.x1, segment.y1])
+    mid = 0.5 * (p0 + p1)
+    d = (p1 - p0) / np.linalg.norm(p1 - p0)
+    normal = np.array([-d[1], d[0]])
+    leaf_h = min(2.0, 0.9 * maze.settings.wall_height_m)
+    return PlacedObject(
+        id=obj_id,
+        type="door",
+        position=np.array([mid[0], mid[1], leaf_h / 2.0]),
+        yaw=_yaw(normal),
+        mount="opening",
+        size_m=min(size_m, 0.8 * maze.settings.cell_size_m),
+        wall=segment.name,
+    )
+
+
+def _temperature(type_: str, rng: np.random.Generator) -> float | None:
+    if type_ == "baby-doll":
+        return BODY_TEMPERATURE_C
+    if type_ == "heat-source":
+        return float(rng.uniform(*HEAT_SOURCE_C))
+    return None
+
+
+def _explicit(spec: ObjectSpec, obj_id: int, maze, rng) -> PlacedObject:
+    size = spec.size_m if spec.size_m is not None else default_size(spec.type, maze)
+    temp = spec.temperature_c if spec.temperature_c is not None else _temperature(spec.type, rng)
+    text = spec.text
+    if spec.position is not None:
+        mount = spec.mount or ("floor" if spec.type in FLOOR_TYPES else "wall")
+        return PlacedObject(
+            id=obj_id,
+            type=spec.type,
+            text=text,
+            position=np.array(spec.position, dtype=float),
+            yaw=np.deg2rad(spec.yaw_deg),
+            mount=mount,
+            size_m=size,
+            temperature_c=temp,
+        )
+    r, c = spec.at.cell
+    if spec.type == "door":
+        for seg in maze.wall_segments():
+            for face in maze.wall_faces():
+                if (
+                    face.wall == seg.name
+                    and tuple(face.cell) == (r, c)
+                    and _side(face) == spec.at.side
+                ):
+                    return door_in_wall(obj_id, seg, maze, size)
+        raise PlacementError(
+            f"object {obj_id}: no wall on side {spec.at.side!r} of cell ({r}, {c})"
+        )
+    for face in maze.wall_faces():
+        if tuple(face.cell) == (r, c) and _side(face) == spec.at.side:
+            return object_at_face(
+                obj_id, spec.type, text, face, spec.at.height_m, spec.at.offset_m, size, maze, temp
+            )
+    raise PlacementError(f"object {obj_id}: no wall on side {spec.at.side!r} of cell ({r}, {c})")
+
+
+def _side(face) -> str:
+    """Which side of its cell a face is on, from its inward normal."""
+    nx, ny = face.normal_xy
+    if abs(nx) > abs(ny):
+        return "w" if nx > 0 else "e"
+    return "s" if ny > 0 else "n"
+
+
+def _texts(gen: ObjectsGenerate, n_hazmat: int, n_qr: int, rng) -> tuple[list[str], list[str]]:
+    labels = list(gen.labels) if gen.labels else list(HAZMAT_LABELS)
+    # hazmat labels: a shuffled cycle through the allowed labels, so labels repeat only when needed
+    order: list[str] = []
+    while len(order) < n_hazmat:
+        order.extend(labels[i] for i in rng.permutation(len(labels)))
+    qrs = list(gen.qr_texts) if gen.qr_texts else [qr_text(i) for i in range(n_qr)]
+    if len(qrs) < n_qr:
+        raise PlacementError(f"objects.generate.qr_texts: {len(qrs)} texts for {n_qr} QR codes")
+    return order[:n_hazmat], qrs[:n_qr]
+
+
+def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedObject]:
+    """All objects of a scenario: the explicit ones, then the generated ones (ids in that order)."""
+    objects: list[PlacedObject] = []
+    for spec in sc.objects.explicit:
+        objects.append(_explicit(spec, len(objects), maze, rng))
+    gen = sc.objects.generate
+    if gen is None:
+        return objects
+    counts = {t: n for t, n in gen.counts.items() if n > 0}
+    labels, qrs = _texts(gen, counts.get("hazmat", 0), counts.get("qr", 0), rng)
+    faces = list(maze.wall_faces())
+    used_walls = {o.wall for o in objects if o.wall}
+    s = _scale(maze)
+    wall_h = maze.settings.wall_height_m
+
+    def far_enough(p: np.ndarray) -> bool:
+        return all(np.linalg.norm(p - o.position) >= gen.min_spacing_m * s for o in objects)
+
+    # doors first: they need a whole inner wall piece, with a cell on each side
+    n_doors = counts.pop("door", 0)
+    if n_doors:
+        inner = [seg for seg in maze.wall_segments() if sum(f.wall == seg.name for f in faces) == 2]
+        inner.sort(key=lambda seg: seg.name)
+        picks = rng.permutation(len(inner))
+        placed = 0
+        for i in picks:
+            if placed == n_doors:
+                break
+            seg = inner[i]
+            cand = door_in_wall(len(objects), seg, maze, default_size("door", maze))
+            if far_enough(cand.position):
+                objects.append(cand)
+                used_walls.add(seg.name)
+                placed += 1
+        if placed < n_doors:
+            raise PlacementError(
+                f"only {placed} of {n_doors} doors fit: the maze has too few inner walls"
+            )
+
+    # then everything else, in a fixed type order, each on a random free wall face
+    todo: list[tuple[str, str]] = []
+    for t in ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign", "valve", *FLOOR_TYPES):
+        n = counts.get(t, 0)
+        for k in range(n):
+            text = labels[k] if t == "hazmat" else qrs[k] if t == "qr" else ""
+            todo.append((t, text))
+    lo, hi = gen.wall_height_m
+    for t, text in todo:
+        size = default_size(t, maze)
+        for _attempt in range(400):
+            face = faces[int(rng.integers(len(faces)))]
+            if face.wall in used_walls and t in FLOOR_TYPES:
+                continue  # one floor object per wall face piece keeps corridors passable
+            half = 0.5 * size if t != "exit-sign" else 0.5 * size
+            margin = max(0.0, 0.5 * face.length_m - half - 0.05 * s)
+            offset = float(rng.uniform(-margin, margin))
+            if t in FLOOR_TYPES:
+                height = 0.0
+            else:
+                top = min(hi * s if s < 1 else hi, wall_h - 0.5 * size - 0.02 * s)
+                bottom = max(lo * s if s < 1 else lo, 0.5 * size + 0.02 * s)
+                if t == "valve":
+                    top = min(top, 1.2 * s)
+                if bottom > top:
+                    bottom = top = 0.5 * wall_h
+                height = float(rng.uniform(bottom, top))
+            cand = object_at_face(
+                len(objects), t, text, face, height, offset, size, maze, _temperature(t, rng)
+            )
+            if face.wall in {o.wall for o in objects if o.type == "door"}:
+                continue
+            if far_enough(cand.position):
+                objects.append(cand)
+                used_walls.add(face.wall)
+                break
+        else:
+            raise PlacementError(
+                f"could not place a {t} with min_spacing_m={gen.min_spacing_m}: the maze is too small "
+                "for the requested counts"
+            )
+    return objects

@@ -1,0 +1,88 @@
+"""D435 depth noise and holes, simulated in the disparity domain (FACTS.md).
+
+Stereo depth is z = f B / d for disparity d (pixels). Sub-pixel disparity noise
+sigma_d perturbs d; quantising d to 1/32 px and converting back gives a depth
+error whose standard deviation grows with the square of distance,
+sigma_z = z^2 sigma_d / (f B), without squaring sigma twice.
+
+Invalid pixels read 0: beyond ``max_m``; in the occlusion shadow to the right
+of a depth edge, whose width in colour pixels is
+``fx_color * B * (1 / z_near - 1 / z_far)`` (what one camera sees and the other
+cannot); and a small random dropout (low-texture or specular spots). Below
+``min_m`` the values are wrong rather than 0, as on the real sensor.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sim.scenario import DepthSpec
+
+
+def depth_sigma_m(z_m, sigma_d_px: float, fx_px: float, baseline_m: float):
+    """sigma_z = z^2 sigma_d / (f B) (FACTS.md).
+
+    >>> round(float(depth_sigma_m(2.0, 0.08, 384.2, 0.05)), 4)
+    0.0167
+    """
+    return np.asarray(z_m) ** 2 * sigma_d_px / (fx_px * baseline_m)
+
+
+def disparity_noise(z_m: np.ndarray, spec: DepthSpec, rng: np.random.Generator) -> np.ndarray:
+    """d = f B / z; d += N(0, sigma_d^2); quantise d to ``spec.subpixel``; z = f B / d."""
+    fB = np.float32(spec.fx_depth_px * spec.baseline_m)
+    z = np.asarray(z_m, dtype=np.float32)
+    valid = z > 0
+    d = np.where(valid, fB / np.where(valid, z, 1.0), 0.0).astype(np.float32)
+    d += rng.standard_normal(z.shape, dtype=np.float32) * np.float32(spec.sigma_d_px)
+    q = np.float32(spec.subpixel)
+    d = np.round(d / q) * q
+    ok = valid & (d > 0)
+    return np.where(ok, fB / np.where(ok, d, 1.0), 0.0).astype(np.float32)
+
+
+def edge_shadow_mask(z_m: np.ndarray, fx_color_px: float, baseline_m: float) -> np.ndarray:
+    """Pixels in the occlusion shadow right of each depth edge (True = invalid).
+
+    At a left-to-right step from a near surface z_n to a far one z_f the shadow
+    spans w = f B (1/z_n - 1/z_f) pixels. Each edge's reach (column + w) is carried
+    along the row with a running maximum, so the whole mask costs a few array ops.
+    """
+    z = np.asarray(z_m, dtype=np.float32)
+    H, W = z.shape
+    inv = np.where(z > 0, 1.0 / np.maximum(z, 1e-6), 0.0).astype(np.float32)
+    width = np.zeros((H, W), dtype=np.float32)
+    # step between column x-1 (near) and x (far): positive 1/z drop
+    width[:, 1:] = np.float32(fx_color_px * baseline_m) * (inv[:, :-1] - inv[:, 1:])
+    cols = np.arange(W, dtype=np.float32)[None, :]
+    reach = np.where(width > 0.5, cols + width, -1.0).astype(np.float32)
+    reach = np.maximum.accumulate(reach, axis=1)
+    return reach > cols
+
+
+def simulate_depth(
+    z_true_m: np.ndarray, spec: DepthSpec, fx_color_px: float, rng: np.random.Generator, noise: bool
+) -> np.ndarray:
+    """The aligned depth image the pipeline receives (float32 metres, 0 = invalid)."""
+    z = np.asarray(z_true_m, dtype=np.float32)
+    if not noise or not spec.noise:
+        out = np.where((z >= spec.min_m) & (z <= spec.max_m), z, 0.0).astype(np.float32)
+        return out
+    out = disparity_noise(z, spec, rng)
+    invalid = z > spec.max_m
+    if spec.edge_holes:
+        invalid |= edge_shadow_mask(z, fx_color_px, spec.baseline_m)
+    if spec.dropout > 0:
+        invalid |= rng.random(z.shape, dtype=np.float32) < np.float32(spec.dropout)
+    # below the minimum range the matcher finds a wrong disparity: a value well off the truth
+    near = (z > 0) & (z < spec.min_m)
+    if near.any():
+        out[near] = z[near] * rng.uniform(1.5, 3.0, size=int(near.sum())).astype(np.float32)
+    out[invalid] = 0.0
+    return out
+
+
+def to_millimetres(depth_m: np.ndarray) -> np.ndarray:
+    """uint16 millimetres for file boundaries (0 stays 0; saturates at 65.535 m)."""
+    mm = np.round(np.asarray(depth_m, dtype=np.float64) * 1000.0)
+    return np.clip(mm, 0, 65535).astype(np.uint16)

@@ -1,0 +1,189 @@
+"""Build the MuJoCo model of a scenario: floor, walls, lights, objects and the camera rig.
+
+Walls are boxes named ``wall_{row}_{col}_{side}`` (the maze's wall pieces);
+objects are bodies named ``poi_{id}_{type}`` built by ``maze_assets.models``;
+the camera rig is a mocap body ``camera_rig`` whose child camera ``d435``
+reproduces the D435 colour intrinsics (``sim.camera``). Rendering only: no
+geom collides, the robot is kinematic.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import numpy as np
+
+import sim.gl  # noqa: F401  (must precede the mujoco import)
+import mujoco  # noqa: E402
+
+from maze_assets.models import build_object  # noqa: E402
+from maze_assets.surfaces import draw_floor, draw_plywood  # noqa: E402
+from poi.types import Intrinsics  # noqa: E402
+from sim.camera import mujoco_camera_attrs  # noqa: E402
+from sim.mjcf import SceneAssets, fmt  # noqa: E402
+from sim.objects import PlacedObject  # noqa: E402
+
+CAMERA_NAME = "d435"
+RIG_BODY = "camera_rig"
+TEXTURE_PX = 256
+
+
+@dataclass(kw_only=True)
+class World:
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    xml: str
+    assets: dict[str, bytes]
+    rig_mocap_id: int
+    geom_object_id: np.ndarray  # (ngeom,) object id of each geom, -1 for walls/floor
+
+
+def _lights(
+    world: ET.Element, visual: ET.Element, lighting: str, maze, rng: np.random.Generator
+) -> None:
+    w, h = maze.size_m
+    top = maze.settings.wall_height_m * 2.5 + 1.0
+    head = ET.SubElement(visual, "headlight")
+    if lighting == "bright":
+        head.set("ambient", "0.35 0.35 0.35")
+        head.set("diffuse", "0.45 0.45 0.45")
+        head.set("specular", "0.05 0.05 0.05")
+        ET.SubElement(
+            world,
+            "light",
+            name="sun",
+            directional="true",
+            castshadow="false",
+            pos=fmt([w / 2, h / 2, top]),
+            dir="0.2 0.3 -1",
+            diffuse="0.5 0.5 0.5",
+        )
+    elif lighting == "dim":
+        head.set("ambient", "0.10 0.10 0.10")
+        head.set("diffuse", "0.35 0.35 0.33")  # the robot's own lamp
+        head.set("specular", "0.02 0.02 0.02")
+    elif lighting == "uneven":
+        head.set("ambient", "0.12 0.12 0.12")
+        head.set("diffuse", "0.25 0.25 0.25")
+        head.set("specular", "0.02 0.02 0.02")
+        n = max(2, int(round(maze.rows * maze.cols / 4)))
+        for i in range(n):
+            x, y = rng.uniform(0, w), rng.uniform(0, h)
+            g = rng.uniform(0.5, 1.0)
+            ET.SubElement(
+                world,
+                "light",
+                name=f"spot_{i}",
+                castshadow="false",
+                pos=fmt([x, y, maze.settings.wall_height_m * 1.8]),
+                dir="0 0 -1",
+                cutoff="60",
+                exponent="2",
+                attenuation="1 0.3 0.3",
+                diffuse=fmt([g, g * 0.95, g * 0.85]),
+            )
+    else:
+        raise ValueError(f"lighting: expected bright, dim or uneven, got {lighting!r}")
+
+
+def build_world_xml(
+    maze, objects: list[PlacedObject], intr: Intrinsics, lighting: str, rng: np.random.Generator
+) -> tuple[str, dict[str, bytes]]:
+    """The MJCF text and its in-memory assets (PNG textures)."""
+    root = ET.Element("mujoco", model="poibench")
+    ET.SubElement(root, "compiler", angle="radian")
+    visual = ET.SubElement(root, "visual")
+    ET.SubElement(
+        visual, "global", offwidth=str(max(intr.width, 640)), offheight=str(max(intr.height, 480))
+    )
+    ET.SubElement(visual, "quality", offsamples="0")
+    ET.SubElement(visual, "map", znear="0.005", zfar="60")
+    assets = SceneAssets()
+    root.append(assets.asset)
+    # a dim grey hall above the walls instead of black
+    ET.SubElement(assets.asset, "texture", name="tex_sky", type="skybox", builtin="gradient",
+                  rgb1="0.62 0.62 0.64", rgb2="0.32 0.32 0.34", width="32", height="32")
+    world = ET.SubElement(root, "worldbody")
+    _lights(world, visual, lighting, maze, rng)
+
+    w, h = maze.size_m
+    s = maze.settings
+    assets.texture("tex_floor", draw_floor(TEXTURE_PX, rng))
+    assets.material(
+        "floor", texture="tex_floor", texrepeat=[max(1.0, w / 1.2), max(1.0, h / 1.2)], texuniform=False
+    )
+    ET.SubElement(
+        world,
+        "geom",
+        name="floor",
+        type="plane",
+        material="floor",
+        pos=fmt([w / 2, h / 2, 0]),
+        size=fmt([w / 2 + 1.0, h / 2 + 1.0, 0.1]),
+        contype="0",
+        conaffinity="0",
+    )
+    assets.texture("tex_plywood", draw_plywood(TEXTURE_PX, rng))
+    assets.material("wall", texture="tex_plywood", texrepeat=[1, 1], texuniform=True)
+    replaced = {o.wall for o in objects if o.type == "door" and o.wall}
+    for seg in maze.wall_segments():
+        if seg.name in replaced:
+            continue
+        p0, p1 = np.array([seg.x0, seg.y0]), np.array([seg.x1, seg.y1])
+        length = float(np.linalg.norm(p1 - p0))
+        mid = 0.5 * (p0 + p1)
+        yaw = float(np.arctan2(p1[1] - p0[1], p1[0] - p0[0]))
+        # extend each piece by half a thickness at both ends so corners close
+        ET.SubElement(
+            world,
+            "geom",
+            name=seg.name,
+            type="box",
+            material="wall",
+            pos=fmt([mid[0], mid[1], s.wall_height_m / 2]),
+            euler=fmt([0, 0, yaw]),
+            size=fmt([length / 2 + seg.thickness / 2, seg.thickness / 2, s.wall_height_m / 2]),
+            contype="0",
+            conaffinity="0",
+        )
+    for obj in objects:
+        world.append(
+            build_object(
+                obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m
+            )
+        )
+
+    rig = ET.SubElement(world, "body", name=RIG_BODY, mocap="true", pos="0 0 1")
+    ET.SubElement(rig, "camera", name=CAMERA_NAME, **mujoco_camera_attrs(intr))
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode"), assets.files
+
+
+def build_world(
+    maze, objects: list[PlacedObject], intr: Intrinsics, lighting: str, rng: np.random.Generator
+) -> World:
+    xml, files = build_world_xml(maze, objects, intr, lighting, rng)
+    model = mujoco.MjModel.from_xml_string(xml, files)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    rig_body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, RIG_BODY)
+    owner = np.full(model.ngeom, -1, dtype=np.int64)
+    by_body = {o.body_name: o.id for o in objects}
+    for g in range(model.ngeom):
+        # a geom belongs to the object whose body is its body or an ancestor of it
+        b = int(model.geom_bodyid[g])
+        while b > 0:
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+            if name in by_body:
+                owner[g] = by_body[name]
+                break
+            b = int(model.body_parentid[b])
+    return World(
+        model=model,
+        data=data,
+        xml=xml,
+        assets=files,
+        rig_mocap_id=int(model.body_mocapid[rig_body]),
+        geom_object_id=owner,
+    )
