@@ -9,10 +9,10 @@ key and what was expected.
 >>> cfg = apply_overrides(load_config(), ["tracker.gate=4", "detector.conf=0.3"])
 >>> cfg.tracker.gate, cfg.detector.conf
 (4.0, 0.3)
->>> apply_overrides(cfg, ["tracker.gaet=4"])
+>>> apply_overrides(cfg, ["tracker.gaet=4"])  # doctest: +ELLIPSIS
 Traceback (most recent call last):
 ...
-poi.config.ConfigError: tracker.gaet: unknown key; expected one of assignment, drop_support, ...
+poi.config.ConfigError: tracker.gaet: unknown key; expected one of Sigma0_diag, assignment, ...
 """
 
 from __future__ import annotations
@@ -36,10 +36,12 @@ DEFAULT_CONFIG_PATH = Path(__file__).resolve().parent / "configs" / "default.yam
 
 
 class ConfigError(ValueError):
-    """A setting that is unknown or has the wrong type or range; the message names its dotted key."""
+    """An unknown setting, or one of the wrong type or range; the message names its dotted key."""
 
 
-def _num(default: float, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False):
+def _num(
+    default: float, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False
+):
     """A numeric field with an allowed range [lo, hi] (or (lo, hi] with ``lo_open``)."""
     return field(default=default, metadata={"lo": lo, "hi": hi, "lo_open": lo_open})
 
@@ -70,7 +72,7 @@ class TrackerConfig:
 
 @dataclass(kw_only=True)
 class DetectorConfig:
-    """The detector spec handed to ``poi.detectors.build_detector`` (see :meth:`PipelineConfig.detector_spec`)."""
+    """The spec for ``poi.detectors.build_detector`` (see :meth:`PipelineConfig.detector_spec`)."""
 
     name: str = "onnx"
     model: str | None = None
@@ -82,7 +84,7 @@ class DetectorConfig:
 
 @dataclass(kw_only=True)
 class CenterSigmaConfig:
-    """Default centre-error model (seed 1 section 2.1.4): sigma_u = a + b w, sigma_v = a + b h (px)."""
+    """Default centre-error model (seed 1, 2.1.4): sigma_u = a + b w, sigma_v = a + b h (px)."""
 
     a_px: float = _num(1.0, lo=0.0)
     b: float = _num(0.03, lo=0.0)
@@ -159,7 +161,7 @@ class PipelineConfig:
     calibration: str | None = None
 
     def detector_spec(self) -> dict[str, Any]:
-        """The detector spec dict: name, model, conf, nms_iou, imgsz (unset ones left out), options."""
+        """The detector spec: name, model, conf, nms_iou, imgsz (unset ones left out), options."""
         d = self.detector
         spec: dict[str, Any] = {"name": d.name, "conf": d.conf, "nms_iou": d.nms_iou}
         if d.model is not None:
@@ -214,7 +216,7 @@ def _is_number(v: Any) -> bool:
 
 
 def _convert(tp: Any, value: Any, key: str) -> Any:
-    """Check ``value`` against the type ``tp``; return it converted (ints to floats, lists to tuples)."""
+    """Check ``value`` against type ``tp``; return it converted (int to float, list to tuple)."""
     origin = typing.get_origin(tp)
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, dict):
@@ -308,7 +310,9 @@ def _cross_check(obj: Any, prefix: str) -> None:
     if isinstance(obj, TrackerConfig):
         for t, g in obj.gates.items():
             if t not in TYPES:
-                raise ConfigError(f"{prefix}gates.{t}: unknown type; expected one of {', '.join(TYPES)}")
+                raise ConfigError(
+                    f"{prefix}gates.{t}: unknown type; expected one of {', '.join(TYPES)}"
+                )
             if g <= 0:
                 raise ConfigError(f"{prefix}gates.{t}: expected a value > 0, got {g!r}")
     elif isinstance(obj, LocalizeConfig):
@@ -320,7 +324,9 @@ def _cross_check(obj: Any, prefix: str) -> None:
     elif isinstance(obj, TransformConfig):
         n = float(np.linalg.norm(obj.quaternion_wxyz))
         if abs(n - 1.0) > 1e-3:
-            raise ConfigError(f"{prefix}quaternion_wxyz: expected a unit quaternion, got norm {n:.6f}")
+            raise ConfigError(
+                f"{prefix}quaternion_wxyz: expected a unit quaternion, got norm {n:.6f}"
+            )
 
 
 def config_from_dict(data: dict | None, source: str = "<dict>") -> PipelineConfig:
@@ -358,7 +364,7 @@ def _to_plain(value: Any) -> Any:
 
 
 def config_to_dict(cfg: PipelineConfig) -> dict:
-    """Plain nested dict (lists, no tuples) for writing ``config.yaml``; round-trips through load."""
+    """Plain nested dict (lists, no tuples) for writing ``config.yaml``; loads back the same."""
     return _to_plain(cfg)
 
 
@@ -404,7 +410,9 @@ def apply_overrides(cfg: PipelineConfig, items: Iterable[str]) -> PipelineConfig
                 raise ConfigError(f"{here}: cannot set a key below {here}")
             names = {f.name for f in dataclasses.fields(cls)}
             if part not in names:
-                raise ConfigError(f"{here}: unknown key; expected one of {', '.join(sorted(names))}")
+                raise ConfigError(
+                    f"{here}: unknown key; expected one of {', '.join(sorted(names))}"
+                )
             if last:
                 node[part] = value
                 break
@@ -414,11 +422,13 @@ def apply_overrides(cfg: PipelineConfig, items: Iterable[str]) -> PipelineConfig
             elif typing.get_origin(tp) is dict:
                 cls = None
             else:
-                raise ConfigError(f"{here}: is a single setting, it has no key {parts[depth + 1]!r}")
+                raise ConfigError(
+                    f"{here}: is a single setting, it has no key {parts[depth + 1]!r}"
+                )
             node = node[part]
     return config_from_dict(data)
 
 
-def T_tracker_camera(cfg: PipelineConfig) -> np.ndarray:
+def mount_matrix(cfg: PipelineConfig) -> np.ndarray:
     """The nominal mount as a 4x4 matrix (Q0, t0 of seed 1 section 2.3.1)."""
     return cfg.mount.T_tracker_camera.matrix()

@@ -137,8 +137,8 @@ class ObjectsSpec:
 
 @dataclass(kw_only=True)
 class PanSpec:
-    amplitude_deg: float = 60.0
-    period_s: float = 8.0
+    amplitude_deg: float = 80.0
+    period_s: float = 5.0
 
 
 @dataclass(kw_only=True)

@@ -17,7 +17,7 @@ import numpy as np
 import sim.gl  # noqa: F401  (must precede the mujoco import)
 import mujoco  # noqa: E402
 
-from maze_assets.models import build_object  # noqa: E402
+from maze_assets.models import build_object, door_frame_extent_m  # noqa: E402
 from maze_assets.surfaces import draw_floor, draw_plywood  # noqa: E402
 from poi.types import Intrinsics  # noqa: E402
 from sim.camera import mujoco_camera_attrs  # noqa: E402
@@ -126,27 +126,31 @@ def build_world_xml(
     )
     assets.texture("tex_plywood", draw_plywood(TEXTURE_PX, rng))
     assets.material("wall", texture="tex_plywood", texrepeat=[1, 1], texuniform=True)
-    replaced = {o.wall for o in objects if o.type == "door" and o.wall}
+    doors = {o.wall: o for o in objects if o.type == "door" and o.wall}
     for seg in maze.wall_segments():
-        if seg.name in replaced:
-            continue
         p0, p1 = np.array([seg.x0, seg.y0]), np.array([seg.x1, seg.y1])
         length = float(np.linalg.norm(p1 - p0))
-        mid = 0.5 * (p0 + p1)
-        yaw = float(np.arctan2(p1[1] - p0[1], p1[0] - p0[0]))
-        # extend each piece by half a thickness at both ends so corners close
-        ET.SubElement(
-            world,
-            "geom",
-            name=seg.name,
-            type="box",
-            material="wall",
-            pos=fmt([mid[0], mid[1], s.wall_height_m / 2]),
-            euler=fmt([0, 0, yaw]),
-            size=fmt([length / 2 + seg.thickness / 2, seg.thickness / 2, s.wall_height_m / 2]),
-            contype="0",
-            conaffinity="0",
-        )
+        d = (p1 - p0) / length
+        yaw = float(np.arctan2(d[1], d[0]))
+        # (start, end) along the piece and (bottom, top) of each box; each piece is
+        # extended by half a thickness at both ends so corners close
+        t2 = seg.thickness / 2
+        boxes = [(-t2, length + t2, 0.0, s.wall_height_m)]
+        if seg.name in doors:
+            # the door fills a frame in the middle; wall stays either side and above it
+            fw, fh = door_frame_extent_m(doors[seg.name].size_m, s.wall_height_m)
+            a, b = (length - fw) / 2, (length + fw) / 2
+            boxes = [(-t2, a, 0.0, s.wall_height_m), (b, length + t2, 0.0, s.wall_height_m)]
+            if fh < s.wall_height_m - 1e-6:
+                boxes.append((a, b, fh, s.wall_height_m))
+        for i, (u0, u1, z0, z1) in enumerate(boxes):
+            if u1 - u0 <= 1e-6:
+                continue
+            mid = p0 + d * (u0 + u1) / 2
+            name = seg.name if len(boxes) == 1 else f"{seg.name}_{i}"
+            ET.SubElement(world, "geom", name=name, type="box", material="wall",
+                          pos=fmt([mid[0], mid[1], (z0 + z1) / 2]), euler=fmt([0, 0, yaw]),
+                          size=fmt([(u1 - u0) / 2, t2, (z1 - z0) / 2]), contype="0", conaffinity="0")
     for obj in objects:
         world.append(
             build_object(

@@ -11,7 +11,7 @@ registries").
 >>> build_detector({"name": "thermal", "min_tmp_c": 50.0})  # doctest: +ELLIPSIS
 Traceback (most recent call last):
 ...
-poi.detectors.base.DetectorConfigError: detector 'thermal': unknown key 'min_tmp_c'; expected some of [...]
+poi.detectors.base.DetectorConfigError: detector 'thermal': unknown key 'min_tmp_c'; ...
 >>> spread_class_probs(np.array([0.0, 0.8, 0.1, 0.1]), top=1)
 array([0. , 0.8, 0.1, 0.1])
 """
@@ -19,6 +19,7 @@ array([0. , 0.8, 0.1, 0.1])
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
@@ -146,6 +147,11 @@ def canonical_class(model_name: str) -> str | None:
     return identity_to_class(*identity)
 
 
+@functools.lru_cache(maxsize=256)
+def _identity(class_name: str) -> tuple[str, str] | None:
+    return class_to_identity(class_name)
+
+
 def make_detection(
     class_name: str,
     box_xyxy: tuple[float, float, float, float],
@@ -156,7 +162,7 @@ def make_detection(
     text: str | None = None,
 ) -> Detection:
     """A Detection for a name in CLASSES, its type and text taken from the name."""
-    identity = class_to_identity(class_name)
+    identity = _identity(class_name)
     if identity is None:
         raise ValueError(f"class {class_name!r} is not in poi.names.CLASSES")
     type_, label = identity

@@ -27,10 +27,13 @@ def test_deprojected_box_centres_land_on_true_map_positions(clean_default):
     """Intrinsics, camera frames and poses agree: box centre + clean depth + true pose -> truth within 3 cm.
 
     Checked on objects whose reference point is on their visible surface (flat signs), fully
-    in view and at least 20 px wide, so the box centre is the sign centre.
+    in view, at least 20 px wide and seen within 80 degrees of face-on, so the box centre is
+    the sign centre (at grazing angles perspective moves a box's centre off the sign's centre
+    by centimetres, which says nothing about the frames).
     """
     sim, frames = clean_default
     truth = {o.id: o.position_map for o in sim.truth_objects()}
+    placed = {o.id: o for o in sim.objects}
     T_tracker_optical = sim.T_tracker_optical_nominal
     checked = set()
     worst = 0.0
@@ -38,9 +41,13 @@ def test_deprojected_box_centres_land_on_true_map_positions(clean_default):
         K = frame.intrinsics
         for v in ft.visible:
             x1, y1, x2, y2 = v.box_xyxy
-            if v.type not in FLAT_TYPES or v.visible_fraction < 0.97 or min(x2 - x1, y2 - y1) < 20:
+            if v.type not in FLAT_TYPES or v.visible_fraction < 0.9 or min(x2 - x1, y2 - y1) < 20:
                 continue
             if x1 <= 0 or y1 <= 0 or x2 >= K.width or y2 >= K.height:
+                continue
+            yaw = placed[v.id].yaw
+            normal_cam = ft.T_map_camera[:3, :3].T @ sim.T_map_world[:3, :3] @ [np.cos(yaw), np.sin(yaw), 0]
+            if -normal_cam @ (v.position_cam / np.linalg.norm(v.position_cam)) < np.cos(np.radians(80)):
                 continue
             # box edges are pixel boundaries; pixel centres are at integer coordinates
             u, w = 0.5 * (x1 + x2) - 0.5, 0.5 * (y1 + y2) - 0.5

@@ -1,0 +1,33 @@
+"""Detectors: frame in, list of detections out, built by name from a config.
+
+>>> sorted(REGISTRY)
+['onnx', 'qr', 'thermal']
+"""
+
+from poi.detectors.base import (
+    REGISTRY,
+    Detector,
+    DetectorConfigError,
+    build_detector,
+    register,
+    spread_class_probs,
+)
+from poi.detectors.onnx_yolo import OnnxModelError, OnnxYoloDetector
+from poi.detectors.qr import QrDetector, attach_qr_text, decode_qr
+from poi.detectors.thermal import ThermalFrameError, ThermalHotSpotDetector
+
+__all__ = [
+    "REGISTRY",
+    "Detector",
+    "DetectorConfigError",
+    "OnnxModelError",
+    "OnnxYoloDetector",
+    "QrDetector",
+    "ThermalFrameError",
+    "ThermalHotSpotDetector",
+    "attach_qr_text",
+    "build_detector",
+    "decode_qr",
+    "register",
+    "spread_class_probs",
+]

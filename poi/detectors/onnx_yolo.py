@@ -1,0 +1,467 @@
+"""A YOLO detector exported to ONNX, run by onnxruntime on the CPU.
+
+Implements DESIGN.md "What real means here" (a team can drop in its own YOLOv5,
+YOLOv8 or YOLO11 export) and seed 2's "YOLO to ONNX" detector: letterbox
+preprocessing, the two output layouts, a confidence threshold, class-wise
+non-maximum suppression, boxes mapped back to the original image, and class
+probabilities over :data:`poi.names.CLASSES` (seed 1, section 2.1.5).
+
+Output layouts (C = number of classes the model declares in ``names``):
+
+* ``yolov8`` (YOLOv8, YOLO11, any Ultralytics >= 8 export): (1, 4+C, N), rows
+  cx, cy, w, h in input pixels then C class scores already passed through a
+  sigmoid, no objectness; e.g. (1, 28, 2100) for C = 24 at 320x320.
+* ``yolov5`` (the YOLOv5 repository's export): (1, N, 5+C), columns cx, cy, w,
+  h, objectness, then C class scores; a class's score is obj * cls; e.g.
+  (1, 6300, 29) for C = 24 at 320x320.
+
+The layout is decided from the model's metadata (an Ultralytics >= 8 export
+writes a ``task`` key) and the declared class count, never from a guess on one
+dimension; a shape that fits neither is refused with what was found and what was
+expected.
+
+>>> img, r, (left, top) = letterbox(np.zeros((480, 640, 3), np.uint8), (320, 320))
+>>> img.shape, r, left, top
+((320, 320, 3), 0.5, 0, 40)
+>>> parse_names_metadata("{0: 'person', 1: 'car'}")
+['person', 'car']
+"""
+
+from __future__ import annotations
+
+import ast
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from poi.detectors.base import (
+    DetectorConfigError,
+    canonical_class,
+    make_detection,
+    register,
+)
+from poi.detectors.qr import attach_qr_text
+from poi.names import CLASS_INDEX, CLASSES
+from poi.types import Detection, Frame
+
+PAD_VALUE = 114  # Ultralytics' letterbox grey
+DEFAULT_IMGSZ_PX = 640
+LAYOUTS = ("auto", "yolov5", "yolov8")
+
+
+class OnnxModelError(DetectorConfigError):
+    """The model file, its metadata, its names or its output shape is not usable."""
+
+
+def letterbox(
+    rgb: np.ndarray, size_hw: tuple[int, int]
+) -> tuple[np.ndarray, float, tuple[int, int]]:
+    """Resize keeping the aspect ratio and pad with grey 114 to ``size_hw``.
+
+    Returns the (H_in, W_in, 3) image, the scale r and the (left, top) padding
+    in pixels, so an input pixel x_in maps back to x = (x_in - left) / r.
+    r = min(H_in / h, W_in / w); the resized image is round(w r) x round(h r)
+    and the padding is split with the odd pixel at the bottom / right.
+    """
+    h, w = rgb.shape[:2]
+    H_in, W_in = size_hw
+    r = min(H_in / h, W_in / w)
+    w_new, h_new = int(round(w * r)), int(round(h * r))
+    w_new, h_new = min(w_new, W_in), min(h_new, H_in)
+    if (w_new, h_new) != (w, h):
+        resized = cv2.resize(rgb, (w_new, h_new), interpolation=cv2.INTER_LINEAR)
+    else:
+        resized = rgb
+    left, top = (W_in - w_new) // 2, (H_in - h_new) // 2
+    out = np.full((H_in, W_in, 3), PAD_VALUE, dtype=np.uint8)  # (H_in, W_in, 3)
+    out[top : top + h_new, left : left + w_new] = resized
+    return out, r, (left, top)
+
+
+def parse_names_metadata(text: str) -> list[str]:
+    """Class names from a model's ``names`` metadata string.
+
+    Ultralytics writes a Python dict literal, "{0: 'person', 1: 'car'}"; a list
+    literal is accepted too. Parsed with :func:`ast.literal_eval`, never eval.
+    """
+    try:
+        value = ast.literal_eval(text)
+    except (ValueError, SyntaxError) as exc:
+        raise OnnxModelError(
+            f"model metadata 'names' is not a dict or list literal: {text[:80]!r}"
+        ) from exc
+    return _names_from_value(value, "model metadata 'names'")
+
+
+def _names_from_value(value: Any, where: str) -> list[str]:
+    if isinstance(value, Mapping):
+        try:
+            keys = sorted(int(k) for k in value)
+        except (TypeError, ValueError) as exc:
+            raise OnnxModelError(f"{where}: keys must be class indices, got {list(value)}") from exc
+        if keys != list(range(len(keys))):
+            raise OnnxModelError(f"{where}: class indices must be 0..{len(keys) - 1}, got {keys}")
+        by_index = {int(k): v for k, v in value.items()}
+        names = [by_index[i] for i in keys]
+    elif isinstance(value, Sequence) and not isinstance(value, str):
+        names = list(value)
+    else:
+        raise OnnxModelError(f"{where}: expected a list or an index->name dict, got {value!r}")
+    if not names:
+        raise OnnxModelError(f"{where}: no class names")
+    for i, n in enumerate(names):
+        if not isinstance(n, str) or not n.strip():
+            raise OnnxModelError(f"{where}: class {i} name must be a non-empty string, got {n!r}")
+    return [n.strip() for n in names]
+
+
+def load_names_file(path: str | Path) -> list[str]:
+    """Class names from a file: YAML (a list, an index->name dict, or a data.yaml
+    with a ``names`` key) for .yaml / .yml, otherwise text with one name a line."""
+    p = Path(path)
+    if not p.is_file():
+        raise OnnxModelError(f"names file not found: {p}")
+    text = p.read_text(encoding="utf-8-sig")
+    if p.suffix.lower() in (".yaml", ".yml"):
+        import yaml
+
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise OnnxModelError(f"{p}: not valid YAML ({exc})") from exc
+        if isinstance(value, Mapping) and "names" in value:
+            value = value["names"]
+        return _names_from_value(value, str(p))
+    names = [line.strip() for line in text.splitlines() if line.strip()]
+    return _names_from_value(names, str(p))
+
+
+def resolve_layout(shape: Sequence[Any], C: int, layout: str, metadata: Mapping[str, str]) -> str:
+    """'yolov8' or 'yolov5' for an output of ``shape`` from a model declaring C classes.
+
+    ``layout`` 'auto' takes the layout an Ultralytics >= 8 export always has
+    (metadata key ``task``), otherwise the one layout the shape fits; an explicit
+    layout must fit. Anything else raises :class:`OnnxModelError`.
+    """
+    expected = f"(1, 4+C={4 + C}, N) for yolov8/yolo11 or (1, N, 5+C={5 + C}) for yolov5"
+    dims = tuple(shape)
+    batch_ok = len(dims) == 3 and (dims[0] in (1, None) or isinstance(dims[0], str))  # str: dynamic
+    if not batch_ok:
+        raise OnnxModelError(f"model output has shape {dims}; expected {expected}")
+    fits_v8 = dims[1] == 4 + C
+    fits_v5 = dims[2] == 5 + C
+    if layout == "auto":
+        if "task" in metadata:
+            layout = "yolov8"
+        elif fits_v8 != fits_v5:
+            layout = "yolov8" if fits_v8 else "yolov5"
+        elif fits_v8:
+            raise OnnxModelError(
+                f"model output shape {dims} fits both yolov8 and yolov5 for C={C}; "
+                "set layout: yolov5 or yolov8"
+            )
+        else:
+            raise OnnxModelError(
+                f"model output has shape {dims}, which fits no layout for C={C} class names; "
+                f"expected {expected}"
+            )
+    if layout == "yolov8" and not fits_v8:
+        raise OnnxModelError(
+            f"model output has shape {dims}; a yolov8/yolo11 output for C={C} class names "
+            f"must be (1, {4 + C}, N)"
+        )
+    if layout == "yolov5" and not fits_v5:
+        raise OnnxModelError(
+            f"model output has shape {dims}; a yolov5 output for C={C} class names "
+            f"must be (1, N, {5 + C})"
+        )
+    return layout
+
+
+def decode_output(out: np.ndarray, C: int, layout: str) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes (N, 4) cx, cy, w, h in input pixels and class scores (N, C) from a raw output."""
+    if layout == "yolov8":
+        pred = out[0].T  # (4+C, N) -> (N, 4+C)
+        return pred[:, :4], pred[:, 4 : 4 + C]
+    pred = out[0]  # (N, 5+C)
+    obj = pred[:, 4:5]  # (N, 1)
+    return pred[:, :4], obj * pred[:, 5 : 5 + C]  # score = obj * cls, (N, C)
+
+
+def _as_size_hw(value: Any, where: str) -> tuple[int, int]:
+    if isinstance(value, str):
+        try:
+            value = ast.literal_eval(value)
+        except (ValueError, SyntaxError) as exc:
+            raise DetectorConfigError(f"{where}: expected an int or [h, w], got {value!r}") from exc
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        hw = (int(value), int(value))
+    elif isinstance(value, Sequence) and len(value) == 2:
+        hw = (int(value[0]), int(value[1]))
+    else:
+        raise DetectorConfigError(f"{where}: expected an int or [h, w], got {value!r}")
+    if hw[0] <= 0 or hw[1] <= 0:
+        raise DetectorConfigError(f"{where}: sizes must be positive, got {hw}")
+    return hw
+
+
+@register("onnx")
+@dataclass(kw_only=True)
+class OnnxYoloDetector:
+    """YOLOv5 / YOLOv8 / YOLO11 ONNX export on onnxruntime's CPUExecutionProvider.
+
+    Settings: ``model`` path; ``conf`` minimum score; ``nms_iou`` IoU above which
+    the lower-scored of two same-class boxes is dropped; ``max_det`` detections
+    kept per frame; ``imgsz`` input size used when the model's input dims are
+    dynamic (int or [h, w]; default the metadata's ``imgsz``, else 640);
+    ``names`` a names file overriding the metadata; ``class_map`` model name ->
+    name in CLASSES (or None to ignore that class); ``layout`` 'auto', 'yolov5'
+    or 'yolov8'; ``threads`` onnxruntime intra-op threads; ``read_qr`` decode
+    the text of every 'qr' detection here (:func:`poi.detectors.qr.attach_qr_text`;
+    off by default because poi.pipeline does it after all detectors).
+    ``last_timing_ms`` holds the last frame's preprocess / inference /
+    postprocess / qr times in milliseconds.
+    """
+
+    model: str | Path
+    conf: float = 0.25
+    nms_iou: float = 0.45
+    max_det: int = 300
+    imgsz: int | Sequence[int] | None = None
+    names: str | Path | None = None
+    class_map: Mapping[str, str | None] | None = None
+    layout: str = "auto"
+    threads: int = 2
+    read_qr: bool = False
+    name: str = field(default="onnx", init=False)
+    last_timing_ms: dict[str, float] = field(default_factory=dict, init=False)
+    model_names: list[str] = field(default_factory=list, init=False)
+    input_hw: tuple[int, int] = field(default=(0, 0), init=False)
+    _session: Any = field(default=None, init=False, repr=False)
+    _input_name: str = field(default="", init=False, repr=False)
+    _input_dtype: Any = field(default=np.float32, init=False, repr=False)
+    _layout: str = field(default="", init=False, repr=False)
+    _class_to_ours: np.ndarray = field(default=None, init=False, repr=False)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        self._check_settings()
+        import onnxruntime as ort
+
+        path = Path(self.model)
+        if not path.is_file():
+            raise OnnxModelError(f"model file not found: {path}")
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = int(self.threads)
+        opts.inter_op_num_threads = 1
+        opts.log_severity_level = 3
+        try:
+            session = ort.InferenceSession(
+                str(path), sess_options=opts, providers=["CPUExecutionProvider"]
+            )
+        except Exception as exc:  # onnxruntime raises its own Fail / InvalidProtobuf types
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise OnnxModelError(f"{path}: not a loadable ONNX model ({first[:200]})") from exc
+        self._session = session
+        metadata = dict(session.get_modelmeta().custom_metadata_map)
+        self.model_names = self._read_names(path, metadata)
+        self._class_to_ours = self._map_classes(self.model_names)
+        self.input_hw = self._read_input(session, path, metadata)
+        outputs = session.get_outputs()
+        self._layout = resolve_layout(
+            outputs[0].shape, len(self.model_names), self.layout, metadata
+        )
+
+    def _check_settings(self) -> None:
+        if not 0.0 <= float(self.conf) <= 1.0:
+            raise DetectorConfigError(f"detector 'onnx': conf must be in [0, 1], got {self.conf}")
+        if not 0.0 <= float(self.nms_iou) <= 1.0:
+            raise DetectorConfigError(
+                f"detector 'onnx': nms_iou must be in [0, 1], got {self.nms_iou}"
+            )
+        if int(self.max_det) < 1:
+            raise DetectorConfigError(f"detector 'onnx': max_det must be >= 1, got {self.max_det}")
+        if int(self.threads) < 1:
+            raise DetectorConfigError(f"detector 'onnx': threads must be >= 1, got {self.threads}")
+        if self.layout not in LAYOUTS:
+            raise DetectorConfigError(
+                f"detector 'onnx': layout must be one of {LAYOUTS}, got {self.layout!r}"
+            )
+
+    def _read_names(self, path: Path, metadata: Mapping[str, str]) -> list[str]:
+        if self.names is not None:
+            return load_names_file(self.names)
+        if "names" not in metadata:
+            raise OnnxModelError(
+                f"{path}: no 'names' in the model metadata; give a names file (names: ...)"
+            )
+        return parse_names_metadata(metadata["names"])
+
+    def _map_classes(self, model_names: list[str]) -> np.ndarray:
+        """Index in CLASSES for each model class, -1 for a class mapped to None (ignored)."""
+        class_map = dict(self.class_map or {})
+        stray = sorted(set(class_map) - set(model_names))
+        if stray:
+            raise OnnxModelError(f"class_map names {stray} are not model classes {model_names}")
+        ours = np.full(len(model_names), -1, dtype=np.int64)
+        unknown = []
+        for j, model_name in enumerate(model_names):
+            target = class_map.get(model_name, model_name)
+            if target is None:
+                continue
+            name = canonical_class(str(target))
+            if name is None:
+                unknown.append(
+                    model_name if model_name not in class_map else f"{model_name}->{target}"
+                )
+                continue
+            ours[j] = CLASS_INDEX[name]
+        if unknown:
+            raise OnnxModelError(
+                f"model class names {unknown} are not known types or hazmat labels; "
+                "map them with class_map (name -> one of poi.names.CLASSES, or null to ignore)"
+            )
+        return ours
+
+    def _read_input(self, session: Any, path: Path, metadata: Mapping[str, str]) -> tuple[int, int]:
+        inputs = session.get_inputs()
+        if len(inputs) != 1:
+            raise OnnxModelError(f"{path}: expected one input image, found {len(inputs)} inputs")
+        inp = inputs[0]
+        self._input_name = inp.name
+        self._input_dtype = np.float16 if inp.type == "tensor(float16)" else np.float32
+        shape = list(inp.shape)
+        if len(shape) != 4 or (isinstance(shape[1], int) and shape[1] != 3):
+            raise OnnxModelError(f"{path}: input has shape {shape}; expected (1, 3, H, W)")
+        H, W = shape[2], shape[3]
+        static = isinstance(H, int) and isinstance(W, int) and H > 0 and W > 0
+        if static:
+            if self.imgsz is not None and _as_size_hw(self.imgsz, "imgsz") != (H, W):
+                raise DetectorConfigError(
+                    f"detector 'onnx': imgsz {self.imgsz} differs from the model's fixed "
+                    f"input {H}x{W}"
+                )
+            return (H, W)
+        if self.imgsz is not None:
+            return _as_size_hw(self.imgsz, "detector 'onnx': imgsz")
+        if "imgsz" in metadata:
+            return _as_size_hw(metadata["imgsz"], f"{path}: metadata imgsz")
+        return (DEFAULT_IMGSZ_PX, DEFAULT_IMGSZ_PX)
+
+    @property
+    def output_layout(self) -> str:
+        """'yolov5' or 'yolov8', as decided when the model was loaded."""
+        return self._layout
+
+    def detect(self, frame: Frame) -> list[Detection]:
+        """Detections in ``frame.rgb`` with boxes in its pixels, best first."""
+        rgb = frame.rgb
+        if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
+            raise ValueError(
+                f"frame {frame.index}: rgb must be uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}"
+            )
+        h, w = rgb.shape[:2]
+
+        t0 = time.perf_counter()
+        img, r, (left, top) = letterbox(rgb, self.input_hw)  # (H_in, W_in, 3)
+        x = img.transpose(2, 0, 1)[None].astype(self._input_dtype) / 255.0  # (1, 3, H_in, W_in)
+        x = np.ascontiguousarray(x, dtype=self._input_dtype)
+        t1 = time.perf_counter()
+        out = self._session.run(None, {self._input_name: x})[0]
+        t2 = time.perf_counter()
+        dets = self._postprocess(np.asarray(out, dtype=np.float32), r, left, top, w, h)
+        t3 = time.perf_counter()
+        if self.read_qr:
+            dets = attach_qr_text(rgb, dets)
+        t4 = time.perf_counter()
+        self.last_timing_ms = {
+            "preprocess": (t1 - t0) * 1e3,
+            "inference": (t2 - t1) * 1e3,
+            "postprocess": (t3 - t2) * 1e3,
+            "qr": (t4 - t3) * 1e3,
+        }
+        return dets
+
+    def _postprocess(
+        self, out: np.ndarray, r: float, left: int, top: int, w: int, h: int
+    ) -> list[Detection]:
+        C = len(self.model_names)
+        resolve_layout(
+            out.shape, C, self._layout, {}
+        )  # the run's shape must match the declared one
+        cxcywh, scores = decode_output(out, C, self._layout)  # (N, 4), (N, C)
+        finite = np.all(np.isfinite(cxcywh), axis=1) & np.all(np.isfinite(scores), axis=1)
+        cls = np.argmax(np.where(np.isfinite(scores), scores, -np.inf), axis=1)  # (N,)
+        top_score = scores[np.arange(len(cls)), cls]  # (N,)
+        ours = self._class_to_ours[cls]  # (N,), -1 for ignored classes
+        keep = finite & (top_score >= self.conf) & (ours >= 0)
+        if not np.any(keep):
+            return []
+        cxcywh, scores, cls, top_score, ours = (
+            cxcywh[keep],
+            scores[keep],
+            cls[keep],
+            top_score[keep],
+            ours[keep],
+        )
+        # Input-pixel (cx, cy, w, h) -> original-image xyxy: x = (x_in - left) / r.
+        x1 = (cxcywh[:, 0] - 0.5 * cxcywh[:, 2] - left) / r
+        y1 = (cxcywh[:, 1] - 0.5 * cxcywh[:, 3] - top) / r
+        x2 = (cxcywh[:, 0] + 0.5 * cxcywh[:, 2] - left) / r
+        y2 = (cxcywh[:, 1] + 0.5 * cxcywh[:, 3] - top) / r
+        xyxy = np.stack(
+            [np.clip(x1, 0, w), np.clip(y1, 0, h), np.clip(x2, 0, w), np.clip(y2, 0, h)], axis=1
+        )  # (M, 4)
+        nonempty = (xyxy[:, 2] > xyxy[:, 0]) & (xyxy[:, 3] > xyxy[:, 1])
+        idx_pool = np.flatnonzero(nonempty)
+        if idx_pool.size == 0:
+            return []
+        # Class-wise NMS (classes in CLASSES, so two model names for one class compete).
+        xywh = np.column_stack([xyxy[:, :2], xyxy[:, 2:] - xyxy[:, :2]])  # (M, 4)
+        kept = cv2.dnn.NMSBoxesBatched(
+            xywh[idx_pool].astype(np.float64).tolist(),
+            top_score[idx_pool].astype(np.float64).tolist(),
+            ours[idx_pool].astype(np.int32).tolist(),
+            -1.0,  # scores are already filtered (>= conf); OpenCV's own test is strict (>)
+            float(self.nms_iou),
+        )
+        order = idx_pool[np.asarray(kept, dtype=np.int64).reshape(-1)]
+        order = order[np.argsort(-top_score[order], kind="stable")][: int(self.max_det)]
+        probs = self._class_probs(scores[order], ours[order])  # (K, len(CLASSES))
+        return [
+            make_detection(
+                CLASSES[int(ours[i])],
+                tuple(xyxy[i]),
+                float(top_score[i]),
+                source="onnx",
+                class_probs=probs[row],
+            )
+            for row, i in enumerate(order)
+        ]
+
+    def _class_probs(self, model_scores: np.ndarray, top: np.ndarray) -> np.ndarray:
+        """Class probabilities over CLASSES for K detections (seed 1, section 2.1.5).
+
+        ``model_scores`` (K, C) are mapped onto CLASSES (the max over model names of
+        one class); the top class keeps its score p, the rest 1 - p goes to the
+        others in proportion to their scores, or uniformly when those are all zero.
+        Row k equals ``spread_class_probs(mapped[k], top[k])``.
+        """
+        K, n = len(top), len(CLASSES)
+        S = np.zeros((K, n), dtype=np.float64)  # (K, len(CLASSES))
+        for j, m in enumerate(self._class_to_ours):
+            if m >= 0:
+                S[:, m] = np.maximum(S[:, m], np.clip(model_scores[:, j], 0.0, 1.0))
+        rows = np.arange(K)
+        p = S[rows, top]  # (K,)
+        rest = S.sum(axis=1) - p  # (K,)
+        safe = np.where(rest > 0.0, rest, 1.0)
+        probs = np.where(
+            (rest > 0.0)[:, None], S * ((1.0 - p) / safe)[:, None], ((1.0 - p) / (n - 1))[:, None]
+        )  # (K, len(CLASSES))
+        probs[rows, top] = p
+        return probs

@@ -1,0 +1,182 @@
+"""The perception pipeline: detect -> read QR text -> localise -> in-view check -> track.
+
+Per frame (:meth:`Pipeline.process`):
+
+1. every detector's ``detect(frame)``; their detections are concatenated;
+2. QR text is attached by ``poi.detectors.qr.attach_qr_text(rgb, detections)`` when
+   ``qr.enabled`` and that function exists (else QR detections keep the text the
+   detector gave, usually none, and a note says so once);
+3. a frame without a pose or a depth image stops here (``skipped_reason``): its
+   detections are returned for display but nothing is localised or tracked;
+4. each detection is localised (seed 1, 2.2-2.3); one without valid depth gives no
+   observation;
+5. tracks whose centre is in view (poi.visibility) are passed to the tracker for the
+   negative update, and the tracker steps (seed 1, 2.4).
+
+Detections get the id of the track they fed (``Detection.track_id``) for display.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from poi.config import PipelineConfig, mount_matrix
+from poi.covariance import Calibration, load_calibration
+from poi.localize import localize
+from poi.tracker import Tracker
+from poi.types import Detection, Frame, Observation, TrackSnapshot
+from poi.visibility import in_view
+
+QR_MODULE = "poi.detectors.qr"
+QR_FUNCTION = "attach_qr_text"
+
+
+@dataclass(kw_only=True)
+class FrameResult:
+    frame_index: int
+    timestamp_s: float
+    detections: list[Detection]
+    observations: list[Observation]
+    newly_confirmed: list[TrackSnapshot]
+    skipped_reason: str | None = None
+    timing_ms: dict[str, float] = field(default_factory=dict)
+
+
+def _find_qr_reader() -> tuple[Callable | None, str | None]:
+    try:
+        mod = importlib.import_module(QR_MODULE)
+    except ImportError as e:
+        return (
+            None,
+            f"QR text reading unavailable ({QR_MODULE} cannot be imported: {e}); "
+            "QR text stays as the detector gave it",
+        )
+    fn = getattr(mod, QR_FUNCTION, None)
+    if fn is None:
+        return (
+            None,
+            f"QR text reading unavailable ({QR_MODULE} has no {QR_FUNCTION}); "
+            "QR text stays as the detector gave it",
+        )
+    return fn, None
+
+
+class Pipeline:
+    """Frames in, tracked objects out; ``detectors`` have ``detect(frame) -> list[Detection]``."""
+
+    def __init__(
+        self, cfg: PipelineConfig, detectors: Sequence, calibration: Calibration | None = None
+    ) -> None:
+        self.cfg = cfg
+        self.detectors = list(detectors)
+        if calibration is None and cfg.calibration is not None:
+            calibration = load_calibration(cfg.calibration)
+        self.calibration = calibration
+        self.T_tracker_camera = mount_matrix(cfg)
+        self.tracker = Tracker(cfg.tracker, calibration)
+        self.notes: list[str] = []
+        self._qr_reader: Callable | None = None
+        if cfg.qr.enabled:
+            self._qr_reader, note = _find_qr_reader()
+            if note:
+                self.notes.append(note)
+
+    def _tracks_in_view(self, frame: Frame) -> set[int]:
+        v = self.cfg.visibility
+        return {
+            tr.track_id
+            for tr in self.tracker.tracks.values()
+            if in_view(
+                tr.mu,
+                frame,
+                self.T_tracker_camera,
+                frame.intrinsics,
+                v.margin_px,
+                v.max_range_m,
+                v.occlusion_tolerance_m,
+            )
+        }
+
+    def _read_qr(self, rgb: np.ndarray, detections: list[Detection]) -> list[Detection]:
+        """Decode the text of qr detections that have none (a detector may have read it already)."""
+        todo = [k for k, d in enumerate(detections) if d.type == "qr" and not d.text]
+        if not todo:
+            return detections
+        read = list(self._qr_reader(rgb, [detections[k] for k in todo]))
+        if len(read) != len(todo):
+            raise RuntimeError(
+                f"{QR_MODULE}.{QR_FUNCTION} returned {len(read)} detections for {len(todo)}"
+            )
+        out = list(detections)
+        for k, det in zip(todo, read, strict=True):
+            out[k] = det
+        return out
+
+    def process(self, frame: Frame) -> FrameResult:
+        timing: dict[str, float] = {}
+        t0 = time.perf_counter()
+        detections: list[Detection] = []
+        for det in self.detectors:
+            detections.extend(det.detect(frame))
+        t1 = time.perf_counter()
+        timing["detect"] = 1e3 * (t1 - t0)
+        if self._qr_reader is not None:
+            detections = self._read_qr(frame.rgb, detections)
+        t2 = time.perf_counter()
+        timing["qr"] = 1e3 * (t2 - t1)
+
+        reason = None
+        if frame.pose is None:
+            reason = "no pose"
+        elif frame.depth_m is None:
+            reason = "no depth"
+        elif not np.all(np.isfinite(frame.pose)):
+            reason = "pose not finite"
+        if reason is not None:
+            return FrameResult(
+                frame_index=frame.index,
+                timestamp_s=frame.timestamp_s,
+                detections=detections,
+                observations=[],
+                newly_confirmed=[],
+                skipped_reason=reason,
+                timing_ms=timing,
+            )
+
+        observations: list[Observation] = []
+        det_of_obs: list[int] = []
+        for k, det in enumerate(detections):
+            obs = localize(det, frame, self.cfg, self.T_tracker_camera, self.calibration)
+            if obs is not None:
+                observations.append(obs)
+                det_of_obs.append(k)
+        t3 = time.perf_counter()
+        timing["localize"] = 1e3 * (t3 - t2)
+
+        visible = self._tracks_in_view(frame)
+        step = self.tracker.step(observations, frame.timestamp_s, visible)
+        for i, tid in step.pairs + step.new_tracks + step.duplicates:
+            detections[det_of_obs[i]].track_id = tid
+        timing["track"] = 1e3 * (time.perf_counter() - t3)
+        return FrameResult(
+            frame_index=frame.index,
+            timestamp_s=frame.timestamp_s,
+            detections=detections,
+            observations=observations,
+            newly_confirmed=step.newly_confirmed,
+            skipped_reason=None,
+            timing_ms=timing,
+        )
+
+    def confirmed(self) -> list[TrackSnapshot]:
+        """Snapshots of the confirmed tracks, by report id."""
+        return self.tracker.snapshots(confirmed_only=True)
+
+    def tracks(self) -> list[TrackSnapshot]:
+        """Snapshots of every live track, tentative ones included."""
+        return self.tracker.snapshots()

@@ -1,0 +1,80 @@
+"""Builders of small ONNX models with a known output, in the YOLOv5 and YOLOv8 layouts.
+
+Each model ignores the pixel values: its output is a constant tensor plus
+0 * mean(image), so the input is part of the graph (onnxruntime keeps it) and
+the detector's pre- and postprocessing can be checked against hand-computed
+boxes. Not a test module (no ``test_`` prefix); tests import it by path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import onnx
+from onnx import TensorProto, helper, numpy_helper
+
+OPSET = 17
+IR_VERSION = 8  # readable by every onnxruntime >= 1.14
+
+
+def yolov8_output(
+    boxes_cxcywh: Sequence[Sequence[float]], scores: Sequence[Sequence[float]], N: int
+) -> np.ndarray:
+    """(1, 4+C, N): rows cx, cy, w, h then C class scores; anchors past the boxes are 0."""
+    b = np.asarray(boxes_cxcywh, dtype=np.float32).reshape(-1, 4)  # (M, 4)
+    s = np.asarray(scores, dtype=np.float32)  # (M, C)
+    out = np.zeros((1, 4 + s.shape[1], N), dtype=np.float32)
+    out[0, :4, : len(b)] = b.T
+    out[0, 4:, : len(b)] = s.T
+    return out
+
+
+def yolov5_output(
+    boxes_cxcywh: Sequence[Sequence[float]],
+    obj: Sequence[float],
+    cls_scores: Sequence[Sequence[float]],
+    N: int,
+) -> np.ndarray:
+    """(1, N, 5+C): columns cx, cy, w, h, objectness, then C class scores."""
+    b = np.asarray(boxes_cxcywh, dtype=np.float32).reshape(-1, 4)  # (M, 4)
+    s = np.asarray(cls_scores, dtype=np.float32)  # (M, C)
+    out = np.zeros((1, N, 5 + s.shape[1]), dtype=np.float32)
+    out[0, : len(b), :4] = b
+    out[0, : len(b), 4] = np.asarray(obj, dtype=np.float32)
+    out[0, : len(b), 5:] = s
+    return out
+
+
+def make_constant_model(
+    path: Path,
+    output: np.ndarray,
+    *,
+    input_hw: tuple[int, int] | None = (320, 320),
+    metadata: dict[str, str] | None = None,
+) -> Path:
+    """Write a model whose output is ``output`` (any image in); ``input_hw`` None = dynamic."""
+    H, W = input_hw if input_hw is not None else ("height", "width")
+    image = helper.make_tensor_value_info("images", TensorProto.FLOAT, [1, 3, H, W])
+    result = helper.make_tensor_value_info("output0", TensorProto.FLOAT, list(output.shape))
+    nodes = [
+        helper.make_node("ReduceMean", ["images"], ["mean"], axes=[1, 2, 3], keepdims=0),  # (1,)
+        helper.make_node("Mul", ["mean", "zero"], ["zeroed"]),  # (1,)
+        helper.make_node("Reshape", ["zeroed", "shape111"], ["zeroed3"]),  # (1, 1, 1)
+        helper.make_node("Add", ["const", "zeroed3"], ["output0"]),  # output.shape
+    ]
+    inits = [
+        numpy_helper.from_array(np.zeros(1, np.float32), "zero"),
+        numpy_helper.from_array(np.array([1, 1, 1], np.int64), "shape111"),
+        numpy_helper.from_array(output.astype(np.float32), "const"),
+    ]
+    graph = helper.make_graph(nodes, "constant_yolo", [image], [result], initializer=inits)
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)])
+    model.ir_version = IR_VERSION
+    for key, value in (metadata or {}).items():
+        entry = model.metadata_props.add()
+        entry.key, entry.value = key, value
+    onnx.checker.check_model(model)
+    onnx.save(model, str(path))
+    return path

@@ -1,0 +1,138 @@
+"""poi.pipeline on synthetic frames with a fake detector; poi.annotate's drawing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import poi.pipeline as pipeline_mod
+from poi.annotate import annotate
+from poi.config import apply_overrides, load_config
+from poi.names import class_to_identity
+from poi.pipeline import Pipeline
+from poi.types import Detection, Frame, Intrinsics
+
+K = Intrinsics(width=640, height=480, fx=500.0, fy=500.0, ppx=319.5, ppy=239.5)
+# box centre cx = 320 (corner convention) is pixel u = 319.5 = ppx: straight ahead
+DOOR_BOX = (300.0, 220.0, 340.0, 260.0)
+GHOST_BOX = (100.0, 100.0, 140.0, 140.0)
+
+
+def make_det(class_name: str, box, conf: float = 0.9, text: str | None = None) -> Detection:
+    typ, label = class_to_identity(class_name)
+    return Detection(
+        class_name=class_name,
+        type=typ,
+        text=label if text is None else text,
+        box_xyxy=box,
+        confidence=conf,
+    )
+
+
+class FakeDetector:
+    """Returns the detections scripted for each frame index (fresh objects each call)."""
+
+    def __init__(self, script: dict[int, list[tuple]]) -> None:
+        self.script = script
+
+    def detect(self, frame: Frame) -> list[Detection]:
+        return [make_det(*args) for args in self.script.get(frame.index, [])]
+
+
+def make_frame(index: int, *, pose=True, depth=True) -> Frame:
+    return Frame(
+        index=index,
+        timestamp_s=0.1 * index,
+        rgb=np.full((K.height, K.width, 3), 40, np.uint8),
+        intrinsics=K,
+        depth_m=np.full((K.height, K.width), 2.0, np.float32) if depth else None,
+        pose=np.eye(4) if pose else None,
+    )
+
+
+def test_static_object_seen_five_times_is_confirmed_once_at_the_right_place():
+    cfg = apply_overrides(load_config(), ["qr.enabled=false"])
+    pipe = Pipeline(cfg, [FakeDetector({i: [("door", DOOR_BOX)] for i in range(5)})])
+    confirmed = []
+    for i in range(5):
+        res = pipe.process(make_frame(i))
+        assert res.skipped_reason is None and len(res.observations) == 1
+        assert set(res.timing_ms) == {"detect", "qr", "localize", "track"}
+        confirmed += [(i, s.report_id) for s in res.newly_confirmed]
+    assert confirmed == [(2, 0)]  # n_min = 3 detections
+    (snap,) = pipe.confirmed()
+    # p_c = (0, 0, 2) straight ahead; default mount: optical z -> tracker x, 45 mm up;
+    # identity pose: map = tracker frame
+    assert snap.position_map.tolist() == pytest.approx([2.0, 0.0, 0.045], abs=1e-9)
+    assert snap.type == "door" and snap.n_detections == 5
+    assert res.detections[0].track_id == snap.track_id
+
+
+def test_frames_without_pose_or_depth_are_detected_but_not_tracked():
+    cfg = apply_overrides(load_config(), ["qr.enabled=false"])
+    pipe = Pipeline(cfg, [FakeDetector({i: [("door", DOOR_BOX)] for i in range(3)})])
+    res = pipe.process(make_frame(0, pose=False))
+    assert res.skipped_reason == "no pose" and len(res.detections) == 1 and res.observations == []
+    res = pipe.process(make_frame(1, depth=False))
+    assert res.skipped_reason == "no depth" and len(res.detections) == 1
+    assert pipe.tracks() == []
+
+
+def test_a_false_detection_dies_by_the_negative_update():
+    cfg = apply_overrides(load_config(), ["qr.enabled=false"])
+    script = {i: [("door", DOOR_BOX)] for i in range(6)}
+    script[0] = [("door", DOOR_BOX), ("valve", GHOST_BOX)]  # a one-frame false positive
+    pipe = Pipeline(cfg, [FakeDetector(script)])
+    alive = []
+    for i in range(6):
+        pipe.process(make_frame(i))
+        alive.append(sorted(s.type for s in pipe.tracks()))
+    # the valve is in view (box centre 120 px, 2 m, nothing in front) and not detected:
+    # support 1 -> 0.5 -> 0.0 -> -0.5 < drop_support 0 at frame 3
+    assert alive[:3] == [["door", "valve"]] * 3
+    assert alive[3:] == [["door"]] * 3
+    assert [s.type for s in pipe.confirmed()] == ["door"]
+
+
+def test_qr_reader_fallback_when_module_missing(monkeypatch):
+    monkeypatch.setattr(pipeline_mod, "QR_MODULE", "poi.detectors.no_such_module")
+    pipe = Pipeline(load_config(), [FakeDetector({0: [("qr", DOOR_BOX, 0.9, "")]})])
+    assert any("QR text reading unavailable" in n for n in pipe.notes)
+    res = pipe.process(make_frame(0))
+    assert res.detections[0].text == ""
+
+
+def test_qr_reader_only_sees_qr_detections_without_text(monkeypatch):
+    seen = []
+
+    def fake_reader(rgb, dets):
+        seen.append([(d.type, d.text) for d in dets])
+        return [Detection(**{**d.__dict__, "text": "Chart X"}) for d in dets]
+
+    monkeypatch.setattr(pipeline_mod, "_find_qr_reader", lambda: (fake_reader, None))
+    script = {
+        0: [("qr", DOOR_BOX, 0.9, ""), ("qr", GHOST_BOX, 0.9, "Chart Y"), ("door", (0, 0, 9, 9))]
+    }
+    pipe = Pipeline(load_config(), [FakeDetector(script)])
+    res = pipe.process(make_frame(0))
+    assert seen == [[("qr", "")]]
+    assert [d.text for d in res.detections] == ["Chart X", "Chart Y", ""]
+
+
+def test_annotate_draws_and_leaves_the_input_alone():
+    img = np.full((120, 160, 3), 40, np.uint8)
+    before = img.copy()
+    d = make_det("oxidizer", (40.0, 50.0, 100.0, 100.0), 0.87)
+    d.track_id = 3
+    out = annotate(img, [d], [], 12.5)
+    assert np.array_equal(img, before)
+    assert out.shape == img.shape and out.dtype == np.uint8
+    # the box edges are drawn in the hazmat colour, the interior is untouched
+    assert out[75, 40].tolist() == [255, 100, 30]
+    assert out[75, 99].tolist() == [255, 100, 30]
+    assert out[75, 70].tolist() == [40, 40, 40]
+    # a label above the box and a HUD at the bottom
+    assert np.any(out[30:50, 40:100] != 40)
+    assert np.any(out[100:, :80] != 40)
+    with pytest.raises(ValueError, match="RGB uint8"):
+        annotate(np.zeros((10, 10), np.uint8), [])
