@@ -12,11 +12,10 @@ import os
 import platform
 import time
 
+import mujoco  # noqa: E402
 import numpy as np
 
 import sim.gl  # noqa: F401
-import mujoco  # noqa: E402
-
 from sim.scenario import apply_settings, load_scenario  # noqa: E402
 from sim.simulator import Simulation  # noqa: E402
 from sim.world import CAMERA_NAME  # noqa: E402
@@ -74,10 +73,14 @@ def main() -> None:
     with Simulation(full) as s3:
         ks3 = np.linspace(0, s3.n_frames - 1, n).astype(int)
         res["sensor set + ground-truth boxes"] = _ms(lambda i=0: s3.frame(int(ks3[i % n])), n)
-        print(f"maze {args.maze}: {s3.maze.rows}x{s3.maze.cols} cells, {len(s3.maze.wall_segments())} wall pieces, "
-              f"{len(s3.objects)} objects, 640x480")
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"MUJOCO_GL={os.environ.get('MUJOCO_GL')}, mujoco {mujoco.__version__}")
+        print(
+            f"maze {args.maze}: {s3.maze.rows}x{s3.maze.cols} cells, {len(s3.maze.wall_segments())} wall pieces, "
+            f"{len(s3.objects)} objects, 640x480"
+        )
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"MUJOCO_GL={os.environ.get('MUJOCO_GL')}, mujoco {mujoco.__version__}"
+    )
     for k, v in res.items():
         print(f"{k:48s} {v:7.2f} ms/frame")
 

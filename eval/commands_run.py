@@ -17,14 +17,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Simulate a scenario, run the pipeline on its frames, write the POI file and score it. "
         "With no SCENARIO: the built-in default maze with every object type.",
     )
-    p.add_argument("scenario", nargs="?", help="scenario YAML file or shipped name (default: the built-in default)")
+    p.add_argument(
+        "scenario",
+        nargs="?",
+        help="scenario YAML file or shipped name (default: the built-in default)",
+    )
     p.add_argument("--out", default="trial", help="output folder (default: ./trial)")
     p.add_argument("--seed", type=int, help="generate the scenario from seed N instead of the default")
     p.add_argument("--detector", default="default", help="default | oracle | FILE.onnx")
     p.add_argument("--rules", default="ex3", help="ex3 | rmrc2025 | FILE (default: ex3)")
     p.add_argument("--noise", choices=["on", "off"], help="switch all sensor noise on or off")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="a pipeline setting (tracker.gate=4) or a scenario setting (sensors.fps=15); repeatable")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a pipeline setting (tracker.gate=4) or a scenario setting (sensors.fps=15); repeatable",
+    )
     p.add_argument("--config", help="rerun a trial from its config.yaml")
     p.add_argument("--max-frames", type=int, help="stop after this many frames")
     p.add_argument("--no-video", action="store_true", help="do not write trial.mp4")
@@ -60,17 +69,27 @@ def cmd_run(args) -> int:
         if not isinstance(doc, dict) or doc.get("poibench_trial") != 1:
             raise ScenarioError(f"{path}: not a poibench trial config (expected 'poibench_trial: 1')")
         sc = parse_scenario(yaml.safe_dump(doc["scenario"]), f"{path}:scenario")
-        pipe_sets = [f"{k}={yaml.safe_dump(v, default_flow_style=True).strip()}"
-                     for k, v in flatten_config(doc.get("pipeline", {}))] + pipe_sets
+        pipe_sets = [
+            f"{k}={yaml.safe_dump(v, default_flow_style=True).strip()}"
+            for k, v in flatten_config(doc.get("pipeline", {}))
+        ] + pipe_sets
         detector = doc.get("detector", detector)
         rules_name = doc.get("rules", rules_name)
         max_frames = doc.get("max_frames", max_frames)
     else:
         sc = resolve_scenario(args.scenario, args.seed, args.set, args.noise)
     rules = load_rules(rules_name)
-    res = run_trial(sc, args.out, pipeline_sets=pipe_sets, detector=detector, rules=rules,
-                    rules_name=rules_name, video=not args.no_video, progress=not args.quiet,
-                    max_frames=max_frames)
+    res = run_trial(
+        sc,
+        args.out,
+        pipeline_sets=pipe_sets,
+        detector=detector,
+        rules=rules,
+        rules_name=rules_name,
+        video=not args.no_video,
+        progress=not args.quiet,
+        max_frames=max_frames,
+    )
     for note in res.notes:
         print(f"note: {note}", file=sys.stderr)
     print(format_tables(res.score))
@@ -82,6 +101,8 @@ def cmd_run(args) -> int:
         f"{s.misses} misses; {res.n_frames} frames, {res.sim_duration_s:.0f} s simulated in {res.wall_s:.0f} s "
         f"({res.real_time_factor:.1f}x real time)"
     )
-    print(f"wrote {res.out_dir}/: pois.csv truth.csv score.json map.png "
-          f"{'' if args.no_video else 'trial.mp4 '}config.yaml")
+    print(
+        f"wrote {res.out_dir}/: pois.csv truth.csv score.json map.png "
+        f"{'' if args.no_video else 'trial.mp4 '}config.yaml"
+    )
     return 0

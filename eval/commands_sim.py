@@ -28,9 +28,7 @@ def generated_scenario(seed: int, rows: int = 4, cols: int = 4, preset: str = "r
     )
 
 
-def resolve_scenario(
-    arg: str | None, seed: int | None, sets: list[str], noise: str | None
-) -> Scenario:
+def resolve_scenario(arg: str | None, seed: int | None, sets: list[str], noise: str | None) -> Scenario:
     """Scenario from a file/name (default: the built-in one) or generated from --seed, then --set/--noise."""
     if seed is not None and arg is None:
         sc = generated_scenario(seed)
@@ -38,9 +36,7 @@ def resolve_scenario(
         sc = load_scenario(arg or "default")
         if seed is not None:
             sc = apply_settings(sc, [f"seed={seed}"])
-    sim_sets = [
-        s for s in sets if s.split("=", 1)[0].split(".")[0] in Scenario.__dataclass_fields__
-    ]
+    sim_sets = [s for s in sets if s.split("=", 1)[0].split(".")[0] in Scenario.__dataclass_fields__]
     if sim_sets:
         sc = apply_settings(sc, sim_sets)
     if noise is not None:
@@ -52,9 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("scenario", help="make scenario files")
     ssub = p.add_subparsers(dest="scenario_cmd", required=True)
     n = ssub.add_parser("new", help="print (or write) a generated scenario")
-    n.add_argument(
-        "--seed", type=int, default=0, help="seed of the maze, objects and noise (default 0)"
-    )
+    n.add_argument("--seed", type=int, default=0, help="seed of the maze, objects and noise (default 0)")
     n.add_argument("--rows", type=int, default=4)
     n.add_argument("--cols", type=int, default=4)
     n.add_argument("--preset", choices=["rrl", "rmrc"], default="rrl")
@@ -62,17 +56,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     n.set_defaults(func=cmd_scenario_new)
 
     r = sub.add_parser("render", help="render frames, depth, ground-truth overlays and truth.csv")
-    r.add_argument(
-        "scenario", nargs="?", help="scenario file or shipped name (default: the built-in default)"
-    )
-    r.add_argument(
-        "--frames", type=int, default=20, help="frames to write, spread evenly over the route"
-    )
+    r.add_argument("scenario", nargs="?", help="scenario file or shipped name (default: the built-in default)")
+    r.add_argument("--frames", type=int, default=20, help="frames to write, spread evenly over the route")
     r.add_argument("--out", required=True, help="output folder")
     r.add_argument("--seed", type=int, help="generate the scenario from this seed instead")
-    r.add_argument(
-        "--set", action="append", default=[], metavar="KEY=VALUE", help="scenario setting"
-    )
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario setting")
     r.add_argument("--noise", choices=["on", "off"])
     r.set_defaults(func=cmd_render)
 
@@ -143,9 +131,7 @@ def cmd_render(args) -> int:
                     cv2.imwrite(str(out / "depth" / name), to_millimetres(frame.depth_m))
                 if frame.thermal_c is not None:
                     t8 = np.clip((frame.thermal_c - 15.0) * 4.0, 0, 255).astype(np.uint8)
-                    cv2.imwrite(
-                        str(out / "thermal" / name), cv2.applyColorMap(t8, cv2.COLORMAP_INFERNO)
-                    )
+                    cv2.imwrite(str(out / "thermal" / name), cv2.applyColorMap(t8, cv2.COLORMAP_INFERNO))
                 overlay = truth_overlay(frame.rgb, truth)
                 cv2.imwrite(str(out / "overlay" / name), cv2.cvtColor(overlay, cv2.COLOR_RGB2BGR))
                 rec = {

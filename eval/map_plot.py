@@ -392,9 +392,7 @@ def _draw_report(ax: Any, r: MapReport, pt_per_px: float, font_pt: float) -> Non
             linewidth=2.0 * pt_per_px,
             zorder=7,
         )
-        ax.text(
-            r.x + d, r.y + d, "false", color="black", fontsize=8, ha="left", va="bottom", zorder=7
-        )
+        ax.text(r.x + d, r.y + d, "false", color="black", fontsize=8, ha="left", va="bottom", zorder=7)
 
 
 def _legend_handles(pt_per_px: float) -> list[Line2D]:

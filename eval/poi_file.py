@@ -198,9 +198,7 @@ def parse_poi_text(text: str, *, source: str = "<text>") -> PoiFile:
         if row is None:
             continue
         if row.id in seen_ids:
-            warnings.append(
-                Problem(line=line_no, message=f"id {row.id} also used on line {seen_ids[row.id]}")
-            )
+            warnings.append(Problem(line=line_no, message=f"id {row.id} also used on line {seen_ids[row.id]}"))
         else:
             seen_ids[row.id] = line_no
         rows.append(row)
@@ -244,8 +242,7 @@ def _column_map(cells: list[str], line_no: int, source: str) -> dict[str, int]:
     missing = [c for c in COLUMNS if c not in col]
     if missing:
         raise PoiFileError(
-            f"{source}: line {line_no}: column line lacks {', '.join(missing)}; "
-            f"expected {','.join(COLUMNS)}"
+            f"{source}: line {line_no}: column line lacks {', '.join(missing)}; expected {','.join(COLUMNS)}"
         )
     return col
 
@@ -263,15 +260,11 @@ def _make_header(values: list[str], warnings: list[Problem]) -> PoiHeader:
     padded = (values + [""] * n)[:n]
     header = PoiHeader(**dict(zip(HEADER_FIELDS, padded, strict=True)))
     if header.version != POI_VERSION:
-        warnings.append(
-            Problem(line=2, message=f"version {header.version!r}, expected {POI_VERSION!r}")
-        )
+        warnings.append(Problem(line=2, message=f"version {header.version!r}, expected {POI_VERSION!r}"))
     if header.date and not _DATE_RE.match(header.date):
         warnings.append(Problem(line=0, message=f"date {header.date!r} is not YYYY-MM-DD"))
     if header.start_time and not _TIME_RE.match(header.start_time):
-        warnings.append(
-            Problem(line=0, message=f"start time {header.start_time!r} is not HH:MM:SS")
-        )
+        warnings.append(Problem(line=0, message=f"start time {header.start_time!r} is not HH:MM:SS"))
     return header
 
 
@@ -299,9 +292,7 @@ def _parse_row(
     reasons: list[str] = []
     type_ = canonical_type(get["type"]) if get["type"] else None
     if type_ is None:
-        reasons.append(
-            f"unknown type {get['type']!r}; expected one of {', '.join(TYPES)} or an alias"
-        )
+        reasons.append(f"unknown type {get['type']!r}; expected one of {', '.join(TYPES)} or an alias")
     try:
         id_ = int(get["id"])
     except ValueError:
@@ -337,9 +328,7 @@ def _parse_row(
         warnings.append(Problem(line=line_no, message="QR code with empty text"))
     mode = get["mode"].upper()
     if mode not in MODES:
-        warnings.append(
-            Problem(line=line_no, message=f"mode {get['mode']!r}, expected {', '.join(MODES)}")
-        )
+        warnings.append(Problem(line=line_no, message=f"mode {get['mode']!r}, expected {', '.join(MODES)}"))
     if get["time"] and not _TIME_RE.match(get["time"]):
         warnings.append(Problem(line=line_no, message=f"time {get['time']!r} is not HH:MM:SS"))
     return PoiRow(

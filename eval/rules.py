@@ -154,21 +154,17 @@ def rules_from_dict(data: Any, *, source: str = "<dict>") -> Rules:
         raise RulesError(f"{source}: field 'name': expected a non-empty string, got {name!r}")
     description = data.get("description") or ""
     if not isinstance(description, str):
-        raise RulesError(
-            f"{source}: field 'description': expected a string, got {_kind(description)}"
-        )
+        raise RulesError(f"{source}: field 'description': expected a string, got {_kind(description)}")
     identify = _radius(data["identify_radius_m"], source, "identify_radius_m")
     penalty = data["false_report_penalty"]
     if penalty not in PENALTIES:
         raise RulesError(
-            f"{source}: field 'false_report_penalty': expected one of "
-            f"{', '.join(PENALTIES)}, got {penalty!r}"
+            f"{source}: field 'false_report_penalty': expected one of {', '.join(PENALTIES)}, got {penalty!r}"
         )
     unscored = data["unscored_types"]
     if unscored not in UNSCORED_POLICIES:
         raise RulesError(
-            f"{source}: field 'unscored_types': expected one of "
-            f"{', '.join(UNSCORED_POLICIES)}, got {unscored!r}"
+            f"{source}: field 'unscored_types': expected one of {', '.join(UNSCORED_POLICIES)}, got {unscored!r}"
         )
     types_data = data["types"]
     if not isinstance(types_data, dict) or not types_data:
@@ -180,8 +176,7 @@ def rules_from_dict(data: Any, *, source: str = "<dict>") -> Rules:
     for type_name, spec in types_data.items():
         if type_name not in TYPES:
             raise RulesError(
-                f"{source}: field 'types.{type_name}': unknown type; expected one of "
-                f"{', '.join(TYPES)}"
+                f"{source}: field 'types.{type_name}': unknown type; expected one of {', '.join(TYPES)}"
             )
         types[type_name] = _type_rule(spec, source, f"types.{type_name}")
     return Rules(
@@ -198,8 +193,7 @@ def rules_from_dict(data: Any, *, source: str = "<dict>") -> Rules:
 def _type_rule(spec: Any, source: str, where: str) -> TypeRule:
     if not isinstance(spec, dict):
         raise RulesError(
-            f"{source}: field '{where}': expected a mapping with {', '.join(_TYPE_FIELDS)}, "
-            f"got {_kind(spec)}"
+            f"{source}: field '{where}': expected a mapping with {', '.join(_TYPE_FIELDS)}, got {_kind(spec)}"
         )
     _check_keys(spec, _TYPE_FIELDS, (), source, where=f"{where}.")
     points = _points(spec["points"], source, f"{where}.points")
@@ -221,18 +215,14 @@ def _type_rule(spec: Any, source: str, where: str) -> TypeRule:
         located = _points(located_raw, source, f"{where}.located_points")
         if located < points:
             raise RulesError(
-                f"{source}: field '{where}.located_points': expected a number >= points "
-                f"({points}), got {located}"
+                f"{source}: field '{where}.located_points': expected a number >= points ({points}), got {located}"
             )
     uses_text = spec["identity_uses_text"]
     if not isinstance(uses_text, bool):
         raise RulesError(
-            f"{source}: field '{where}.identity_uses_text': expected true or false, "
-            f"got {uses_text!r}"
+            f"{source}: field '{where}.identity_uses_text': expected true or false, got {uses_text!r}"
         )
-    return TypeRule(
-        points=points, locate_radius_m=locate, located_points=located, identity_uses_text=uses_text
-    )
+    return TypeRule(points=points, locate_radius_m=locate, located_points=located, identity_uses_text=uses_text)
 
 
 def _check_keys(
@@ -240,14 +230,11 @@ def _check_keys(
 ) -> None:
     for key in required:
         if key not in data:
-            raise RulesError(
-                f"{source}: field '{where}{key}' is missing; expected {_EXPECTED[key]}"
-            )
+            raise RulesError(f"{source}: field '{where}{key}' is missing; expected {_EXPECTED[key]}")
     for key in data:
         if key not in required and key not in optional:
             raise RulesError(
-                f"{source}: field '{where}{key}' is unknown; expected only "
-                f"{', '.join(required + optional)}"
+                f"{source}: field '{where}{key}' is unknown; expected only {', '.join(required + optional)}"
             )
 
 
@@ -272,9 +259,7 @@ def _radius(value: Any, source: str, where: str) -> float | None:
     if value is None:
         return None
     if not _is_number(value) or value <= 0:
-        raise RulesError(
-            f"{source}: field '{where}': expected a distance in metres > 0 or null, got {value!r}"
-        )
+        raise RulesError(f"{source}: field '{where}': expected a distance in metres > 0 or null, got {value!r}")
     return float(value)
 
 

@@ -29,9 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         description="Score a POI report (competition CSV) against a ground-truth POI file.",
     )
     parser.add_argument("report", metavar="REPORT.csv", help="the POI report to score")
-    parser.add_argument(
-        "--truth", required=True, metavar="TRUTH.csv", help="ground truth (POI file, mode GT)"
-    )
+    parser.add_argument("--truth", required=True, metavar="TRUTH.csv", help="ground truth (POI file, mode GT)")
     parser.add_argument(
         "--rules",
         default="ex3",

@@ -31,8 +31,7 @@ def to_json_dict(result: ScoreResult) -> dict[str, Any]:
         "reports": [{k: _num(v) for k, v in asdict(r).items()} for r in result.reports],
         "objects": [{k: _num(v) for k, v in asdict(o).items()} for o in result.objects],
         "per_type": {
-            t: {k: _num(v) for k, v in asdict(tt).items() if k != "type"}
-            for t, tt in result.per_type.items()
+            t: {k: _num(v) for k, v in asdict(tt).items() if k != "type"} for t, tt in result.per_type.items()
         },
         "problems": [asdict(p) for p in result.problems],
         "rules": result.rules.to_dict(),
@@ -176,9 +175,7 @@ def _table(headers: list[str], rows: list[list[Any]]) -> list[str]:
     right = [h in _NUMERIC or h not in ("type", "text", "status", "reason") for h in headers]
 
     def line(values: list[str]) -> str:
-        parts = [
-            v.rjust(w) if r else v.ljust(w) for v, w, r in zip(values, widths, right, strict=True)
-        ]
+        parts = [v.rjust(w) if r else v.ljust(w) for v, w, r in zip(values, widths, right, strict=True)]
         return "  ".join(parts).rstrip()
 
     return [line(headers), line(["-" * w for w in widths])] + [line(row) for row in cells]

@@ -270,9 +270,7 @@ def score(reports: PoiFile, truth: PoiFile, rules: Rules) -> ScoreResult:
             located = rule.locate_radius_m is not None and d <= rule.locate_radius_m + EPS_M
             points = rule.located_points if located else rule.points
             status = STATUS_LOCATED if located else STATUS_IDENTIFIED
-            report_scores[rep.line] = _report(
-                rep, status, points, "", object_id=truth.rows[k].id, distance_m=d
-            )
+            report_scores[rep.line] = _report(rep, status, points, "", object_id=truth.rows[k].id, distance_m=d)
             o = object_scores[k]
             o.found_by, o.report_line, o.distance_m = rep.id, rep.line, d
             o.points, o.located, o.status = points, located, status
@@ -323,11 +321,7 @@ def _no_identity_reason(rep: PoiRow, ident: Identity, truth: PoiFile, rules: Rul
     else:
         reason = f"no {name} in the ground truth"
     limit = rules.identify_radius_m
-    near = [
-        (math.dist((rep.x, rep.y, rep.z), (o.x, o.y, o.z)), o)
-        for o in truth.rows
-        if rules.is_scored(o.type)
-    ]
+    near = [(math.dist((rep.x, rep.y, rep.z), (o.x, o.y, o.z)), o) for o in truth.rows if rules.is_scored(o.type)]
     near = [(d, o) for d, o in near if limit is None or d <= limit + EPS_M]
     if near:
         d, o = min(near, key=lambda t: t[0])
@@ -406,18 +400,13 @@ def _totals(
     for t in per_type.values():
         t.points = t.points_won - t.points_lost
     problems = (
-        [
-            ScoreProblem(source="report", line=p.line, message=p.message, severity="error")
-            for p in reports.problems
-        ]
+        [ScoreProblem(source="report", line=p.line, message=p.message, severity="error") for p in reports.problems]
         + [
             ScoreProblem(source="report", line=p.line, message=p.message, severity="warning")
             for p in reports.warnings
         ]
         + [
-            ScoreProblem(
-                source="truth", line=p.line, message=f"not scored: {p.message}", severity="error"
-            )
+            ScoreProblem(source="truth", line=p.line, message=f"not scored: {p.message}", severity="error")
             for p in truth.problems
         ]
         + [

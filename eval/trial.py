@@ -67,8 +67,10 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
     oracle = None
     dets = []
     if choice == "default" and not DEFAULT_MODEL.exists():
-        notes.append("no trained default detector is shipped yet: using the oracle detector (ground-truth boxes "
-                     "with a noise model)")
+        notes.append(
+            "no trained default detector is shipped yet: using the oracle detector (ground-truth boxes "
+            "with a noise model)"
+        )
         choice = "oracle"
     if choice == "oracle":
         oracle = OracleDetector(OracleSettings(seed=sim.scenario.seed))
@@ -91,8 +93,14 @@ class _Video:
         import imageio_ffmpeg
 
         self._gen = imageio_ffmpeg.write_frames(
-            str(path), (width, height), fps=fps, codec="libx264", quality=6, macro_block_size=1,
-            output_params=["-pix_fmt", "yuv420p"], ffmpeg_log_level="error",
+            str(path),
+            (width, height),
+            fps=fps,
+            codec="libx264",
+            quality=6,
+            macro_block_size=1,
+            output_params=["-pix_fmt", "yuv420p"],
+            ffmpeg_log_level="error",
         )
         self._gen.send(None)
 
@@ -143,15 +151,26 @@ def run_trial(
         pipe = Pipeline(cfg, detectors)
         rows = truth_rows(sim)
         write_truth_csv(out / "truth.csv", rows, sc.name)
-        header = ReportHeader(team=cfg.report.team, country=cfg.report.country, mission=sc.name,
-                              start=MISSION_START)
+        header = ReportHeader(
+            team=cfg.report.team, country=cfg.report.country, mission=sc.name, start=MISSION_START
+        )
         writer = PoiWriter(out / "pois.csv", header, robot=cfg.report.robot, mode=cfg.report.mode)
         n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
-        vid = _Video(out / "trial.mp4", sim.intrinsics.width, sim.intrinsics.height, sc.sensors.fps) if video else None
+        vid = (
+            _Video(out / "trial.mp4", sim.intrinsics.width, sim.intrinsics.height, sc.sensors.fps)
+            if video
+            else None
+        )
         skipped = 0
         try:
-            for frame, truth in tqdm(sim.frames(0, n), total=n, desc="trial", unit="frame",
-                                     disable=not progress, file=sys.stderr):
+            for frame, truth in tqdm(
+                sim.frames(0, n),
+                total=n,
+                desc="trial",
+                unit="frame",
+                disable=not progress,
+                file=sys.stderr,
+            ):
                 if oracle is not None:
                     oracle.set_truth(truth)
                 res = pipe.process(frame)
@@ -174,14 +193,24 @@ def run_trial(
         result = score(report_file, truth_file, rules)
         doc = to_json_dict(result)
         doc["trial"] = {
-            "scenario": sc.name, "seed": sc.seed, "detector": detector_label(detector), "frames": n,
-            "sim_duration_s": round(sim_duration, 3), "skipped_frames": skipped, "notes": notes,
+            "scenario": sc.name,
+            "seed": sc.seed,
+            "detector": detector_label(detector),
+            "frames": n,
+            "sim_duration_s": round(sim_duration, 3),
+            "skipped_frames": skipped,
+            "notes": notes,
         }
         (out / "score.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
         reports, objs = markers_from_score(result)
-        draw_map(out / "map.png", walls=sim.walls_in_map(), robot_path=sim.robot_path_map()[:n],
-                 reports=reports, truth=objs,
-                 title=f"{sc.name} (seed {sc.seed}): {result.total:g} / {result.max_total:g} points")
+        draw_map(
+            out / "map.png",
+            walls=sim.walls_in_map(),
+            robot_path=sim.robot_path_map()[:n],
+            reports=reports,
+            truth=objs,
+            title=f"{sc.name} (seed {sc.seed}): {result.total:g} / {result.max_total:g} points",
+        )
         config = {
             "poibench_trial": 1,
             "scenario": sc.to_dict(),
@@ -192,12 +221,21 @@ def run_trial(
         }
         (out / "config.yaml").write_text(
             "# everything needed to rerun this trial: poibench run --config config.yaml\n"
-            + yaml.safe_dump(config, sort_keys=False), encoding="utf-8")
+            + yaml.safe_dump(config, sort_keys=False),
+            encoding="utf-8",
+        )
     finally:
         sim.close()
-    return TrialResult(out_dir=out, score=result, n_frames=n, sim_duration_s=sim_duration,
-                       wall_s=time.perf_counter() - t0, detector=detector_label(detector), notes=notes,
-                       skipped_frames=skipped)
+    return TrialResult(
+        out_dir=out,
+        score=result,
+        n_frames=n,
+        sim_duration_s=sim_duration,
+        wall_s=time.perf_counter() - t0,
+        detector=detector_label(detector),
+        notes=notes,
+        skipped_frames=skipped,
+    )
 
 
 def time_hms(start: datetime, t_s: float) -> str:

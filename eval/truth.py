@@ -35,7 +35,5 @@ def truth_rows(sim) -> list[PoiRow]:
 
 def write_truth_csv(path: str | Path, rows: list[PoiRow], mission: str) -> None:
     """Write ``truth.csv``; the date and time are fixed so the file depends only on the scenario."""
-    header = PoiHeader(
-        team="poibench", country="sim", date=GT_DATE, start_time=GT_START, mission=mission
-    )
+    header = PoiHeader(team="poibench", country="sim", date=GT_DATE, start_time=GT_START, mission=mission)
     write_poi_file(path, header, rows)

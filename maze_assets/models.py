@@ -131,9 +131,7 @@ class _Body:
 
     def __init__(self, obj: PlacedObject, assets: SceneAssets) -> None:
         self.obj, self.assets = obj, assets
-        self.el = ET.Element(
-            "body", name=obj.body_name, pos=fmt(obj.position), euler=fmt([0.0, 0.0, obj.yaw])
-        )
+        self.el = ET.Element("body", name=obj.body_name, pos=fmt(obj.position), euler=fmt([0.0, 0.0, obj.yaw]))
         self._parts: set[str] = set()
 
     def geom(self, part: str, material: str, **attrs) -> ET.Element:
@@ -156,9 +154,7 @@ class _Body:
         """Axis-aligned box between corners lo and hi (local frame), optionally rotated."""
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         extra = {} if quat is None else {"quat": quat}
-        return self.geom(
-            part, material, type="box", pos=(lo + hi) / 2, size=np.abs(hi - lo) / 2, **extra
-        )
+        return self.geom(part, material, type="box", pos=(lo + hi) / 2, size=np.abs(hi - lo) / 2, **extra)
 
     def capsule(self, part: str, material: str, p0, p1, r: float) -> ET.Element:
         return self.geom(part, material, type="capsule", fromto=[*p0, *p1], size=r)
@@ -251,9 +247,7 @@ def _fire_extinguisher(b: _Body) -> None:
     )
     b.cylinder("neck", steel, (0, 0, top + 0.4 * r), (0, 0, z0 + 0.84 * H), 0.28 * r)
     b.box("valve", steel, (-0.35 * r, -0.3 * r, z0 + 0.83 * H), (0.45 * r, 0.3 * r, z0 + 0.90 * H))
-    b.cylinder(
-        "gauge", white, (0.45 * r, 0, z0 + 0.865 * H), (0.52 * r, 0, z0 + 0.865 * H), 0.2 * r
-    )
+    b.cylinder("gauge", white, (0.45 * r, 0, z0 + 0.865 * H), (0.52 * r, 0, z0 + 0.865 * H), 0.2 * r)
     b.capsule("lever", black, (-0.2 * r, 0, z0 + 0.92 * H), (1.1 * r, 0, z0 + 0.975 * H), 0.07 * r)
     b.capsule("handle", black, (-0.2 * r, 0, z0 + 0.89 * H), (1.1 * r, 0, z0 + 0.87 * H), 0.07 * r)
     hose = [
@@ -292,9 +286,7 @@ def _valve(b: _Body) -> None:
         b.capsule(f"rim_{k}", wheel, p, q, tube)
     for k in range(4):
         t = np.pi / 4 + k * np.pi / 2
-        b.capsule(
-            f"spoke_{k}", wheel, (0.0, 0.0, 0.0), (0.0, R * np.cos(t), R * np.sin(t)), 0.6 * tube
-        )
+        b.capsule(f"spoke_{k}", wheel, (0.0, 0.0, 0.0), (0.0, R * np.cos(t), R * np.sin(t)), 0.6 * tube)
 
 
 def _door(b: _Body, wall_height_m: float, wall_thickness_m: float) -> None:
@@ -337,9 +329,7 @@ def _door(b: _Body, wall_height_m: float, wall_thickness_m: float) -> None:
         )
     for k, zf in enumerate((0.15, 0.85)):
         zz = z0 + zf * H
-        b.cylinder(
-            f"hinge_{k}", steel, (0, W / 2 - 0.005, zz - 0.04), (0, W / 2 - 0.005, zz + 0.04), 0.008
-        )
+        b.cylinder(f"hinge_{k}", steel, (0, W / 2 - 0.005, zz - 0.04), (0, W / 2 - 0.005, zz + 0.04), 0.008)
 
 
 def _baby_doll(b: _Body) -> None:
@@ -395,9 +385,7 @@ def _heat_source(b: _Body) -> None:
     pitch = H / nf
     for k in range(nf):  # vertical fins behind the front panel
         yc = -H / 2 + pitch * (k + 0.5)
-        b.box(
-            f"fin_{k}", fin, (xb, yc - 0.35 * pitch, z0 + 0.10 * H), (0.0, yc + 0.35 * pitch, H / 2)
-        )
+        b.box(f"fin_{k}", fin, (xb, yc - 0.35 * pitch, z0 + 0.10 * H), (0.0, yc + 0.35 * pitch, H / 2))
     b.box("panel", body, (0.0, -H / 2, z0 + 0.08 * H), (xf - 0.01 * H, H / 2, H / 2))
     b.box("grille", glow, (xf - 0.01 * H, -0.40 * H, z0 + 0.25 * H), (xf, 0.40 * H, z0 + 0.85 * H))
     for k in range(6):  # guard bars across the glowing grille
@@ -411,9 +399,7 @@ def _heat_source(b: _Body) -> None:
         )
     b.box("base", dark, (xb - 0.05 * H, -0.45 * H, z0), (xf + 0.05 * H, -0.35 * H, z0 + 0.08 * H))
     b.box("base_2", dark, (xb - 0.05 * H, 0.35 * H, z0), (xf + 0.05 * H, 0.45 * H, z0 + 0.08 * H))
-    b.cylinder(
-        "knob", dark, (0.05 * H, 0.35 * H, H / 2), (0.05 * H, 0.35 * H, H / 2 + 0.04 * H), 0.04 * H
-    )
+    b.cylinder("knob", dark, (0.05 * H, 0.35 * H, H / 2), (0.05 * H, 0.35 * H, H / 2 + 0.04 * H), 0.04 * H)
 
 
 def build_object(

@@ -50,9 +50,7 @@ def draw_qr(text: str, size_px: int = 256) -> np.ndarray:
     m = modules.shape[0] + 2 * QUIET_MODULES  # modules across, quiet zone included
     k = int(size_px) // m  # pixels per module
     if k < 1:
-        raise QrTextureError(
-            f"draw_qr: {text!r} needs {m} modules (quiet zone included) but size_px is {size_px}"
-        )
+        raise QrTextureError(f"draw_qr: {text!r} needs {m} modules (quiet zone included) but size_px is {size_px}")
     code = np.where(modules, 0, 255).astype(np.uint8)
     code = np.repeat(np.repeat(code, k, axis=0), k, axis=1)  # (n*k, n*k), nearest neighbour
     out = np.full((int(size_px), int(size_px)), 255, np.uint8)

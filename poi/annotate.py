@@ -76,8 +76,7 @@ def annotate(
     """
     if frame_rgb.ndim != 3 or frame_rgb.shape[2] != 3 or frame_rgb.dtype != np.uint8:
         raise ValueError(
-            f"annotate: expected an RGB uint8 image (H, W, 3), "
-            f"got {frame_rgb.dtype} {frame_rgb.shape}"
+            f"annotate: expected an RGB uint8 image (H, W, 3), got {frame_rgb.dtype} {frame_rgb.shape}"
         )
     img = np.ascontiguousarray(frame_rgb.copy())
     by_id = {t.track_id: t for t in (tracks or [])}

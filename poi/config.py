@@ -39,9 +39,7 @@ class ConfigError(ValueError):
     """An unknown setting, or one of the wrong type or range; the message names its dotted key."""
 
 
-def _num(
-    default: float, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False
-):
+def _num(default: float, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False):
     """A numeric field with an allowed range [lo, hi] (or (lo, hi] with ``lo_open``)."""
     return field(default=default, metadata={"lo": lo, "hi": hi, "lo_open": lo_open})
 
@@ -102,6 +100,17 @@ class LocalizeConfig:
     min_depth_m: float = _num(0.28, lo=0.0)
     max_depth_m: float = _num(10.0, lo=0.0, lo_open=True)
     center_sigma_px: CenterSigmaConfig = field(default_factory=CenterSigmaConfig)
+    # Per type, the spread (m) between where depth hits an object's surface and its reference
+    # point (centroid); added as extent^2 I to R so views from different sides pair.
+    extent_sigma_m: dict[str, float] = field(
+        default_factory=lambda: {
+            "door": 0.2,
+            "valve": 0.1,
+            "fire-extinguisher": 0.08,
+            "baby-doll": 0.12,
+            "heat-source": 0.12,
+        }
+    )
 
 
 @dataclass(kw_only=True)
@@ -310,9 +319,7 @@ def _cross_check(obj: Any, prefix: str) -> None:
     if isinstance(obj, TrackerConfig):
         for t, g in obj.gates.items():
             if t not in TYPES:
-                raise ConfigError(
-                    f"{prefix}gates.{t}: unknown type; expected one of {', '.join(TYPES)}"
-                )
+                raise ConfigError(f"{prefix}gates.{t}: unknown type; expected one of {', '.join(TYPES)}")
             if g <= 0:
                 raise ConfigError(f"{prefix}gates.{t}: expected a value > 0, got {g!r}")
     elif isinstance(obj, LocalizeConfig):
@@ -324,9 +331,7 @@ def _cross_check(obj: Any, prefix: str) -> None:
     elif isinstance(obj, TransformConfig):
         n = float(np.linalg.norm(obj.quaternion_wxyz))
         if abs(n - 1.0) > 1e-3:
-            raise ConfigError(
-                f"{prefix}quaternion_wxyz: expected a unit quaternion, got norm {n:.6f}"
-            )
+            raise ConfigError(f"{prefix}quaternion_wxyz: expected a unit quaternion, got norm {n:.6f}")
 
 
 def config_from_dict(data: dict | None, source: str = "<dict>") -> PipelineConfig:
@@ -410,9 +415,7 @@ def apply_overrides(cfg: PipelineConfig, items: Iterable[str]) -> PipelineConfig
                 raise ConfigError(f"{here}: cannot set a key below {here}")
             names = {f.name for f in dataclasses.fields(cls)}
             if part not in names:
-                raise ConfigError(
-                    f"{here}: unknown key; expected one of {', '.join(sorted(names))}"
-                )
+                raise ConfigError(f"{here}: unknown key; expected one of {', '.join(sorted(names))}")
             if last:
                 node[part] = value
                 break
@@ -422,9 +425,7 @@ def apply_overrides(cfg: PipelineConfig, items: Iterable[str]) -> PipelineConfig
             elif typing.get_origin(tp) is dict:
                 cls = None
             else:
-                raise ConfigError(
-                    f"{here}: is a single setting, it has no key {parts[depth + 1]!r}"
-                )
+                raise ConfigError(f"{here}: is a single setting, it has no key {parts[depth + 1]!r}")
             node = node[part]
     return config_from_dict(data)
 

@@ -132,9 +132,7 @@ def camera_covariance(J1: np.ndarray, J2: np.ndarray, Sigma_1: np.ndarray) -> np
     return 0.5 * (Sigma_c + Sigma_c.T)
 
 
-def map_covariance(
-    Sigma_c: np.ndarray, Q: np.ndarray, Q0: np.ndarray, sigma_eps_m: float
-) -> np.ndarray:
+def map_covariance(Sigma_c: np.ndarray, Q: np.ndarray, Q0: np.ndarray, sigma_eps_m: float) -> np.ndarray:
     """R = Q Q0 Sigma_c Q0^T Q^T + Sigma_eps, Sigma_eps = sigma_eps^2 I (seed 1 section 2.3.2).
 
     >>> R = map_covariance(np.diag([1.0, 4.0, 9.0]), np.eye(3), np.eye(3), 0.0)
@@ -196,13 +194,9 @@ def _coeffs(value: Any, where: str) -> tuple[float, ...]:
     ok = isinstance(value, list) and len(value) >= 1
     ok = ok and all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in value)
     if not ok or not all(math.isfinite(c) and c >= 0 for c in value):
-        raise CalibrationError(
-            f"{where}: expected a non-empty list of coefficients >= 0, got {value!r}"
-        )
+        raise CalibrationError(f"{where}: expected a non-empty list of coefficients >= 0, got {value!r}")
     if value[0] <= 0:
-        raise CalibrationError(
-            f"{where}: expected a constant term > 0 (a positive variance), got {value[0]!r}"
-        )
+        raise CalibrationError(f"{where}: expected a constant term > 0 (a positive variance), got {value[0]!r}")
     return tuple(float(c) for c in value)
 
 
@@ -213,9 +207,7 @@ def calibration_from_dict(doc: Any, source: str = "<calibration>") -> Calibratio
     allowed = {"poibench_calibration", "center_variance_px2", "confusion"}
     for k in doc:
         if k not in allowed:
-            raise CalibrationError(
-                f"{source}: {k}: unknown key; expected one of {', '.join(sorted(allowed))}"
-            )
+            raise CalibrationError(f"{source}: {k}: unknown key; expected one of {', '.join(sorted(allowed))}")
     if doc.get("poibench_calibration") != CALIBRATION_VERSION:
         raise CalibrationError(
             f"{source}: poibench_calibration: expected {CALIBRATION_VERSION}, "
@@ -224,20 +216,14 @@ def calibration_from_dict(doc: Any, source: str = "<calibration>") -> Calibratio
     centers: dict[str, CenterVariance] = {}
     cv = doc.get("center_variance_px2", {}) or {}
     if not isinstance(cv, dict):
-        raise CalibrationError(
-            f"{source}: center_variance_px2: expected a mapping of class -> {{u, v}}"
-        )
+        raise CalibrationError(f"{source}: center_variance_px2: expected a mapping of class -> {{u, v}}")
     for name, entry in cv.items():
         where = f"{source}: center_variance_px2.{name}"
         if name != "default" and name not in CLASS_INDEX:
-            raise CalibrationError(
-                f"{where}: unknown class; expected 'default' or a name of poi.names.CLASSES"
-            )
+            raise CalibrationError(f"{where}: unknown class; expected 'default' or a name of poi.names.CLASSES")
         if not isinstance(entry, dict) or set(entry) != {"u", "v"}:
             raise CalibrationError(f"{where}: expected a mapping with keys u and v, got {entry!r}")
-        centers[name] = CenterVariance(
-            u=_coeffs(entry["u"], where + ".u"), v=_coeffs(entry["v"], where + ".v")
-        )
+        centers[name] = CenterVariance(u=_coeffs(entry["u"], where + ".u"), v=_coeffs(entry["v"], where + ".v"))
     confusion = None
     if doc.get("confusion") is not None:
         confusion = _confusion(doc["confusion"], f"{source}: confusion")
@@ -245,41 +231,27 @@ def calibration_from_dict(doc: Any, source: str = "<calibration>") -> Calibratio
 
 
 def _confusion(entry: Any, where: str) -> np.ndarray:
-    if (
-        not isinstance(entry, dict)
-        or "matrix" not in entry
-        or not set(entry) <= {"classes", "matrix"}
-    ):
-        raise CalibrationError(
-            f"{where}: expected a mapping with keys matrix (and optionally classes)"
-        )
+    if not isinstance(entry, dict) or "matrix" not in entry or not set(entry) <= {"classes", "matrix"}:
+        raise CalibrationError(f"{where}: expected a mapping with keys matrix (and optionally classes)")
     classes = entry.get("classes", list(CLASSES))
     C = len(CLASSES)
     if not isinstance(classes, list) or sorted(classes) != sorted(CLASSES):
-        raise CalibrationError(
-            f"{where}.classes: expected each of the {C} names of poi.names.CLASSES once"
-        )
+        raise CalibrationError(f"{where}.classes: expected each of the {C} names of poi.names.CLASSES once")
     try:
         M = np.array(entry["matrix"], dtype=float)
     except (TypeError, ValueError):
         raise CalibrationError(f"{where}.matrix: expected a {C} x {C} matrix of numbers") from None
     if M.shape != (C, C) or not np.all(np.isfinite(M)):
-        raise CalibrationError(
-            f"{where}.matrix: expected a {C} x {C} matrix of numbers, got shape {M.shape}"
-        )
+        raise CalibrationError(f"{where}.matrix: expected a {C} x {C} matrix of numbers, got shape {M.shape}")
     if np.any(M < 0):
         raise CalibrationError(f"{where}.matrix: expected probabilities >= 0")
     if np.any(np.diag(M) != 0):
-        raise CalibrationError(
-            f"{where}.matrix: expected a zero diagonal (a misclassified class is another one)"
-        )
+        raise CalibrationError(f"{where}.matrix: expected a zero diagonal (a misclassified class is another one)")
     sums = M.sum(axis=1)
     bad = np.flatnonzero(np.abs(sums - 1.0) > CONFUSION_ROW_SUM_TOL)
     if bad.size:
         i = int(bad[0])
-        raise CalibrationError(
-            f"{where}.matrix: row {i} ({classes[i]}) sums to {sums[i]:.6f}, expected 1"
-        )
+        raise CalibrationError(f"{where}.matrix: row {i} ({classes[i]}) sums to {sums[i]:.6f}, expected 1")
     M = M / sums[:, None]
     # reorder rows and columns into poi.names.CLASSES order
     order = [classes.index(c) for c in CLASSES]

@@ -158,9 +158,7 @@ def localize(
         b=lc.center_sigma_px.b,
         calibration=calibration,
     )
-    sigma_d = sigma_depth_m(
-        d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m
-    )
+    sigma_d = sigma_depth_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
     Sigma_1 = np.diag([sigma_u**2, sigma_v**2, sigma_d**2])
     J1 = depth_jacobian(depth, u, v, lc.depth_scale)
     J2 = deprojection_jacobian(lambda a, b, c: deproject_pixel_to_point(intr, a, b, c), u, v, d)
@@ -172,6 +170,9 @@ def localize(
     # p_map = Q (Q0 p_c + t0) + t
     p_map = Q @ (Q0 @ p_c + t0) + t
     R = map_covariance(Sigma_c, Q, Q0, cfg.tracker.sigma_eps_m)
+    extent = cfg.localize.extent_sigma_m.get(detection.type, 0.0)
+    if extent > 0.0:
+        R = R + extent**2 * np.eye(3)
     return Observation(
         detection=detection,
         timestamp_s=frame.timestamp_s,

@@ -69,9 +69,7 @@ def _find_qr_reader() -> tuple[Callable | None, str | None]:
 class Pipeline:
     """Frames in, tracked objects out; ``detectors`` have ``detect(frame) -> list[Detection]``."""
 
-    def __init__(
-        self, cfg: PipelineConfig, detectors: Sequence, calibration: Calibration | None = None
-    ) -> None:
+    def __init__(self, cfg: PipelineConfig, detectors: Sequence, calibration: Calibration | None = None) -> None:
         self.cfg = cfg
         self.detectors = list(detectors)
         if calibration is None and cfg.calibration is not None:
@@ -109,9 +107,7 @@ class Pipeline:
             return detections
         read = list(self._qr_reader(rgb, [detections[k] for k in todo]))
         if len(read) != len(todo):
-            raise RuntimeError(
-                f"{QR_MODULE}.{QR_FUNCTION} returned {len(read)} detections for {len(todo)}"
-            )
+            raise RuntimeError(f"{QR_MODULE}.{QR_FUNCTION} returned {len(read)} detections for {len(todo)}")
         out = list(detections)
         for k, det in zip(todo, read, strict=True):
             out[k] = det

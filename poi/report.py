@@ -122,9 +122,7 @@ class PoiWriter:
         if track.report_id is None:
             raise ReportError(f"track {track.track_id}: has no report id (not confirmed)")
         t = time if time is not None else time_hms(self.header.start, track.first_seen_s)
-        return format_row(
-            track.report_id, t, track.text, track.position_map, self.robot, self.mode, track.type
-        )
+        return format_row(track.report_id, t, track.text, track.position_map, self.robot, self.mode, track.type)
 
     def append(self, track: TrackSnapshot, time_hms: str | None = None) -> None:
         """Append one confirmed object, flushed to disk; time defaults to start + first_seen_s."""
@@ -134,14 +132,10 @@ class PoiWriter:
 
     def finalize(self, tracks: Iterable[TrackSnapshot]) -> None:
         """Rewrite the whole file with these objects (by report id), atomically."""
-        rows = sorted(
-            (t for t in tracks), key=lambda t: t.report_id if t.report_id is not None else -1
-        )
+        rows = sorted((t for t in tracks), key=lambda t: t.report_id if t.report_id is not None else -1)
         text = format_header(self.header) + "".join(self._row(t, None) + "\n" for t in rows)
         self.close()
-        fd, tmp = tempfile.mkstemp(
-            prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent
-        )
+        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
         try:
             with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
                 fh.write(text)

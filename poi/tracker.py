@@ -129,18 +129,14 @@ def observation_probs(obs: Observation, fusion: str, confusion: np.ndarray | Non
     p = float(np.clip(det.confidence, 0.0, 1.0))
     if fusion == "confusion":
         if confusion is None:
-            raise TrackerError(
-                "tracker.fusion=confusion needs a calibration file with a confusion matrix"
-            )
+            raise TrackerError("tracker.fusion=confusion needs a calibration file with a confusion matrix")
         q = (1.0 - p) * confusion[A]
         q[A] = p
         return q
     if det.class_probs is not None:
         q = np.asarray(det.class_probs, dtype=float)
         if q.shape != (N_CLASSES,) or not np.all(np.isfinite(q)) or q.sum() <= 0:
-            raise TrackerError(
-                f"detection class_probs: expected {N_CLASSES} finite values with a positive sum"
-            )
+            raise TrackerError(f"detection class_probs: expected {N_CLASSES} finite values with a positive sum")
         return q / q.sum()
     q = np.full(N_CLASSES, (1.0 - p) / (N_CLASSES - 1))
     q[A] = p
@@ -213,9 +209,7 @@ class Tracker:
         self.cfg = cfg
         self.confusion = calibration.confusion if calibration is not None else None
         if cfg.fusion == "confusion" and self.confusion is None:
-            raise TrackerError(
-                "tracker.fusion=confusion needs a calibration file with a confusion matrix"
-            )
+            raise TrackerError("tracker.fusion=confusion needs a calibration file with a confusion matrix")
         self.tracks: dict[int, Track] = {}
         self._next_id = 0
         self._next_report_id = 0
@@ -298,10 +292,7 @@ class Tracker:
         tracks = list(self.tracks.values())
         D = self.distances(observations, tracks)
         # every allowed entry is already below its own gate: pair while finite
-        if self.cfg.assignment == "hungarian":
-            idx_pairs = pair_hungarian(D, np.inf)
-        else:
-            idx_pairs = pair_greedy(D, np.inf)
+        idx_pairs = pair_hungarian(D, np.inf) if self.cfg.assignment == "hungarian" else pair_greedy(D, np.inf)
         pairs = [(i, tracks[j].track_id) for i, j in idx_pairs]
         paired_obs = {i for i, _ in pairs}
         paired_tracks = {tid for _, tid in pairs}

@@ -28,7 +28,7 @@ class Intrinsics:
     the five distortion coefficients (k1, k2, p1, p2, k3).
 
     >>> k = Intrinsics(width=640, height=480, fx=612.4, fy=610.6, ppx=314.3, ppy=237.8)
-    >>> k.matrix()[0, 2]
+    >>> float(k.matrix()[0, 2])
     314.3
     """
 

@@ -48,10 +48,7 @@ def in_view(
     if z < MIN_VIEW_DEPTH_M or z > max_range:
         return False
     u, v = project_point_to_pixel(intr, p_c)
-    if not (
-        margin_px <= u <= intr.width - 1 - margin_px
-        and margin_px <= v <= intr.height - 1 - margin_px
-    ):
+    if not (margin_px <= u <= intr.width - 1 - margin_px and margin_px <= v <= intr.height - 1 - margin_px):
         return False
     if frame.depth_m is not None:
         d = float(frame.depth_m[int(round(v)), int(round(u))])

@@ -43,9 +43,7 @@ def d435_intrinsics(
 def mujoco_camera_attrs(intr: Intrinsics) -> dict[str, str]:
     """MJCF <camera> attributes that reproduce ``intr`` exactly (pinhole, no distortion)."""
     if intr.model != "none":
-        raise ValueError(
-            "the simulated camera renders a pinhole image; distortion model must be 'none'"
-        )
+        raise ValueError("the simulated camera renders a pinhole image; distortion model must be 'none'")
     off_x = (intr.width - 1) / 2.0 - intr.ppx
     off_y = (intr.height - 1) / 2.0 - intr.ppy
     return {

@@ -199,9 +199,7 @@ def default_start_heading(h_walls: np.ndarray, v_walls: np.ndarray, cell: tuple[
     return HEADINGS_RAD["east"]
 
 
-def _wall_between(
-    h_walls: np.ndarray, v_walls: np.ndarray, a: tuple[int, int], b: tuple[int, int]
-) -> bool:
+def _wall_between(h_walls: np.ndarray, v_walls: np.ndarray, a: tuple[int, int], b: tuple[int, int]) -> bool:
     """True when the grid-adjacent cells a and b are separated by a wall."""
     (ra, ca), (rb, cb) = a, b
     if ca == cb:  # vertically adjacent: the h wall on the north side of the lower cell
@@ -229,26 +227,20 @@ class Maze:
     name: str
 
     def __post_init__(self) -> None:
-        if not (
-            isinstance(self.rows, int | np.integer) and isinstance(self.cols, int | np.integer)
-        ):
+        if not (isinstance(self.rows, int | np.integer) and isinstance(self.cols, int | np.integer)):
             raise MazeError(f"maze {self.name!r}: rows and cols must be integers")
         if self.rows < 1 or self.cols < 1:
-            raise MazeError(
-                f"maze {self.name!r}: expected at least 1x1 cells, got {self.rows}x{self.cols}"
-            )
+            raise MazeError(f"maze {self.name!r}: expected at least 1x1 cells, got {self.rows}x{self.cols}")
         self.rows, self.cols = int(self.rows), int(self.cols)
         self.h_walls = np.array(self.h_walls, dtype=bool)
         self.v_walls = np.array(self.v_walls, dtype=bool)
         if self.h_walls.shape != (self.rows + 1, self.cols):
             raise MazeError(
-                f"maze {self.name!r}: h_walls shape {self.h_walls.shape}, "
-                f"expected {(self.rows + 1, self.cols)}"
+                f"maze {self.name!r}: h_walls shape {self.h_walls.shape}, expected {(self.rows + 1, self.cols)}"
             )
         if self.v_walls.shape != (self.rows, self.cols + 1):
             raise MazeError(
-                f"maze {self.name!r}: v_walls shape {self.v_walls.shape}, "
-                f"expected {(self.rows, self.cols + 1)}"
+                f"maze {self.name!r}: v_walls shape {self.v_walls.shape}, expected {(self.rows, self.cols + 1)}"
             )
         self.start_cell = (int(self.start_cell[0]), int(self.start_cell[1]))
         self.check_cell(self.start_cell)
@@ -373,19 +365,13 @@ class Maze:
             for c in range(self.cols):
                 if self.h_walls[r, c]:
                     name = self._h_wall_name(r, c)
-                    out.append(
-                        WallSegment(name=name, x0=c * s, y0=y, x1=(c + 1) * s, y1=y, thickness=t)
-                    )
+                    out.append(WallSegment(name=name, x0=c * s, y0=y, x1=(c + 1) * s, y1=y, thickness=t))
         for r in range(self.rows):
             y_top, y_bottom = (self.rows - r) * s, (self.rows - r - 1) * s
             for c in range(self.cols + 1):
                 if self.v_walls[r, c]:
                     name = self._v_wall_name(r, c)
-                    out.append(
-                        WallSegment(
-                            name=name, x0=c * s, y0=y_top, x1=c * s, y1=y_bottom, thickness=t
-                        )
-                    )
+                    out.append(WallSegment(name=name, x0=c * s, y0=y_top, x1=c * s, y1=y_bottom, thickness=t))
         return out
 
     def wall_faces(self) -> list[WallFace]:
@@ -457,9 +443,7 @@ class Maze:
                 f"wall_height_m: {st.wall_height_m!r}",
                 f"wall_thickness_m: {st.wall_thickness_m!r}",
             ]
-        word = next(
-            (k for k, v in HEADINGS_RAD.items() if _angle_close(v, self.start_heading_rad)), None
-        )
+        word = next((k for k, v in HEADINGS_RAD.items() if _angle_close(v, self.start_heading_rad)), None)
         heading = word if word is not None else repr(math.degrees(self.start_heading_rad))
         lines.append(f"start: {self.start_cell[0]} {self.start_cell[1]} {heading}")
         lines += self.drawing_lines()
@@ -482,9 +466,7 @@ def _face(name, cell, centre, normal, length) -> WallFace:
 
 
 def _opening(a, b, centre, normal, width) -> Opening:
-    return Opening(
-        cell_a=a, cell_b=b, center_xy=np.array(centre), normal_xy=np.array(normal), width_m=width
-    )
+    return Opening(cell_a=a, cell_b=b, center_xy=np.array(centre), normal_xy=np.array(normal), width_m=width)
 
 
 # ----- parser -------------------------------------------------------------------------------
@@ -517,17 +499,13 @@ class _Parser:
                 continue
             indent = len(raw) - len(raw.lstrip())
             if after_drawing:
-                raise self.error(
-                    i, indent + 1, "text after the maze drawing; expected only blank or '#' lines"
-                )
+                raise self.error(i, indent + 1, "text after the maze drawing; expected only blank or '#' lines")
             if drawing or raw.startswith("+"):
                 drawing.append((i, raw.rstrip()))
                 continue
             self._setting(i, raw, settings)
         if not drawing:
-            raise self.error(
-                len(self.lines), 1, "no maze drawing found; expected lines starting with '+'"
-            )
+            raise self.error(len(self.lines), 1, "no maze drawing found; expected lines starting with '+'")
         return self._build(settings, drawing)
 
     def _setting(self, i: int, raw: str, settings: dict[str, tuple[str, int, int]]) -> None:
@@ -552,8 +530,7 @@ class _Parser:
             raise self.error(
                 i,
                 indent + 1,
-                f"setting {key!r} given twice (first on line {settings[key][1]}); "
-                "expected each setting once",
+                f"setting {key!r} given twice (first on line {settings[key][1]}); expected each setting once",
             )
         colon = body.index(":", indent)
         value_col = colon + 2 + len(value) - len(value.lstrip())  # 1-based column of the value
@@ -567,9 +544,7 @@ class _Parser:
         if "preset" in settings:
             preset, line, col = settings["preset"]
             if preset not in PRESETS:
-                raise self.error(
-                    line, col, f"unknown preset {preset!r}; expected one of: {', '.join(PRESETS)}"
-                )
+                raise self.error(line, col, f"unknown preset {preset!r}; expected one of: {', '.join(PRESETS)}")
         values = {
             "cell_size_m": PRESETS[preset].cell_size_m,
             "wall_height_m": PRESETS[preset].wall_height_m,
@@ -584,9 +559,7 @@ class _Parser:
             except ValueError:
                 value = math.nan
             if not (math.isfinite(value) and value > 0):
-                raise self.error(
-                    line, col, f"{key}: expected a positive number of metres, got {text!r}"
-                )
+                raise self.error(line, col, f"{key}: expected a positive number of metres, got {text!r}")
             values[key] = value
         if values["wall_thickness_m"] >= values["cell_size_m"] / 2:
             key = "wall_thickness_m" if "wall_thickness_m" in settings else "cell_size_m"
@@ -616,8 +589,7 @@ class _Parser:
             raise self.error(
                 line,
                 col,
-                f"start cell ({r}, {c}) is outside the maze; expected row 0..{rows - 1} "
-                f"and col 0..{cols - 1}",
+                f"start cell ({r}, {c}) is outside the maze; expected row 0..{rows - 1} and col 0..{cols - 1}",
             )
         heading = None
         if len(parts) == 3:
@@ -792,9 +764,7 @@ def load_maze(path: str | Path) -> Maze:
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
-        raise MazeFormatError(
-            f"{path}:1:1: not UTF-8 text ({exc.reason}); expected a UTF-8 .maze file"
-        ) from None
+        raise MazeFormatError(f"{path}:1:1: not UTF-8 text ({exc.reason}); expected a UTF-8 .maze file") from None
     return parse_maze(text, source=str(path))
 
 

@@ -46,9 +46,7 @@ def generate_maze(
         if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
             raise MazeError(f"generate_maze: {label} must be an integer >= 1, got {value!r}")
     if not isinstance(rng, np.random.Generator):
-        raise MazeError(
-            f"generate_maze: rng must be a numpy.random.Generator, got {type(rng).__name__}"
-        )
+        raise MazeError(f"generate_maze: rng must be a numpy.random.Generator, got {type(rng).__name__}")
     if not (0.0 <= float(loop_fraction) <= 1.0):
         raise MazeError(f"generate_maze: loop_fraction must be in [0, 1], got {loop_fraction!r}")
     rows, cols = int(rows), int(cols)

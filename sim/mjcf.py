@@ -47,9 +47,7 @@ class SceneAssets:
     def texture(self, name: str, rgb: np.ndarray) -> str:
         """Register an RGB uint8 image (H, W, 3) as a 2D texture named ``name``."""
         if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
-            raise ValueError(
-                f"texture {name!r}: expected uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}"
-            )
+            raise ValueError(f"texture {name!r}: expected uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}")
         self._claim(name)
         ok, png = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
         if not ok:

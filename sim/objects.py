@@ -47,9 +47,7 @@ class PlacedObject:
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:
-            raise ValueError(
-                f"object {self.id}: unknown type {self.type!r}; expected one of {TYPES}"
-            )
+            raise ValueError(f"object {self.id}: unknown type {self.type!r}; expected one of {TYPES}")
         if self.mount not in MOUNTS:
             raise ValueError(f"object {self.id}: mount must be one of {MOUNTS}, got {self.mount!r}")
         self.position = np.asarray(self.position, dtype=float).reshape(3)

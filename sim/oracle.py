@@ -76,9 +76,7 @@ class OracleDetector:
 
     def __init__(self, settings: OracleSettings | None = None) -> None:
         self.settings = settings or OracleSettings()
-        self.confusion = (
-            self.settings.confusion if self.settings.confusion is not None else default_confusion()
-        )
+        self.confusion = self.settings.confusion if self.settings.confusion is not None else default_confusion()
         self._truth: FrameTruth | None = None
         self.last_timing_ms: dict[str, float] = {}
 
@@ -94,9 +92,7 @@ class OracleDetector:
         s = self.settings
         truth = self._truth
         if truth is None or truth.index != frame.index:
-            raise RuntimeError(
-                f"oracle detector: no ground truth for frame {frame.index}; call set_truth first"
-            )
+            raise RuntimeError(f"oracle detector: no ground truth for frame {frame.index}; call set_truth first")
         rng = np.random.default_rng([s.seed, ORACLE_STREAM, frame.index])
         W, H = frame.intrinsics.width, frame.intrinsics.height
         out: list[Detection] = []
@@ -117,9 +113,7 @@ class OracleDetector:
             cls = actual
             if draws[1] < s.confusion_rate:
                 cls = int(rng.choice(len(CLASSES), p=self.confusion[actual]))
-            conf = float(
-                s.confidence_range[0] + draws[2] * (s.confidence_range[1] - s.confidence_range[0])
-            )
+            conf = float(s.confidence_range[0] + draws[2] * (s.confidence_range[1] - s.confidence_range[0]))
             typ, text = class_to_identity(CLASSES[cls])
             if typ == "qr":
                 text = v.text if s.qr_text == "truth" and cls == actual else ""

@@ -181,15 +181,9 @@ def _explicit(spec: ObjectSpec, obj_id: int, maze, rng) -> PlacedObject:
     if spec.type == "door":
         for seg in maze.wall_segments():
             for face in maze.wall_faces():
-                if (
-                    face.wall == seg.name
-                    and tuple(face.cell) == (r, c)
-                    and _side(face) == spec.at.side
-                ):
+                if face.wall == seg.name and tuple(face.cell) == (r, c) and _side(face) == spec.at.side:
                     return door_in_wall(obj_id, seg, maze, size)
-        raise PlacementError(
-            f"object {obj_id}: no wall on side {spec.at.side!r} of cell ({r}, {c})"
-        )
+        raise PlacementError(f"object {obj_id}: no wall on side {spec.at.side!r} of cell ({r}, {c})")
     for face in maze.wall_faces():
         if tuple(face.cell) == (r, c) and _side(face) == spec.at.side:
             return object_at_face(
@@ -253,9 +247,7 @@ def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedOb
                 used_walls.add(seg.name)
                 placed += 1
         if placed < n_doors:
-            raise PlacementError(
-                f"only {placed} of {n_doors} doors fit: the maze has too few inner walls"
-            )
+            raise PlacementError(f"only {placed} of {n_doors} doors fit: the maze has too few inner walls")
 
     # then everything else, in a fixed type order, each on a random free wall face
     todo: list[tuple[str, str]] = []
@@ -284,9 +276,7 @@ def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedOb
                 if bottom > top:
                     bottom = top = 0.5 * wall_h
                 height = float(rng.uniform(bottom, top))
-            cand = object_at_face(
-                len(objects), t, text, face, height, offset, size, maze, _temperature(t, rng)
-            )
+            cand = object_at_face(len(objects), t, text, face, height, offset, size, maze, _temperature(t, rng))
             if face.wall in {o.wall for o in objects if o.type == "door"}:
                 continue
             if far_enough(cand.position):

@@ -98,15 +98,11 @@ def load_route_csv(path: str | Path, T_world_map: np.ndarray) -> Route:
         raise RouteError(f"{p}: cannot read route file: {e.strerror or e}") from None
     rows = list(csv.reader(text.splitlines()))
     if not rows:
-        raise RouteError(
-            f"{p}:1: empty route file; expected a header t_s,x_m,y_m,yaw_deg[,pan_deg]"
-        )
+        raise RouteError(f"{p}:1: empty route file; expected a header t_s,x_m,y_m,yaw_deg[,pan_deg]")
     header = [h.strip() for h in rows[0]]
     need = ["t_s", "x_m", "y_m", "yaw_deg"]
     if header[:4] != need or (len(header) == 5 and header[4] != "pan_deg") or len(header) > 5:
-        raise RouteError(
-            f"{p}:1: header {','.join(header)!r}; expected t_s,x_m,y_m,yaw_deg[,pan_deg]"
-        )
+        raise RouteError(f"{p}:1: header {','.join(header)!r}; expected t_s,x_m,y_m,yaw_deg[,pan_deg]")
     vals = []
     for i, row in enumerate(rows[1:], start=2):
         if not row or not "".join(row).strip():

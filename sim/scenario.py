@@ -68,9 +68,7 @@ class WallSpot:
     cell: tuple[int, int]
     side: Literal["n", "e", "s", "w"]
     height_m: float = 1.0
-    offset_m: float = (
-        0.0  # along the wall from the face centre, positive = left when facing the wall
-    )
+    offset_m: float = 0.0  # along the wall from the face centre, positive = left when facing the wall
 
 
 @dataclass(kw_only=True)
@@ -124,9 +122,7 @@ class ObjectsGenerate:
                 raise ValueError(f"counts.{t}: must be >= 0, got {n}")
         lo, hi = self.wall_height_m
         if not 0.0 <= lo <= hi:
-            raise ValueError(
-                f"wall_height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}"
-            )
+            raise ValueError(f"wall_height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}")
 
 
 @dataclass(kw_only=True)

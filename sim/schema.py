@@ -140,7 +140,7 @@ def convert(tp: Any, value: Any, src: Source, path: str) -> Any:
             if len(value) != len(args):
                 raise _fail(src, path, f"expected a list of {len(args)} values, got {len(value)}")
             return tuple(
-                convert(a, v, src, f"{path}[{i}]") for i, (a, v) in enumerate(zip(args, value))
+                convert(a, v, src, f"{path}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True))
             )
         inner = args[0] if args else Any
         out = [convert(inner, v, src, f"{path}[{i}]") for i, v in enumerate(value)]
@@ -149,9 +149,7 @@ def convert(tp: Any, value: Any, src: Source, path: str) -> Any:
         if not isinstance(value, dict):
             raise _fail(src, path, f"expected a mapping, got {value!r}")
         kt, vt = get_args(tp) or (Any, Any)
-        return {
-            convert(kt, k, src, path): convert(vt, v, src, f"{path}.{k}") for k, v in value.items()
-        }
+        return {convert(kt, k, src, path): convert(vt, v, src, f"{path}.{k}") for k, v in value.items()}
     if dataclasses.is_dataclass(tp):
         return build(tp, value, src, path)
     if tp is bool:
@@ -191,11 +189,7 @@ def build(cls: type, data: Any, src: Source, path: str = "") -> Any:
             raise _fail(src, sub, "unknown key; expected one of: " + ", ".join(fields))
         kwargs[key] = convert(hints[key], value, src, sub)
     for name, f in fields.items():
-        if (
-            name not in kwargs
-            and f.default is dataclasses.MISSING
-            and f.default_factory is dataclasses.MISSING
-        ):
+        if name not in kwargs and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             raise _fail(src, path, f"missing key {name!r} ({_describe(hints[name])})")
     try:
         obj = cls(**kwargs)

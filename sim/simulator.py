@@ -18,11 +18,10 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import cv2
+import mujoco  # noqa: E402
 import numpy as np
 
 import sim.gl  # noqa: F401
-import mujoco  # noqa: E402
-
 from poi.geometry import (  # noqa: E402
     R_BODY_OPTICAL,
     invert_transform,
@@ -34,9 +33,12 @@ from poi.geometry import (  # noqa: E402
 )
 from poi.types import Frame, Intrinsics  # noqa: E402
 from sim.camera import T_RIG_OPTICAL  # noqa: E402
-from sim.maze import find_maze, load_maze  # noqa: E402
+from sim.maze import (  # noqa: E402
+    PRESETS,  # noqa: E402
+    find_maze,
+    load_maze,
+)
 from sim.maze_gen import generate_maze  # noqa: E402
-from sim.maze import PRESETS  # noqa: E402
 from sim.objects import PlacedObject  # noqa: E402
 from sim.placement import place_objects  # noqa: E402
 from sim.route import Route, load_route_csv, rig_pose, route_from_tour  # noqa: E402
@@ -118,9 +120,7 @@ class Simulation:
             )
         self.objects = place_objects(sc, self.maze, rng)
         d = sc.sensors.d435
-        self.intrinsics = Intrinsics(
-            width=d.width, height=d.height, fx=d.fx, fy=d.fy, ppx=d.ppx, ppy=d.ppy
-        )
+        self.intrinsics = Intrinsics(width=d.width, height=d.height, fx=d.fx, fy=d.fy, ppx=d.ppx, ppy=d.ppy)
         th = sc.sensors.thermal
         self.thermal_intrinsics = self.intrinsics.scaled(th.width, th.height)
         self.world: World = build_world(self.maze, self.objects, self.intrinsics, sc.lighting, rng)
@@ -130,9 +130,7 @@ class Simulation:
         self.T_map_world = invert_transform(self.T_world_map)
         if sc.robot.route == "tour":
             cells = plan_tour(self.maze, self.maze.start_cell)
-            self.route: Route = route_from_tour(
-                self.maze, cells, sc.robot, self.maze.start_heading_rad
-            )
+            self.route: Route = route_from_tour(self.maze, cells, sc.robot, self.maze.start_heading_rad)
         else:
             self.route = load_route_csv(sc.resolve(sc.robot.route), self.T_world_map)
         self.mast_height_m = (
@@ -144,13 +142,10 @@ class Simulation:
         if sc.robot.max_duration_s is not None:
             duration = min(duration, sc.robot.max_duration_s)
         self.times_s = np.arange(0.0, duration + 1e-9, 1.0 / sc.sensors.fps)
-        self.T_tracker_optical_nominal, self.T_tracker_optical_true = mount_transforms(
-            sc.sensors.mount
-        )
+        self.T_tracker_optical_nominal, self.T_tracker_optical_true = mount_transforms(sc.sensors.mount)
         T_rig_tracker = T_RIG_OPTICAL @ invert_transform(self.T_tracker_optical_true)
         self._T_map_rig = [
-            self.T_map_world
-            @ rig_pose(self.route, t, self.mast_height_m, np.deg2rad(sc.robot.tilt_deg))
+            self.T_map_world @ rig_pose(self.route, t, self.mast_height_m, np.deg2rad(sc.robot.tilt_deg))
             for t in self.times_s
         ]
         self.T_map_tracker_true = [T @ T_rig_tracker for T in self._T_map_rig]
@@ -214,9 +209,7 @@ class Simulation:
 
     def _renderer_ready(self) -> mujoco.Renderer:
         if self._renderer is None:
-            self._renderer = mujoco.Renderer(
-                self.world.model, self.intrinsics.height, self.intrinsics.width
-            )
+            self._renderer = mujoco.Renderer(self.world.model, self.intrinsics.height, self.intrinsics.width)
         return self._renderer
 
     def close(self) -> None:
@@ -259,9 +252,7 @@ class Simulation:
             r.update_scene(d, CAMERA_NAME)
             s = r.render()
             r.disable_segmentation_rendering()
-            seg = np.where(s[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), s[..., 0], -1).astype(
-                np.int32
-            )
+            seg = np.where(s[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), s[..., 0], -1).astype(np.int32)
         return rgb, depth, seg, T_map_optical
 
     def _color_noise(self, rng: np.random.Generator, shape) -> np.ndarray:
@@ -282,9 +273,7 @@ class Simulation:
         rng = np.random.default_rng([sc.seed, SENSOR_STREAM, k])
         rgb, z_true, seg, T_map_optical = self.render_raw(k)
         if noise and sens.d435.color_noise_sigma > 0:
-            rgb = np.clip(rgb.astype(np.int16) + self._color_noise(rng, rgb.shape), 0, 255).astype(
-                np.uint8
-            )
+            rgb = np.clip(rgb.astype(np.int16) + self._color_noise(rng, rgb.shape), 0, 255).astype(np.uint8)
         depth = None
         if sens.d435.enabled:
             depth = simulate_depth(z_true, sens.d435.depth, self.intrinsics.fx, rng, noise)
@@ -314,9 +303,7 @@ class Simulation:
             truth.object_mask, truth.visible = self._visible_objects(seg, T_map_optical)
         return frame, truth
 
-    def frames(
-        self, start: int = 0, stop: int | None = None, step: int = 1
-    ) -> Iterator[tuple[Frame, FrameTruth]]:
+    def frames(self, start: int = 0, stop: int | None = None, step: int = 1) -> Iterator[tuple[Frame, FrameTruth]]:
         stop = self.n_frames if stop is None else min(stop, self.n_frames)
         for k in range(start, stop, step):
             yield self.frame(k)
@@ -374,18 +361,14 @@ class Simulation:
         R_oc = cam_mat @ np.diag([1.0, -1.0, -1.0])
         geoms = np.nonzero(self.world.geom_object_id == oid)[0]
         polys = []
-        signs = np.array(
-            [[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float
-        )
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
         for g in geoms:
             aabb = m.geom_aabb[g]
             corners_local = aabb[:3] + signs * aabb[3:]
             corners_w = corners_local @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g]
             pc = (corners_w - cam_pos) @ R_oc
             z = np.maximum(pc[:, 2], 0.05)
-            uv = np.stack(
-                [intr.fx * pc[:, 0] / z + intr.ppx, intr.fy * pc[:, 1] / z + intr.ppy], axis=1
-            )
+            uv = np.stack([intr.fx * pc[:, 0] / z + intr.ppx, intr.fy * pc[:, 1] / z + intr.ppy], axis=1)
             polys.append(uv)
         allpts = np.concatenate(polys)
         lo = np.floor(allpts.min(axis=0)).astype(int)

@@ -12,11 +12,10 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
+import mujoco  # noqa: E402
 import numpy as np
 
 import sim.gl  # noqa: F401  (must precede the mujoco import)
-import mujoco  # noqa: E402
-
 from maze_assets.models import build_object, door_frame_extent_m  # noqa: E402
 from maze_assets.surfaces import draw_floor, draw_plywood  # noqa: E402
 from poi.types import Intrinsics  # noqa: E402
@@ -39,9 +38,7 @@ class World:
     geom_object_id: np.ndarray  # (ngeom,) object id of each geom, -1 for walls/floor
 
 
-def _lights(
-    world: ET.Element, visual: ET.Element, lighting: str, maze, rng: np.random.Generator
-) -> None:
+def _lights(world: ET.Element, visual: ET.Element, lighting: str, maze, rng: np.random.Generator) -> None:
     w, h = maze.size_m
     top = maze.settings.wall_height_m * 2.5 + 1.0
     head = ET.SubElement(visual, "headlight")
@@ -94,16 +91,23 @@ def build_world_xml(
     root = ET.Element("mujoco", model="poibench")
     ET.SubElement(root, "compiler", angle="radian")
     visual = ET.SubElement(root, "visual")
-    ET.SubElement(
-        visual, "global", offwidth=str(max(intr.width, 640)), offheight=str(max(intr.height, 480))
-    )
+    ET.SubElement(visual, "global", offwidth=str(max(intr.width, 640)), offheight=str(max(intr.height, 480)))
     ET.SubElement(visual, "quality", offsamples="0")
     ET.SubElement(visual, "map", znear="0.005", zfar="60")
     assets = SceneAssets()
     root.append(assets.asset)
     # a dim grey hall above the walls instead of black
-    ET.SubElement(assets.asset, "texture", name="tex_sky", type="skybox", builtin="gradient",
-                  rgb1="0.62 0.62 0.64", rgb2="0.32 0.32 0.34", width="32", height="32")
+    ET.SubElement(
+        assets.asset,
+        "texture",
+        name="tex_sky",
+        type="skybox",
+        builtin="gradient",
+        rgb1="0.62 0.62 0.64",
+        rgb2="0.32 0.32 0.34",
+        width="32",
+        height="32",
+    )
     world = ET.SubElement(root, "worldbody")
     _lights(world, visual, lighting, maze, rng)
 
@@ -111,7 +115,10 @@ def build_world_xml(
     s = maze.settings
     assets.texture("tex_floor", draw_floor(TEXTURE_PX, rng))
     assets.material(
-        "floor", texture="tex_floor", texrepeat=[max(1.0, w / 1.2), max(1.0, h / 1.2)], texuniform=False
+        "floor",
+        texture="tex_floor",
+        texrepeat=[max(1.0, w / 1.2), max(1.0, h / 1.2)],
+        texuniform=False,
     )
     ET.SubElement(
         world,
@@ -148,15 +155,20 @@ def build_world_xml(
                 continue
             mid = p0 + d * (u0 + u1) / 2
             name = seg.name if len(boxes) == 1 else f"{seg.name}_{i}"
-            ET.SubElement(world, "geom", name=name, type="box", material="wall",
-                          pos=fmt([mid[0], mid[1], (z0 + z1) / 2]), euler=fmt([0, 0, yaw]),
-                          size=fmt([(u1 - u0) / 2, t2, (z1 - z0) / 2]), contype="0", conaffinity="0")
-    for obj in objects:
-        world.append(
-            build_object(
-                obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m
+            ET.SubElement(
+                world,
+                "geom",
+                name=name,
+                type="box",
+                material="wall",
+                pos=fmt([mid[0], mid[1], (z0 + z1) / 2]),
+                euler=fmt([0, 0, yaw]),
+                size=fmt([(u1 - u0) / 2, t2, (z1 - z0) / 2]),
+                contype="0",
+                conaffinity="0",
             )
-        )
+    for obj in objects:
+        world.append(build_object(obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m))
 
     rig = ET.SubElement(world, "body", name=RIG_BODY, mocap="true", pos="0 0 1")
     ET.SubElement(rig, "camera", name=CAMERA_NAME, **mujoco_camera_attrs(intr))

@@ -58,9 +58,7 @@ class OnnxModelError(DetectorConfigError):
     """The model file, its metadata, its names or its output shape is not usable."""
 
 
-def letterbox(
-    rgb: np.ndarray, size_hw: tuple[int, int]
-) -> tuple[np.ndarray, float, tuple[int, int]]:
+def letterbox(rgb: np.ndarray, size_hw: tuple[int, int]) -> tuple[np.ndarray, float, tuple[int, int]]:
     """Resize keeping the aspect ratio and pad with grey 114 to ``size_hw``.
 
     Returns the (H_in, W_in, 3) image, the scale r and the (left, top) padding
@@ -73,10 +71,7 @@ def letterbox(
     r = min(H_in / h, W_in / w)
     w_new, h_new = int(round(w * r)), int(round(h * r))
     w_new, h_new = min(w_new, W_in), min(h_new, H_in)
-    if (w_new, h_new) != (w, h):
-        resized = cv2.resize(rgb, (w_new, h_new), interpolation=cv2.INTER_LINEAR)
-    else:
-        resized = rgb
+    resized = cv2.resize(rgb, (w_new, h_new), interpolation=cv2.INTER_LINEAR) if (w_new, h_new) != (w, h) else rgb
     left, top = (W_in - w_new) // 2, (H_in - h_new) // 2
     out = np.full((H_in, W_in, 3), PAD_VALUE, dtype=np.uint8)  # (H_in, W_in, 3)
     out[top : top + h_new, left : left + w_new] = resized
@@ -92,9 +87,7 @@ def parse_names_metadata(text: str) -> list[str]:
     try:
         value = ast.literal_eval(text)
     except (ValueError, SyntaxError) as exc:
-        raise OnnxModelError(
-            f"model metadata 'names' is not a dict or list literal: {text[:80]!r}"
-        ) from exc
+        raise OnnxModelError(f"model metadata 'names' is not a dict or list literal: {text[:80]!r}") from exc
     return _names_from_value(value, "model metadata 'names'")
 
 
@@ -162,23 +155,19 @@ def resolve_layout(shape: Sequence[Any], C: int, layout: str, metadata: Mapping[
             layout = "yolov8" if fits_v8 else "yolov5"
         elif fits_v8:
             raise OnnxModelError(
-                f"model output shape {dims} fits both yolov8 and yolov5 for C={C}; "
-                "set layout: yolov5 or yolov8"
+                f"model output shape {dims} fits both yolov8 and yolov5 for C={C}; set layout: yolov5 or yolov8"
             )
         else:
             raise OnnxModelError(
-                f"model output has shape {dims}, which fits no layout for C={C} class names; "
-                f"expected {expected}"
+                f"model output has shape {dims}, which fits no layout for C={C} class names; expected {expected}"
             )
     if layout == "yolov8" and not fits_v8:
         raise OnnxModelError(
-            f"model output has shape {dims}; a yolov8/yolo11 output for C={C} class names "
-            f"must be (1, {4 + C}, N)"
+            f"model output has shape {dims}; a yolov8/yolo11 output for C={C} class names must be (1, {4 + C}, N)"
         )
     if layout == "yolov5" and not fits_v5:
         raise OnnxModelError(
-            f"model output has shape {dims}; a yolov5 output for C={C} class names "
-            f"must be (1, N, {5 + C})"
+            f"model output has shape {dims}; a yolov5 output for C={C} class names must be (1, N, {5 + C})"
         )
     return layout
 
@@ -260,9 +249,7 @@ class OnnxYoloDetector:
         opts.inter_op_num_threads = 1
         opts.log_severity_level = 3
         try:
-            session = ort.InferenceSession(
-                str(path), sess_options=opts, providers=["CPUExecutionProvider"]
-            )
+            session = ort.InferenceSession(str(path), sess_options=opts, providers=["CPUExecutionProvider"])
         except Exception as exc:  # onnxruntime raises its own Fail / InvalidProtobuf types
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise OnnxModelError(f"{path}: not a loadable ONNX model ({first[:200]})") from exc
@@ -272,33 +259,25 @@ class OnnxYoloDetector:
         self._class_to_ours = self._map_classes(self.model_names)
         self.input_hw = self._read_input(session, path, metadata)
         outputs = session.get_outputs()
-        self._layout = resolve_layout(
-            outputs[0].shape, len(self.model_names), self.layout, metadata
-        )
+        self._layout = resolve_layout(outputs[0].shape, len(self.model_names), self.layout, metadata)
 
     def _check_settings(self) -> None:
         if not 0.0 <= float(self.conf) <= 1.0:
             raise DetectorConfigError(f"detector 'onnx': conf must be in [0, 1], got {self.conf}")
         if not 0.0 <= float(self.nms_iou) <= 1.0:
-            raise DetectorConfigError(
-                f"detector 'onnx': nms_iou must be in [0, 1], got {self.nms_iou}"
-            )
+            raise DetectorConfigError(f"detector 'onnx': nms_iou must be in [0, 1], got {self.nms_iou}")
         if int(self.max_det) < 1:
             raise DetectorConfigError(f"detector 'onnx': max_det must be >= 1, got {self.max_det}")
         if int(self.threads) < 1:
             raise DetectorConfigError(f"detector 'onnx': threads must be >= 1, got {self.threads}")
         if self.layout not in LAYOUTS:
-            raise DetectorConfigError(
-                f"detector 'onnx': layout must be one of {LAYOUTS}, got {self.layout!r}"
-            )
+            raise DetectorConfigError(f"detector 'onnx': layout must be one of {LAYOUTS}, got {self.layout!r}")
 
     def _read_names(self, path: Path, metadata: Mapping[str, str]) -> list[str]:
         if self.names is not None:
             return load_names_file(self.names)
         if "names" not in metadata:
-            raise OnnxModelError(
-                f"{path}: no 'names' in the model metadata; give a names file (names: ...)"
-            )
+            raise OnnxModelError(f"{path}: no 'names' in the model metadata; give a names file (names: ...)")
         return parse_names_metadata(metadata["names"])
 
     def _map_classes(self, model_names: list[str]) -> np.ndarray:
@@ -315,9 +294,7 @@ class OnnxYoloDetector:
                 continue
             name = canonical_class(str(target))
             if name is None:
-                unknown.append(
-                    model_name if model_name not in class_map else f"{model_name}->{target}"
-                )
+                unknown.append(model_name if model_name not in class_map else f"{model_name}->{target}")
                 continue
             ours[j] = CLASS_INDEX[name]
         if unknown:
@@ -342,8 +319,7 @@ class OnnxYoloDetector:
         if static:
             if self.imgsz is not None and _as_size_hw(self.imgsz, "imgsz") != (H, W):
                 raise DetectorConfigError(
-                    f"detector 'onnx': imgsz {self.imgsz} differs from the model's fixed "
-                    f"input {H}x{W}"
+                    f"detector 'onnx': imgsz {self.imgsz} differs from the model's fixed input {H}x{W}"
                 )
             return (H, W)
         if self.imgsz is not None:
@@ -361,9 +337,7 @@ class OnnxYoloDetector:
         """Detections in ``frame.rgb`` with boxes in its pixels, best first."""
         rgb = frame.rgb
         if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
-            raise ValueError(
-                f"frame {frame.index}: rgb must be uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}"
-            )
+            raise ValueError(f"frame {frame.index}: rgb must be uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}")
         h, w = rgb.shape[:2]
 
         t0 = time.perf_counter()
@@ -386,13 +360,9 @@ class OnnxYoloDetector:
         }
         return dets
 
-    def _postprocess(
-        self, out: np.ndarray, r: float, left: int, top: int, w: int, h: int
-    ) -> list[Detection]:
+    def _postprocess(self, out: np.ndarray, r: float, left: int, top: int, w: int, h: int) -> list[Detection]:
         C = len(self.model_names)
-        resolve_layout(
-            out.shape, C, self._layout, {}
-        )  # the run's shape must match the declared one
+        resolve_layout(out.shape, C, self._layout, {})  # the run's shape must match the declared one
         cxcywh, scores = decode_output(out, C, self._layout)  # (N, 4), (N, C)
         finite = np.all(np.isfinite(cxcywh), axis=1) & np.all(np.isfinite(scores), axis=1)
         cls = np.argmax(np.where(np.isfinite(scores), scores, -np.inf), axis=1)  # (N,)

@@ -86,9 +86,7 @@ def decode_qr(
     crop = gray[r1:r2, c1:c2]  # (r2 - r1, c2 - c1), a view: only read below
     s0 = float(np.clip(min_module_px * max_modules / min(x2 - x1, y2 - y1), 1.0, MAX_UPSCALE))
     for s in dict.fromkeys((s0, min(2.0 * s0, MAX_UPSCALE))):
-        img = (
-            crop if s == 1.0 else cv2.resize(crop, None, fx=s, fy=s, interpolation=cv2.INTER_CUBIC)
-        )
+        img = crop if s == 1.0 else cv2.resize(crop, None, fx=s, fy=s, interpolation=cv2.INTER_CUBIC)
         binary = cv2.threshold(img, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)[1]
         b = int(np.ceil(QUIET_ZONE_MODULES * min(img.shape) / max_modules))
         bordered = cv2.copyMakeBorder(img, b, b, b, b, cv2.BORDER_CONSTANT, value=255)
@@ -140,13 +138,9 @@ class QrDetector:
 
     def __post_init__(self) -> None:
         if not 0.0 < float(self.confidence) <= 1.0:
-            raise DetectorConfigError(
-                f"detector 'qr': confidence must be in (0, 1], got {self.confidence}"
-            )
+            raise DetectorConfigError(f"detector 'qr': confidence must be in (0, 1], got {self.confidence}")
         if not 0.0 <= float(self.dedupe_iou) <= 1.0:
-            raise DetectorConfigError(
-                f"detector 'qr': dedupe_iou must be in [0, 1], got {self.dedupe_iou}"
-            )
+            raise DetectorConfigError(f"detector 'qr': dedupe_iou must be in [0, 1], got {self.dedupe_iou}")
 
     def detect(self, frame: Frame) -> list[Detection]:
         gray = _to_gray(frame.rgb)

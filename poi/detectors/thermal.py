@@ -78,17 +78,11 @@ class ThermalHotSpotDetector:
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.min_temp_c) or not np.isfinite(self.min_delta_c):
-            raise DetectorConfigError(
-                "detector 'thermal': min_temp_c and min_delta_c must be finite"
-            )
+            raise DetectorConfigError("detector 'thermal': min_temp_c and min_delta_c must be finite")
         if self.min_delta_c < 0:
-            raise DetectorConfigError(
-                f"detector 'thermal': min_delta_c must be >= 0, got {self.min_delta_c}"
-            )
+            raise DetectorConfigError(f"detector 'thermal': min_delta_c must be >= 0, got {self.min_delta_c}")
         if int(self.min_area_px) < 1:
-            raise DetectorConfigError(
-                f"detector 'thermal': min_area_px must be >= 1, got {self.min_area_px}"
-            )
+            raise DetectorConfigError(f"detector 'thermal': min_area_px must be >= 1, got {self.min_area_px}")
         if not self.full_conf_temp_c > self.min_temp_c:
             raise DetectorConfigError(
                 f"detector 'thermal': full_conf_temp_c ({self.full_conf_temp_c}) must exceed "
@@ -96,15 +90,12 @@ class ThermalHotSpotDetector:
             )
         if not 0.0 < self.min_conf <= self.max_conf <= 1.0:
             raise DetectorConfigError(
-                "detector 'thermal': need 0 < min_conf <= max_conf <= 1, "
-                f"got {self.min_conf}, {self.max_conf}"
+                f"detector 'thermal': need 0 < min_conf <= max_conf <= 1, got {self.min_conf}, {self.max_conf}"
             )
 
     def confidence_for(self, peak_c: float) -> float:
         """Confidence of a hot spot whose hottest pixel is ``peak_c`` degrees C."""
-        frac = np.clip(
-            (peak_c - self.min_temp_c) / (self.full_conf_temp_c - self.min_temp_c), 0.0, 1.0
-        )
+        frac = np.clip((peak_c - self.min_temp_c) / (self.full_conf_temp_c - self.min_temp_c), 0.0, 1.0)
         return round(float(self.min_conf + (self.max_conf - self.min_conf) * frac), 12)
 
     def detect(self, frame: Frame) -> list[Detection]:
@@ -113,15 +104,12 @@ class ThermalHotSpotDetector:
             return []
         temp_c = np.asarray(frame.thermal_c, dtype=np.float32)  # (h, w), deg C
         if temp_c.ndim != 2 or temp_c.size == 0:
-            raise ThermalFrameError(
-                f"frame {frame.index}: thermal_c must be (h, w), got shape {temp_c.shape}"
-            )
+            raise ThermalFrameError(f"frame {frame.index}: thermal_c must be (h, w), got shape {temp_c.shape}")
         h, w = temp_c.shape
         K_t = frame.thermal_intrinsics or frame.intrinsics.scaled(w, h)
         if (K_t.width, K_t.height) != (w, h):
             raise ThermalFrameError(
-                f"frame {frame.index}: thermal_intrinsics are {K_t.width}x{K_t.height} but "
-                f"thermal_c is {w}x{h}"
+                f"frame {frame.index}: thermal_intrinsics are {K_t.width}x{K_t.height} but thermal_c is {w}x{h}"
             )
         valid = np.isfinite(temp_c)  # NaN / inf pixels are unmeasured
         if not np.any(valid):
@@ -130,9 +118,7 @@ class ThermalHotSpotDetector:
         # hot: T >= min_temp_c and T >= ambient + min_delta_c
         threshold_c = max(self.min_temp_c, ambient_c + self.min_delta_c)
         hot = valid & (temp_c >= threshold_c)
-        n, labels, stats, _centroids = cv2.connectedComponentsWithStats(
-            hot.astype(np.uint8), connectivity=8
-        )
+        n, labels, stats, _centroids = cv2.connectedComponentsWithStats(hot.astype(np.uint8), connectivity=8)
         probs_cache: dict[float, np.ndarray] = {}
         dets = []
         for k in range(1, n):  # label 0 is the background
@@ -146,10 +132,6 @@ class ThermalHotSpotDetector:
                 continue
             if c not in probs_cache:
                 probs_cache[c] = one_class_probs("heat-source", c)
-            dets.append(
-                make_detection(
-                    "heat-source", box, c, source="thermal", class_probs=probs_cache[c].copy()
-                )
-            )
+            dets.append(make_detection("heat-source", box, c, source="thermal", class_probs=probs_cache[c].copy()))
         dets.sort(key=lambda d: -d.confidence)
         return dets

@@ -47,9 +47,7 @@ def simulate_t265(
     if not spec.enabled:
         return PoseTrack(poses=[None] * n, confidence=["failed"] * n, error_m=np.full(n, np.nan))
     if not noise:
-        return PoseTrack(
-            poses=[T.copy() for T in T_true], confidence=["high"] * n, error_m=np.zeros(n)
-        )
+        return PoseTrack(poses=[T.copy() for T in T_true], confidence=["high"] * n, error_m=np.zeros(n))
     p_true = np.array([T[:3, 3] for T in T_true])
     ds = np.r_[0.0, np.linalg.norm(np.diff(p_true, axis=0), axis=1)]
     # draws in a fixed order, each vectorised over frames, so the stream does not depend on branches
@@ -68,14 +66,14 @@ def simulate_t265(
     drop_len = rng.uniform(*spec.dropouts.duration_s, size=n_drop)
 
     j = np.zeros((n, 3))
-    for tj, dxy in zip(jump_t, jump_xy):
+    for tj, dxy in zip(jump_t, jump_xy, strict=True):
         j[t_s >= tj, :2] += dxy
     p0 = p_true[0]
     poses: list[np.ndarray | None] = []
     conf: list[str] = []
     err = np.zeros(n)
     for k in range(n):
-        if any(t0 <= t_s[k] < t0 + dl for t0, dl in zip(drop_t, drop_len)):
+        if any(t0 <= t_s[k] < t0 + dl for t0, dl in zip(drop_t, drop_len, strict=True)):
             poses.append(None)
             conf.append("low")
             err[k] = np.nan

@@ -23,9 +23,7 @@ def thermal_image(
     noise: bool,
 ) -> np.ndarray:
     """seg_geom: (H, W) int geom ids (-1 background); temp_of_geom: (ngeom,) deg C."""
-    lut = np.append(
-        temp_of_geom.astype(np.float32), np.float32(spec.ambient_c)
-    )  # index -1 -> ambient
+    lut = np.append(temp_of_geom.astype(np.float32), np.float32(spec.ambient_c))  # index -1 -> ambient
     full = lut[seg_geom]
     img = cv2.resize(full, (spec.width, spec.height), interpolation=cv2.INTER_AREA)
     if noise:

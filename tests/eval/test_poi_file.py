@@ -111,16 +111,11 @@ def _quoted(text: str) -> str:
         pytest.param(lambda t: "\ufeff" + t, id="bom"),
         pytest.param(lambda t: t.replace(",", " ,  ").replace("\n", "  \n"), id="extra-spaces"),
         pytest.param(
-            lambda t: (
-                "\ufeff"
-                + _quoted(t).replace('Prelim1"\n', 'Prelim1"\r\n\r\n').replace("\n", "\r\n")
-            ),
+            lambda t: "\ufeff" + _quoted(t).replace('Prelim1"\n', 'Prelim1"\r\n\r\n').replace("\n", "\r\n"),
             id="bom-quoted-blank-crlf",
         ),
         pytest.param(
-            lambda t: "\n".join(
-                line + ",,,,,,,," if i < 7 else line for i, line in enumerate(t.split("\n"))
-            ),
+            lambda t: "\n".join(line + ",,,,,,,," if i < 7 else line for i, line in enumerate(t.split("\n"))),
             id="spreadsheet-padding",
         ),
     ],
@@ -248,9 +243,7 @@ def test_header_oddities_are_warnings_not_errors() -> None:
 
 
 def test_writer_exact_layout_and_round_trip(tmp_path: Path) -> None:
-    header = PoiHeader(
-        team="poibench", country="sim", date="2000-01-01", start_time="00:00:00", mission="m1"
-    )
+    header = PoiHeader(team="poibench", country="sim", date="2000-01-01", start_time="00:00:00", mission="m1")
     rows = [
         PoiRow(
             line=0,

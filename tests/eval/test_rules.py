@@ -115,9 +115,7 @@ def _set(path: tuple[str, ...], value):
         (_set(("types", "door"), 5), "types.door", "mapping with points"),
     ],
 )
-def test_bad_rules_file_is_refused_naming_file_and_field(
-    tmp_path: Path, edit, field: str, expected: str
-) -> None:
+def test_bad_rules_file_is_refused_naming_file_and_field(tmp_path: Path, edit, field: str, expected: str) -> None:
     data = copy.deepcopy(_ex3())
     edit(data)
     path = tmp_path / "bad.yaml"

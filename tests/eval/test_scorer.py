@@ -20,18 +20,14 @@ HEADER = PoiHeader(team="t", country="c", date="2025-01-01", start_time="10:00:0
 
 def _seed_example() -> str:
     """SEED_EXAMPLE of test_poi_file.py (loaded by path: tests/ is not a package)."""
-    spec = importlib.util.spec_from_file_location(
-        "_poi_file_tests", Path(__file__).with_name("test_poi_file.py")
-    )
+    spec = importlib.util.spec_from_file_location("_poi_file_tests", Path(__file__).with_name("test_poi_file.py"))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module.SEED_EXAMPLE
 
 
 def row(id_: int, type_: str, x: float, y: float = 0.0, z: float = 0.0, text: str = "") -> PoiRow:
-    return PoiRow(
-        line=0, id=id_, time="10:00:01", text=text, x=x, y=y, z=z, robot="r", mode="T", type=type_
-    )
+    return PoiRow(line=0, id=id_, time="10:00:01", text=text, x=x, y=y, z=z, robot="r", mode="T", type=type_)
 
 
 def poi(*rows: PoiRow, extra: str = "") -> PoiFile:

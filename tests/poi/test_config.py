@@ -120,8 +120,7 @@ def test_partial_file_keeps_other_defaults_and_round_trips(tmp_path):
     assert load_config(p) == cfg
     # and the dotted form the CLI rebuilds from config.yaml gives it too
     sets = [
-        f"{k}={yaml.safe_dump(v, default_flow_style=True).strip()}"
-        for k, v in flatten_config(config_to_dict(cfg))
+        f"{k}={yaml.safe_dump(v, default_flow_style=True).strip()}" for k, v in flatten_config(config_to_dict(cfg))
     ]
     assert apply_overrides(PipelineConfig(), sets) == cfg
     assert config_from_dict(None) == PipelineConfig()

@@ -191,14 +191,10 @@ def test_confusion_row_sum_and_diagonal_checked(tmp_path):
     M = _uniform_confusion()
     M[3, 5] += 0.1
     with pytest.raises(CalibrationError, match=r"row 3 \(non-flammable-gas\) sums to 1.1"):
-        load_calibration(
-            _write(tmp_path, {"poibench_calibration": 1, "confusion": {"matrix": M.tolist()}})
-        )
+        load_calibration(_write(tmp_path, {"poibench_calibration": 1, "confusion": {"matrix": M.tolist()}}))
     M = _uniform_confusion()
     M[2, 2] = 0.5
     with pytest.raises(CalibrationError, match="zero diagonal"):
-        load_calibration(
-            _write(tmp_path, {"poibench_calibration": 1, "confusion": {"matrix": M.tolist()}})
-        )
+        load_calibration(_write(tmp_path, {"poibench_calibration": 1, "confusion": {"matrix": M.tolist()}}))
     with pytest.raises(CalibrationError, match="cannot read calibration"):
         load_calibration(tmp_path / "missing.yaml")

@@ -78,14 +78,10 @@ def test_box_depth_ignores_invalid_and_returns_none_without_valid():
         box_depth(d, (0, 0, 10, 10), 0.0)
 
 
-@pytest.mark.parametrize(
-    ("u", "v", "d"), [(0.0, 0.0, 1.0), (639.0, 479.0, 3.5), (319.5, 239.5, 2.0)]
-)
+@pytest.mark.parametrize(("u", "v", "d"), [(0.0, 0.0, 1.0), (639.0, 479.0, 3.5), (319.5, 239.5, 2.0)])
 def test_deproject_model_none_is_the_pinhole_formula(u, v, d):
     p = deproject_pixel_to_point(K, u, v, d)
-    assert p.tolist() == pytest.approx(
-        [(u - K.ppx) / K.fx * d, (v - K.ppy) / K.fy * d, d], abs=1e-15
-    )
+    assert p.tolist() == pytest.approx([(u - K.ppx) / K.fx * d, (v - K.ppy) / K.fy * d, d], abs=1e-15)
     assert project_point_to_pixel(K, p).tolist() == pytest.approx([u, v], abs=1e-9)
 
 
@@ -122,7 +118,7 @@ def test_against_pyrealsense2_if_installed():
 
 
 def test_localize_places_the_box_centre_in_the_map():
-    cfg = load_config()
+    cfg = apply_overrides(load_config(), ["localize.extent_sigma_m={}"])  # R of the sensors alone
     # box centre cx = 370 (corner convention) is pixel u = 369.5 = ppx + 50, v = ppy
     d = det((360.0, 230.0, 380.0, 250.0))
     # camera optical frame in the tracker frame: the nominal mount, 45 mm up
@@ -182,3 +178,19 @@ def test_in_view():
     assert in_view(np.array([0.0, 0.0, 3.0]), frame(depth=0.0), T, K, **kw)
     f.pose = None
     assert not in_view(np.array([0.0, 0.0, 3.0]), f, T, K, **kw)
+
+
+def test_object_extent_widens_R_by_its_variance_only_for_3d_types():
+    base = apply_overrides(load_config(), ["localize.extent_sigma_m={}"])
+    wide = apply_overrides(load_config(), ["localize.extent_sigma_m={door: 0.2}"])
+    T_tc = make_transform(R_BODY_OPTICAL, [0.0, 0.0, 0.045])
+    pose = make_transform(np.eye(3), [0.0, 0.0, 0.0])
+    box = (360.0, 230.0, 380.0, 250.0)
+    door = Detection(class_name="door", type="door", text="", box_xyxy=box, confidence=0.9)
+    r0 = localize(door, frame(pose=pose), base, T_tc).R
+    r1 = localize(door, frame(pose=pose), wide, T_tc).R
+    assert np.allclose(r1 - r0, 0.2**2 * np.eye(3), atol=1e-15)
+    hazmat = det(box, class_name="oxidizer")
+    assert np.allclose(
+        localize(hazmat, frame(pose=pose), wide, T_tc).R, localize(hazmat, frame(pose=pose), base, T_tc).R
+    )

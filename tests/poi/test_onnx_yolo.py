@@ -46,9 +46,7 @@ def _frame(rgb: np.ndarray | None = None) -> Frame:
 
 
 def _v8(tmp_path: Path, boxes, scores, meta=V8_META, name="m.onnx", **kw) -> Path:
-    return make_constant_model(
-        tmp_path / name, yolov8_output(boxes, scores, N_ANCHORS), metadata=meta, **kw
-    )
+    return make_constant_model(tmp_path / name, yolov8_output(boxes, scores, N_ANCHORS), metadata=meta, **kw)
 
 
 def test_letterbox_640x480_into_320():
@@ -114,18 +112,14 @@ def test_nms_same_class_vs_different_class(tmp_path):
     got = [(d.class_name, round(d.confidence, 6)) for d in out]
     assert got == [("door", 0.9), ("oxidizer", 0.7), ("door", 0.6)]
     # With nms_iou above the overlap, both doors stay.
-    out = OnnxYoloDetector(model=_v8(tmp_path, boxes, scores), nms_iou=0.85, read_qr=False).detect(
-        _frame()
-    )
+    out = OnnxYoloDetector(model=_v8(tmp_path, boxes, scores), nms_iou=0.85, read_qr=False).detect(_frame())
     assert len(out) == 4
 
 
 def test_max_det_keeps_the_best(tmp_path):
     boxes = [[20 + 40 * i, 100, 20, 20] for i in range(5)]
     scores = [[0, 0, s] for s in (0.3, 0.9, 0.5, 0.7, 0.4)]
-    out = OnnxYoloDetector(model=_v8(tmp_path, boxes, scores), max_det=2, read_qr=False).detect(
-        _frame()
-    )
+    out = OnnxYoloDetector(model=_v8(tmp_path, boxes, scores), max_det=2, read_qr=False).detect(_frame())
     assert [round(d.confidence, 6) for d in out] == [0.9, 0.7]
 
 
@@ -134,9 +128,9 @@ def test_class_probs_follow_seed_2_1_5(tmp_path):
     # 0.5 : 0.3 -> oxidizer 0.125, qr 0.075; every other class of CLASSES 0.
     # A second anchor with only door 0.7: the other 0.3 is spread uniformly over 23 classes.
     boxes = [[100, 100, 20, 20], [250, 200, 20, 20]]
-    out = OnnxYoloDetector(
-        model=_v8(tmp_path, boxes, [[0.5, 0.3, 0.8], [0, 0, 0.7]]), read_qr=False
-    ).detect(_frame())
+    out = OnnxYoloDetector(model=_v8(tmp_path, boxes, [[0.5, 0.3, 0.8], [0, 0, 0.7]]), read_qr=False).detect(
+        _frame()
+    )
     p = out[0].class_probs
     assert p.shape == (len(CLASSES),) and p.sum() == pytest.approx(1.0, abs=1e-9)
     assert p[CLASS_INDEX["door"]] == pytest.approx(0.8, abs=1e-6)
@@ -158,9 +152,7 @@ def test_yolov5_objectness_multiplies(tmp_path):
     boxes = [[100, 140, 40, 60], [200, 200, 20, 20], [250, 100, 20, 20]]
     obj = [0.5, 0.3, 0.9]
     cls = [[0.9, 0.1, 0.0], [0.0, 0.0, 0.8], [0.0, 0.1, 0.5]]
-    path = make_constant_model(
-        tmp_path / "v5.onnx", yolov5_output(boxes, obj, cls, N_ANCHORS), metadata=V5_META
-    )
+    path = make_constant_model(tmp_path / "v5.onnx", yolov5_output(boxes, obj, cls, N_ANCHORS), metadata=V5_META)
     det = OnnxYoloDetector(model=path, read_qr=False)
     assert det.output_layout == "yolov5"
     out = det.detect(_frame())
@@ -174,14 +166,10 @@ def test_yolov5_objectness_multiplies(tmp_path):
 
 
 def test_wrong_output_shape_refused(tmp_path):
-    path = make_constant_model(
-        tmp_path / "bad.onnx", np.zeros((1, 10, 100), np.float32), metadata=V5_META
-    )
+    path = make_constant_model(tmp_path / "bad.onnx", np.zeros((1, 10, 100), np.float32), metadata=V5_META)
     with pytest.raises(OnnxModelError, match=r"\(1, 10, 100\).*4\+C=7.*5\+C=8"):
         OnnxYoloDetector(model=path)
-    four_d = make_constant_model(
-        tmp_path / "bad4.onnx", np.zeros((1, 7, 10, 10), np.float32), metadata=V8_META
-    )
+    four_d = make_constant_model(tmp_path / "bad4.onnx", np.zeros((1, 7, 10, 10), np.float32), metadata=V8_META)
     with pytest.raises(OnnxModelError, match=r"shape \(1, 7, 10, 10\)"):
         OnnxYoloDetector(model=four_d)
 

@@ -110,9 +110,7 @@ def test_qr_reader_only_sees_qr_detections_without_text(monkeypatch):
         return [Detection(**{**d.__dict__, "text": "Chart X"}) for d in dets]
 
     monkeypatch.setattr(pipeline_mod, "_find_qr_reader", lambda: (fake_reader, None))
-    script = {
-        0: [("qr", DOOR_BOX, 0.9, ""), ("qr", GHOST_BOX, 0.9, "Chart Y"), ("door", (0, 0, 9, 9))]
-    }
+    script = {0: [("qr", DOOR_BOX, 0.9, ""), ("qr", GHOST_BOX, 0.9, "Chart Y"), ("door", (0, 0, 9, 9))]}
     pipe = Pipeline(load_config(), [FakeDetector(script)])
     res = pipe.process(make_frame(0))
     assert seen == [[("qr", "")]]

@@ -10,12 +10,8 @@ import pytest
 from poi.report import PoiWriter, ReportError, ReportHeader, format_row
 from poi.types import TrackSnapshot
 
-HEADER = ReportHeader(
-    team="CUR", country="England", mission="Prelim1", start=datetime(2022, 7, 8, 9, 19, 11)
-)
-HEADER_BYTES = (
-    b"pois\n1.2\nCUR\nEngland\n2022-07-08\n09:19:11\nPrelim1\nid,time,text,x,y,z,robot,mode,type\n"
-)
+HEADER = ReportHeader(team="CUR", country="England", mission="Prelim1", start=datetime(2022, 7, 8, 9, 19, 11))
+HEADER_BYTES = b"pois\n1.2\nCUR\nEngland\n2022-07-08\n09:19:11\nPrelim1\nid,time,text,x,y,z,robot,mode,type\n"
 
 
 def snap(report_id, type_, text, xyz, first_seen_s, track_id=None) -> TrackSnapshot:

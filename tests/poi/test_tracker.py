@@ -126,9 +126,7 @@ def test_confirmation_at_n_min_with_report_ids_in_order():
     tr = Tracker(cfg(n_min=3))
     confirmed = []
     for k in range(3):
-        res = tr.step(
-            [obs([0, 0, 0]), obs([10, 0, 0], "valve")] if k else [obs([0, 0, 0])], 0.1 * k
-        )
+        res = tr.step([obs([0, 0, 0]), obs([10, 0, 0], "valve")] if k else [obs([0, 0, 0])], 0.1 * k)
         confirmed.append([(s.type, s.report_id) for s in res.newly_confirmed])
     assert confirmed == [[], [], [("door", 0)]]
     res = tr.step([obs([10, 0, 0], "valve")], 0.3)

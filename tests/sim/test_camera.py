@@ -1,10 +1,9 @@
 """The MuJoCo camera reproduces RealSense intrinsics: a point projects where K says."""
 
+import mujoco  # noqa: E402
 import numpy as np
 
 import sim.gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
-import mujoco  # noqa: E402
-
 from poi.geometry import make_transform, transform_points  # noqa: E402
 from sim.camera import T_RIG_OPTICAL, d435_intrinsics, mujoco_camera_attrs  # noqa: E402
 
@@ -13,8 +12,8 @@ def _render_segmentation(intr, point_world, rig_pos):
     attrs = " ".join(f'{k}="{v}"' for k, v in mujoco_camera_attrs(intr).items())
     xml = f"""<mujoco><visual><global offwidth="{intr.width}" offheight="{intr.height}"/>
     <quality offsamples="0"/></visual><worldbody><light pos="0 0 3"/>
-    <geom name="dot" type="sphere" size="0.004" pos="{' '.join(map(str, point_world))}"/>
-    <body name="rig" mocap="true" pos="{' '.join(map(str, rig_pos))}"><camera name="cam" {attrs}/></body>
+    <geom name="dot" type="sphere" size="0.004" pos="{" ".join(map(str, point_world))}"/>
+    <body name="rig" mocap="true" pos="{" ".join(map(str, rig_pos))}"><camera name="cam" {attrs}/></body>
     </worldbody></mujoco>"""
     m = mujoco.MjModel.from_xml_string(xml)
     d = mujoco.MjData(m)

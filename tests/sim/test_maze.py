@@ -72,9 +72,7 @@ def test_shipped_maze_parses(name, rows, cols, preset, passages, dead_ends) -> N
 
 def test_presets() -> None:
     assert PRESETS["rrl"] == MazeSettings(cell_size_m=1.2, wall_height_m=1.2, wall_thickness_m=0.05)
-    assert PRESETS["rmrc"] == MazeSettings(
-        cell_size_m=0.3, wall_height_m=0.3, wall_thickness_m=0.012
-    )
+    assert PRESETS["rmrc"] == MazeSettings(cell_size_m=0.3, wall_height_m=0.3, wall_thickness_m=0.012)
 
 
 def test_example_walls(example: Maze) -> None:

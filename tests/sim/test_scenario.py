@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from poi.names import TYPES
-from sim.maze import load_maze, find_maze
+from sim.maze import find_maze, load_maze
 from sim.placement import PlacementError, place_objects
 from sim.scenario import ScenarioError, apply_settings, load_scenario, parse_scenario
 
@@ -17,11 +17,17 @@ def test_shipped_default_scenario_loads():
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("seed: 1\nsensors:\n  fps: fast\n", "x.yaml:3: sensors.fps: expected a number, got 'fast'"),
+        (
+            "seed: 1\nsensors:\n  fps: fast\n",
+            "x.yaml:3: sensors.fps: expected a number, got 'fast'",
+        ),
         ("seed: 1\nrobot:\n  speeed_mps: 1\n", "x.yaml:3: robot.speeed_mps: unknown key"),
         ("lighting: dark\n", "x.yaml:1: lighting: expected one of 'bright', 'dim', 'uneven'"),
         ("maze: {file: a, generate: {rows: 2}}\n", "x.yaml:1: maze: give exactly one of"),
-        ("objects:\n  explicit:\n    - {type: dragon, position: [0, 0, 0]}\n", "x.yaml:3: objects.explicit[0]: unknown type"),
+        (
+            "objects:\n  explicit:\n    - {type: dragon, position: [0, 0, 0]}\n",
+            "x.yaml:3: objects.explicit[0]: unknown type",
+        ),
         ("seed: [1\n", "x.yaml:2:1: not valid YAML"),
         ("poibench_scenario: 7\n", "unsupported version 7"),
     ],

@@ -54,8 +54,13 @@ def test_simulate_depth_range_limits_and_clean_mode():
     z = np.array([[0.1, 1.0, 5.0, 12.0]], np.float32)
     clean = simulate_depth(z, spec, 612.4, np.random.default_rng(0), noise=False)
     assert clean.tolist() == [[0.0, 1.0, 5.0, 0.0]]
-    noisy = simulate_depth(np.tile(z, (1, 1)), DepthSpec(dropout=0.0, edge_holes=False), 612.4,
-                           np.random.default_rng(0), noise=True)
+    noisy = simulate_depth(
+        np.tile(z, (1, 1)),
+        DepthSpec(dropout=0.0, edge_holes=False),
+        612.4,
+        np.random.default_rng(0),
+        noise=True,
+    )
     assert noisy[0, 3] == 0.0  # beyond 10 m: invalid
     assert noisy[0, 0] > 0.15  # below min range: wrong, not zero
 

@@ -85,7 +85,7 @@ def test_every_qr_code_decodes_from_some_frame(clean_default):
                 continue
             x1, y1, x2, y2 = (int(round(c)) for c in v.box_xyxy)
             pad = max(4, (x2 - x1) // 4)
-            crop = frame.rgb[max(0, y1 - pad): y2 + pad, max(0, x1 - pad): x2 + pad]
+            crop = frame.rgb[max(0, y1 - pad) : y2 + pad, max(0, x1 - pad) : x2 + pad]
             if crop.shape[1] < 120:
                 crop = cv2.resize(crop, None, fx=3, fy=3, interpolation=cv2.INTER_CUBIC)
             text, _, _ = detector.detectAndDecode(cv2.cvtColor(crop, cv2.COLOR_RGB2GRAY))

@@ -1,0 +1,82 @@
+"""`poibench run` end to end: all files written, oracle score, a killed run leaves a valid POI file."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from eval.cli import main
+from eval.poi_file import read_poi_file
+
+SMALL = ["--set", "maze.file=rrl_small", "--set", "objects.generate.counts={hazmat: 2, qr: 2, valve: 1}"]
+
+
+def test_run_writes_every_file_and_reruns_from_its_config(tmp_path, capsys):
+    out = tmp_path / "t"
+    rc = main(["run", "--out", str(out), "--detector", "oracle", "--max-frames", "80", "--quiet", *SMALL])
+    assert rc == 0
+    for name in ("pois.csv", "truth.csv", "score.json", "map.png", "trial.mp4", "config.yaml"):
+        assert (out / name).stat().st_size > 0, name
+    doc = json.loads((out / "score.json").read_text())
+    assert {"total", "max_total", "false_reports", "misses", "located", "reports", "objects"} <= set(doc)
+    assert doc["max_total"] == 2 * (2 * 1 + 2 * 1 + 3)  # ex3: every object found and located
+    printed = capsys.readouterr().out
+    assert "points" in printed and "TOTAL" in printed
+    # same config, same result, byte for byte
+    again = tmp_path / "again"
+    assert main(["run", "--config", str(out / "config.yaml"), "--out", str(again), "--quiet", "--no-video"]) == 0
+    assert (again / "pois.csv").read_bytes() == (out / "pois.csv").read_bytes()
+    assert (again / "score.json").read_text() == (out / "score.json").read_text()
+
+
+def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
+    assert main(["run", "--out", str(tmp_path), "--set", "tracker.gate=-1", "--max-frames", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("poibench run: error:") and "tracker.gate" in err and "\n" not in err
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("seed: 1\nrobot:\n  speed_mps: fast\n")
+    assert main(["run", str(bad), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"{bad}:3: robot.speed_mps" in err
+
+
+def test_oracle_trial_on_the_default_scenario_scores_at_least_95_percent(tmp_path):
+    out = tmp_path / "default"
+    assert main(["run", "--out", str(out), "--detector", "oracle", "--quiet", "--no-video"]) == 0
+    doc = json.loads((out / "score.json").read_text())
+    assert doc["total"] >= 0.95 * doc["max_total"], (doc["total"], doc["max_total"])
+
+
+def test_killed_run_leaves_a_valid_poi_file(tmp_path):
+    out = tmp_path / "killed"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "eval.cli", "run", "--out", str(out), "--detector", "oracle", "--quiet"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
+    )
+    pois = out / "pois.csv"
+    deadline = time.monotonic() + 240
+    try:
+        while time.monotonic() < deadline:
+            if pois.exists() and len(pois.read_text().splitlines()) >= 8 + 3:  # header + 3 objects
+                break
+            if proc.poll() is not None:
+                pytest.fail("the run ended before it was killed")
+            time.sleep(0.2)
+        else:
+            pytest.fail("no object confirmed within 240 s")
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    parsed = read_poi_file(pois)
+    assert parsed.problems == []
+    assert len(parsed.rows) >= 3
+    assert parsed.header.mission == "default"
+    assert not list(Path(out).glob(".pois.csv*")), "no temporary file left behind"
