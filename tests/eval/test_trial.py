@@ -50,6 +50,11 @@ def test_oracle_trial_on_the_default_scenario_scores_at_least_95_percent(tmp_pat
     assert main(["run", "--out", str(out), "--detector", "oracle", "--quiet", "--no-video"]) == 0
     doc = json.loads((out / "score.json").read_text())
     assert doc["total"] >= 0.95 * doc["max_total"], (doc["total"], doc["max_total"])
+    # with noise on, every object is reported once (no misses, no duplicates or false
+    # reports) and at least 95% of them within 0.3 m
+    assert doc["misses"] == 0 and doc["false_reports"] == 0
+    dist = [o["distance_m"] for o in doc["objects"]]
+    assert sum(d is not None and d <= 0.3 for d in dist) >= 0.95 * len(dist), dist
 
 
 def test_killed_run_leaves_a_valid_poi_file(tmp_path):
@@ -57,7 +62,9 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(
         [sys.executable, "-m", "eval.cli", "run", "--out", str(out), "--detector", "oracle", "--quiet"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=env,
     )
     pois = out / "pois.csv"
     deadline = time.monotonic() + 240

@@ -180,7 +180,7 @@ def test_in_view():
     assert not in_view(np.array([0.0, 0.0, 3.0]), f, T, K, **kw)
 
 
-def test_object_extent_widens_R_by_its_variance_only_for_3d_types():
+def test_object_extent_widens_r_by_its_variance_only_for_3d_types():
     base = apply_overrides(load_config(), ["localize.extent_sigma_m={}"])
     wide = apply_overrides(load_config(), ["localize.extent_sigma_m={door: 0.2}"])
     T_tc = make_transform(R_BODY_OPTICAL, [0.0, 0.0, 0.045])
