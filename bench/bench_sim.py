@@ -12,10 +12,13 @@ import os
 import platform
 import time
 
-import mujoco  # noqa: E402
 import numpy as np
 
-import sim.gl  # noqa: F401
+# isort: off
+import sim.gl  # noqa: F401  (chooses MUJOCO_GL before mujoco is imported)
+import mujoco
+
+# isort: on
 from sim.scenario import apply_settings, load_scenario  # noqa: E402
 from sim.simulator import Simulation  # noqa: E402
 from sim.world import CAMERA_NAME  # noqa: E402
