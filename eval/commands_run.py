@@ -6,8 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from eval.commands_sim import resolve_scenario
-from sim.scenario import Scenario
+from eval.commands_sim import resolve_scenario, split_settings
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,13 +40,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_run)
 
 
-def _split_sets(sets: list[str]) -> tuple[list[str], list[str]]:
-    sim_keys = set(Scenario.__dataclass_fields__)
-    sim_sets = [s for s in sets if s.split("=", 1)[0].split(".")[0] in sim_keys]
-    pipe_sets = [s for s in sets if s not in sim_sets]
-    return sim_sets, pipe_sets
-
-
 def cmd_run(args) -> int:
     import yaml
 
@@ -58,7 +50,7 @@ def cmd_run(args) -> int:
     from sim.scenario import Scenario as _Sc  # noqa: F401
     from sim.scenario import ScenarioError, parse_scenario
 
-    _, pipe_sets = _split_sets(args.set)
+    _, pipe_sets = split_settings(args.set)
     detector, rules_name, max_frames = args.detector, args.rules, args.max_frames
     if args.config:
         path = Path(args.config)

@@ -28,6 +28,13 @@ def generated_scenario(seed: int, rows: int = 4, cols: int = 4, preset: str = "r
     )
 
 
+def split_settings(sets: list[str]) -> tuple[list[str], list[str]]:
+    """Split ``--set key=value`` items into scenario settings and pipeline settings."""
+    sim_keys = set(Scenario.__dataclass_fields__)
+    sim_sets = [s for s in sets if s.split("=", 1)[0].split(".")[0] in sim_keys]
+    return sim_sets, [s for s in sets if s not in sim_sets]
+
+
 def resolve_scenario(arg: str | None, seed: int | None, sets: list[str], noise: str | None) -> Scenario:
     """Scenario from a file/name (default: the built-in one) or generated from --seed, then --set/--noise."""
     if seed is not None and arg is None:
@@ -36,7 +43,7 @@ def resolve_scenario(arg: str | None, seed: int | None, sets: list[str], noise: 
         sc = load_scenario(arg or "default")
         if seed is not None:
             sc = apply_settings(sc, [f"seed={seed}"])
-    sim_sets = [s for s in sets if s.split("=", 1)[0].split(".")[0] in Scenario.__dataclass_fields__]
+    sim_sets, _ = split_settings(sets)
     if sim_sets:
         sc = apply_settings(sc, sim_sets)
     if noise is not None:

@@ -16,7 +16,7 @@ import json
 import sys
 import time
 from dataclasses import dataclass, field
-from datetime import datetime, timedelta
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
@@ -236,7 +236,3 @@ def run_trial(
         notes=notes,
         skipped_frames=skipped,
     )
-
-
-def time_hms(start: datetime, t_s: float) -> str:
-    return (start + timedelta(seconds=float(t_s))).strftime("%H:%M:%S")

@@ -51,7 +51,6 @@ from sim.world import CAMERA_NAME, World, build_world  # noqa: E402
 
 SENSOR_STREAM = 1
 COLOR_NOISE_POOL = 6
-AMBIENT_SURFACE_C = None  # objects without a temperature read ambient
 
 
 @dataclass(kw_only=True)

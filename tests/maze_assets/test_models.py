@@ -9,6 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
+from sim.placement import SIZE_AT_RRL_M
+
 # isort: off
 import sim.gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 import mujoco
@@ -28,17 +30,7 @@ from sim.mjcf import SceneAssets, fmt
 from sim.objects import PlacedObject
 
 W, H = 640, 480
-SIZES = {
-    "hazmat": 0.25,
-    "qr": 0.20,
-    "exit-sign": 0.30,
-    "fire-extinguisher-sign": 0.20,
-    "valve": 0.25,
-    "fire-extinguisher": 0.50,
-    "baby-doll": 0.35,
-    "heat-source": 0.30,
-    "door": 0.80,
-}
+SIZES = SIZE_AT_RRL_M  # the sizes placement gives each type at RRL scale
 TEXTS = {"hazmat": "organic-peroxide", "qr": "Chart M"}
 SPACING_M = 4.0  # objects stand this far apart along y, so each camera sees only its own
 
