@@ -1,8 +1,10 @@
 """Milliseconds per frame for the simulated sensors at 640x480 on the RRL example maze.
 
-Prints colour, depth and segmentation render times, the sensor models, and the
-whole sensor set (colour + aligned noisy depth + thermal + pose) per frame,
-plus the same with per-frame ground-truth boxes. Run: ``python bench/bench_sim.py``.
+Prints the render passes (colour and depth share one rasterisation; the
+segmentation pass runs at full size for ground-truth boxes and at twice the
+thermal resolution for the thermal camera), the whole sensor set (noisy colour
++ aligned noisy depth + thermal + pose) per frame, and the same with per-frame
+ground-truth boxes. Run: ``python bench/bench_sim.py``.
 """
 
 from __future__ import annotations
@@ -21,7 +23,6 @@ import mujoco
 # isort: on
 from sim.scenario import apply_settings, load_scenario  # noqa: E402
 from sim.simulator import Simulation  # noqa: E402
-from sim.world import CAMERA_NAME  # noqa: E402
 
 
 def _ms(fn, n):
@@ -30,6 +31,16 @@ def _ms(fn, n):
     for i in range(n):
         fn(i)
     return (time.perf_counter() - t) / n * 1e3
+
+
+def _stream_ms(sim: Simulation, ks: np.ndarray) -> float:
+    """ms per frame through ``frames()`` over a contiguous run as long as ``ks``."""
+    start = int(ks[len(ks) // 3])
+    stop = min(start + len(ks), sim.n_frames)
+    t = time.perf_counter()
+    for _ in sim.frames(start, stop):
+        pass
+    return (time.perf_counter() - t) / (stop - start) * 1e3
 
 
 def main() -> None:
@@ -41,41 +52,35 @@ def main() -> None:
     n = args.frames
     with Simulation(sc) as s:
         ks = np.linspace(0, s.n_frames - 1, n).astype(int)
-        r = s._renderer_ready()
+        r = s.on_gl_thread(s._renderer_ready)
         d = s.world.data
+        th = sc.sensors.thermal
 
-        def rgb(i=0):
-            s._set_camera(int(ks[i % n]))
-            r.update_scene(d, CAMERA_NAME)
-            r.render()
+        def on_gl(fn, i):
+            def job():
+                s._set_camera(int(ks[i % n]))
+                r.update(d)
+                fn()
 
-        def depth(i=0):
-            s._set_camera(int(ks[i % n]))
-            r.enable_depth_rendering()
-            r.update_scene(d, CAMERA_NAME)
-            r.render()
-            r.disable_depth_rendering()
-
-        def seg(i=0):
-            s._set_camera(int(ks[i % n]))
-            r.enable_segmentation_rendering()
-            r.update_scene(d, CAMERA_NAME)
-            r.render()
-            r.disable_segmentation_rendering()
+            s.on_gl_thread(job)
 
         res = {
-            "colour render": _ms(rgb, n),
-            "depth render": _ms(depth, n),
-            "segmentation render": _ms(seg, n),
+            "colour + depth render (one pass)": _ms(lambda i=0: on_gl(r.color_depth, i), n),
+            "segmentation render 640x480": _ms(lambda i=0: on_gl(r.geom_segmentation, i), n),
+            f"segmentation render {2 * th.width}x{2 * th.height} (thermal)": _ms(
+                lambda i=0: on_gl(lambda: r.geom_segmentation(2 * th.width, 2 * th.height), i), n
+            ),
         }
         full = apply_settings(sc, [f"maze.file={args.maze}"])
         sensors = apply_settings(full, ["sensors.truth_boxes=false"])
     with Simulation(sensors) as s2:
         ks2 = np.linspace(0, s2.n_frames - 1, n).astype(int)
         res["whole sensor set (colour+depth+thermal+pose)"] = _ms(lambda i=0: s2.frame(int(ks2[i % n])), n)
+        res["  the same, streamed (frames() renders ahead)"] = _stream_ms(s2, ks2)
     with Simulation(full) as s3:
         ks3 = np.linspace(0, s3.n_frames - 1, n).astype(int)
         res["sensor set + ground-truth boxes"] = _ms(lambda i=0: s3.frame(int(ks3[i % n])), n)
+        res["  the same, streamed"] = _stream_ms(s3, ks3)
         print(
             f"maze {args.maze}: {s3.maze.rows}x{s3.maze.cols} cells, {len(s3.maze.wall_segments())} wall pieces, "
             f"{len(s3.objects)} objects, 640x480"

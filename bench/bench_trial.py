@@ -2,7 +2,8 @@
 
 Runs ``poibench run`` on the built-in default scenario at 10 camera frames per
 simulated second with the default detector (the oracle until a trained model
-ships), without and with the video. Run: ``python bench/bench_trial.py``.
+ships), writing everything ``poibench run`` writes, the video included
+(``--no-video`` leaves it out). Run: ``python bench/bench_trial.py``.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from sim.scenario import apply_settings, load_scenario
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--detector", default="default")
-    ap.add_argument("--video", action="store_true", help="also write trial.mp4")
+    ap.add_argument("--no-video", action="store_true", help="do not write trial.mp4")
     args = ap.parse_args()
     sc = apply_settings(load_scenario("default"), ["sensors.fps=10"])
     with tempfile.TemporaryDirectory() as d:
@@ -30,10 +31,11 @@ def main() -> None:
             detector=args.detector,
             rules=load_rules("ex3"),
             rules_name="ex3",
-            video=args.video,
+            video=not args.no_video,
             progress=False,
         )
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores; detector {r.detector}; video {args.video}")
+    video = "with" if not args.no_video else "without"
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores; detector {r.detector}; {video} video")
     print(
         f"frames {r.n_frames}, simulated {r.sim_duration_s:.1f} s, wall {r.wall_s:.1f} s, "
         f"real-time factor {r.real_time_factor:.2f}x, score {r.score.total:g}/{r.score.max_total:g}"

@@ -147,6 +147,22 @@ class SwitchConfig:
 
 
 @dataclass(kw_only=True)
+class QrConfig:
+    """QR text reading (poi.detectors.qr).
+
+    ``settled_votes``: a QR detection whose observation falls inside the gate of a
+    QR track whose text has been read this many times is not decoded again (its
+    position still updates the track: an empty text pairs with any QR track). 0
+    decodes every QR detection. Detections without an observation (no valid
+    depth) are not decoded on frames with a pose and depth, since they cannot
+    feed a track.
+    """
+
+    enabled: bool = True
+    settled_votes: int = _num(3, lo=0)
+
+
+@dataclass(kw_only=True)
 class ReportConfig:
     """Header and row values of the POI file (RULES.md)."""
 
@@ -164,7 +180,7 @@ class PipelineConfig:
     localize: LocalizeConfig = field(default_factory=LocalizeConfig)
     visibility: VisibilityConfig = field(default_factory=VisibilityConfig)
     mount: MountConfig = field(default_factory=MountConfig)
-    qr: SwitchConfig = field(default_factory=SwitchConfig)
+    qr: QrConfig = field(default_factory=QrConfig)
     thermal: SwitchConfig = field(default_factory=SwitchConfig)
     report: ReportConfig = field(default_factory=ReportConfig)
     calibration: str | None = None

@@ -1,15 +1,17 @@
-"""The perception pipeline: detect -> read QR text -> localise -> in-view check -> track.
+"""The perception pipeline: detect -> localise -> read QR text -> in-view check -> track.
 
 Per frame (:meth:`Pipeline.process`):
 
 1. every detector's ``detect(frame)``; their detections are concatenated;
-2. QR text is attached by ``poi.detectors.qr.attach_qr_text(rgb, detections)`` when
-   ``qr.enabled`` and that function exists (else QR detections keep the text the
-   detector gave, usually none, and a note says so once);
-3. a frame without a pose or a depth image stops here (``skipped_reason``): its
-   detections are returned for display but nothing is localised or tracked;
-4. each detection is localised (seed 1, 2.2-2.3); one without valid depth gives no
+2. a frame without a pose or a depth image stops here (``skipped_reason``): its
+   detections get their QR text for display but nothing is localised or tracked;
+3. each detection is localised (seed 1, 2.2-2.3); one without valid depth gives no
    observation;
+4. QR text is attached by ``poi.detectors.qr.attach_qr_text(rgb, detections)`` when
+   ``qr.enabled`` and that function exists (else QR detections keep the text the
+   detector gave, usually none, and a note says so once), to the QR observations
+   that have no text yet and do not fall in the gate of a track whose text is
+   settled (``qr.settled_votes`` reads);
 5. tracks whose centre is in view (poi.visibility) are passed to the tracker for the
    negative update, and the tracker steps (seed 1, 2.4).
 
@@ -18,6 +20,7 @@ Detections get the id of the track they fed (``Detection.track_id``) for display
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import time
 from collections.abc import Callable, Sequence
@@ -100,9 +103,20 @@ class Pipeline:
             )
         }
 
-    def _read_qr(self, rgb: np.ndarray, detections: list[Detection]) -> list[Detection]:
-        """Decode the text of qr detections that have none (a detector may have read it already)."""
-        todo = [k for k, d in enumerate(detections) if d.type == "qr" and not d.text]
+    def _settled_qr(self, obs: Observation) -> bool:
+        """Whether ``obs`` is in the gate of a QR track whose text has ``qr.settled_votes`` reads."""
+        need = self.cfg.qr.settled_votes
+        if need <= 0:
+            return False
+        settled = [
+            tr
+            for tr in self.tracker.tracks.values()
+            if tr.type == "qr" and max(tr.text_votes.values(), default=0) >= need
+        ]
+        return bool(settled) and bool(np.isfinite(self.tracker.distances([obs], settled)).any())
+
+    def _read_qr(self, rgb: np.ndarray, detections: list[Detection], todo: list[int]) -> list[Detection]:
+        """Decode the text of detections ``todo`` (qr ones without text) in a copy of ``detections``."""
         if not todo:
             return detections
         read = list(self._qr_reader(rgb, [detections[k] for k in todo]))
@@ -113,6 +127,11 @@ class Pipeline:
             out[k] = det
         return out
 
+    @staticmethod
+    def _unread_qr(detections: list[Detection]) -> list[int]:
+        """Indices of qr detections without text (a detector may have read some already)."""
+        return [k for k, d in enumerate(detections) if d.type == "qr" and not d.text]
+
     def process(self, frame: Frame) -> FrameResult:
         timing: dict[str, float] = {}
         t0 = time.perf_counter()
@@ -121,11 +140,6 @@ class Pipeline:
             detections.extend(det.detect(frame))
         t1 = time.perf_counter()
         timing["detect"] = 1e3 * (t1 - t0)
-        if self._qr_reader is not None:
-            detections = self._read_qr(frame.rgb, detections)
-        t2 = time.perf_counter()
-        timing["qr"] = 1e3 * (t2 - t1)
-
         reason = None
         if frame.pose is None:
             reason = "no pose"
@@ -134,6 +148,9 @@ class Pipeline:
         elif not np.all(np.isfinite(frame.pose)):
             reason = "pose not finite"
         if reason is not None:
+            if self._qr_reader is not None:
+                detections = self._read_qr(frame.rgb, detections, self._unread_qr(detections))
+            timing["qr"] = 1e3 * (time.perf_counter() - t1)
             return FrameResult(
                 frame_index=frame.index,
                 timestamp_s=frame.timestamp_s,
@@ -151,8 +168,18 @@ class Pipeline:
             if obs is not None:
                 observations.append(obs)
                 det_of_obs.append(k)
+        t2 = time.perf_counter()
+        timing["localize"] = 1e3 * (t2 - t1)
+
+        if self._qr_reader is not None:
+            unread = set(self._unread_qr(detections))
+            todo = [i for i, k in enumerate(det_of_obs) if k in unread and not self._settled_qr(observations[i])]
+            read = self._read_qr(frame.rgb, detections, [det_of_obs[i] for i in todo])
+            for i in todo:
+                observations[i] = dataclasses.replace(observations[i], detection=read[det_of_obs[i]])
+            detections = read
         t3 = time.perf_counter()
-        timing["localize"] = 1e3 * (t3 - t2)
+        timing["qr"] = 1e3 * (t3 - t2)
 
         visible = self._tracks_in_view(frame)
         step = self.tracker.step(observations, frame.timestamp_s, visible)

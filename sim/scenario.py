@@ -166,6 +166,15 @@ class DepthSpec:
     edge_holes: bool = True
     dropout: float = 0.002  # fraction of pixels randomly invalid (low texture, specular)
 
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.dropout < 1.0:
+            raise ValueError(f"dropout must be in [0, 1), got {self.dropout}")
+        for name in ("sigma_d_px", "baseline_m", "fx_depth_px", "subpixel", "max_m"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if not 0.0 <= self.min_m < self.max_m:
+            raise ValueError(f"need 0 <= min_m < max_m, got min_m={self.min_m}, max_m={self.max_m}")
+
 
 @dataclass(kw_only=True)
 class D435Spec:
@@ -210,6 +219,12 @@ class ThermalSpec:
     ambient_c: float = 20.0
     netd_k: float = 0.08
     blur_px: float = 0.8
+
+    def __post_init__(self) -> None:
+        if self.width < 1 or self.height < 1:
+            raise ValueError(f"thermal size must be at least 1x1, got {self.width}x{self.height}")
+        if self.netd_k < 0 or self.blur_px < 0:
+            raise ValueError("netd_k and blur_px must be >= 0")
 
 
 @dataclass(kw_only=True)

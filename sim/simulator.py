@@ -10,19 +10,28 @@ Randomness: the scenario seed makes one ``np.random.Generator`` for building the
 world (maze, placement, lighting, T265 drift) and, for sensor noise, one
 generator per frame from ``SeedSequence([seed, 1, k])``, so frame k is the
 same whichever frames are rendered.
+
+Threads: the OpenGL context lives on one worker thread per simulation, where
+every frame is made; ``frames()`` keeps a couple of frames in flight there
+while the caller runs the pipeline on the previous one (MuJoCo's renderer and
+numpy release the GIL, so the two overlap on two cores).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import itertools
+from collections import deque
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import TypeVar
 
 import cv2
-import mujoco  # noqa: E402
+import mujoco
 import numpy as np
 
-import sim.gl  # noqa: F401
-from poi.geometry import (  # noqa: E402
+import sim.gl  # noqa: F401  (sim/__init__ has chosen the GL backend already)
+from poi.geometry import (
     R_BODY_OPTICAL,
     invert_transform,
     make_transform,
@@ -31,26 +40,34 @@ from poi.geometry import (  # noqa: E402
     rot_z,
     transform_points,
 )
-from poi.types import Frame, Intrinsics  # noqa: E402
-from sim.camera import T_RIG_OPTICAL  # noqa: E402
-from sim.maze import (  # noqa: E402
-    PRESETS,  # noqa: E402
+from poi.types import Frame, Intrinsics
+from sim.camera import T_RIG_OPTICAL
+from sim.maze import (
+    PRESETS,
     find_maze,
     load_maze,
 )
-from sim.maze_gen import generate_maze  # noqa: E402
-from sim.objects import PlacedObject  # noqa: E402
-from sim.placement import place_objects  # noqa: E402
-from sim.route import Route, load_route_csv, rig_pose, route_from_tour  # noqa: E402
-from sim.scenario import MountSpec, Scenario  # noqa: E402
-from sim.sensors.d435_depth import simulate_depth  # noqa: E402
-from sim.sensors.t265 import PoseTrack, simulate_t265  # noqa: E402
-from sim.sensors.thermal import thermal_image  # noqa: E402
-from sim.tour import plan_tour  # noqa: E402
-from sim.world import CAMERA_NAME, World, build_world  # noqa: E402
+from sim.maze_gen import generate_maze
+from sim.objects import PlacedObject
+from sim.placement import place_objects
+from sim.render import SceneRenderer
+from sim.route import Route, load_route_csv, rig_pose, route_from_tour
+from sim.scenario import MountSpec, Scenario
+from sim.sensors.d435_depth import simulate_depth
+from sim.sensors.noise_pool import NoisePool
+from sim.sensors.t265 import PoseTrack, simulate_t265
+from sim.sensors.thermal import thermal_image
+from sim.tour import plan_tour
+from sim.world import CAMERA_NAME, World, build_world, door_gap_m
 
 SENSOR_STREAM = 1
-COLOR_NOISE_POOL = 6
+PREFETCH_FRAMES = 2  # frames rendered ahead by Simulation.frames()
+NOISE_POOL_FRAMES = 3  # frames' worth of pre-drawn noise per pool (sim.sensors.noise_pool)
+# the thermal image integrates THERMAL_SUPERSAMPLE^2 segmentation samples per pixel
+THERMAL_SUPERSAMPLE = 2
+
+
+_R = TypeVar("_R")
 
 
 @dataclass(kw_only=True)
@@ -73,6 +90,15 @@ class VisibleObject:
     pixels: int
     visible_fraction: float
     position_cam: np.ndarray  # true position in the camera optical frame
+
+
+@dataclass(kw_only=True)
+class RawRender:
+    rgb: np.ndarray  # (H, W, 3) uint8
+    z_m: np.ndarray  # (H, W) float32 true z-depth; sky reads far beyond any sensor range
+    object_ids: np.ndarray | None  # (H, W) int32 object id, -1 for none; only with truth boxes
+    thermal_seg: np.ndarray | None  # geom ids at THERMAL_SUPERSAMPLE x the thermal size
+    T_map_optical: np.ndarray
 
 
 @dataclass(kw_only=True)
@@ -152,8 +178,15 @@ class Simulation:
             self.T_map_tracker_true, self.times_s, sc.sensors.t265, rng, sc.sensors.noise
         )
         self._temp_of_geom = self._geom_temperatures()
-        self._renderer: mujoco.Renderer | None = None
-        self._color_pool: np.ndarray | None = None
+        self._renderer: SceneRenderer | None = None
+        self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
+        self._pools: tuple[NoisePool | None, NoisePool | None] = (
+            self._noise_pools() if sc.sensors.noise else (None, None)
+        )
+        self._object_corners_world = self._object_geom_corners()
+        self._model_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(
+            1, thread_name_prefix="poibench-sensors"
+        )
 
     # ------------------------------------------------------------------ truth
     def truth_objects(self) -> list[TruthObject]:
@@ -169,15 +202,24 @@ class Simulation:
         ]
 
     def walls_in_map(self) -> list[tuple[tuple[float, float], tuple[float, float]]]:
-        """Wall pieces (that stand in the world) as map-frame 2D segments, for map plots."""
-        doors = {o.wall for o in self.objects if o.type == "door"}
+        """Wall pieces as map-frame 2D segments, for map plots; a door's piece is drawn as
+        the wall either side of its frame."""
+        doors = {o.wall: o for o in self.objects if o.type == "door" and o.wall}
         out = []
         for seg in self.maze.wall_segments():
+            p0, p1 = np.array([seg.x0, seg.y0, 0.0]), np.array([seg.x1, seg.y1, 0.0])
+            spans = [(p0, p1)]
             if seg.name in doors:
-                continue
-            a = transform_points(self.T_map_world, np.array([seg.x0, seg.y0, 0.0]))
-            b = transform_points(self.T_map_world, np.array([seg.x1, seg.y1, 0.0]))
-            out.append(((float(a[0]), float(a[1])), (float(b[0]), float(b[1]))))
+                length = float(np.linalg.norm(p1 - p0))
+                a, b, _ = door_gap_m(length, doors[seg.name], self.maze.settings.wall_height_m)
+                d = (p1 - p0) / length
+                spans = [(p0, p0 + d * a), (p0 + d * b, p1)]
+            for q0, q1 in spans:
+                if np.linalg.norm(q1 - q0) <= 1e-6:
+                    continue
+                a2 = transform_points(self.T_map_world, q0)
+                b2 = transform_points(self.T_map_world, q1)
+                out.append(((float(a2[0]), float(a2[1])), (float(b2[0]), float(b2[1]))))
         return out
 
     def robot_path_map(self) -> np.ndarray:
@@ -206,15 +248,38 @@ class Simulation:
                 temp[g] = by_id[int(oid)].temperature_c
         return temp
 
-    def _renderer_ready(self) -> mujoco.Renderer:
+    def _renderer_ready(self) -> SceneRenderer:
         if self._renderer is None:
-            self._renderer = mujoco.Renderer(self.world.model, self.intrinsics.height, self.intrinsics.width)
+            self._renderer = SceneRenderer(
+                self.world.model, self.intrinsics.width, self.intrinsics.height, CAMERA_NAME
+            )
         return self._renderer
 
-    def close(self) -> None:
+    def on_gl_thread(self, fn: Callable[..., _R], *args) -> _R:
+        """Run ``fn(*args)`` on the thread that owns the OpenGL context and wait for it.
+
+        An OpenGL context is current on one thread only, so every render and every
+        change to ``world.data`` happens on this simulation's own worker thread.
+        """
+        if self._gl_thread is None:
+            raise RuntimeError("the simulation is closed")
+        return self._gl_thread.submit(fn, *args).result()
+
+    def _close_renderer(self) -> None:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+    def close(self) -> None:
+        if self._model_thread is not None:
+            self._model_thread.shutdown(wait=True, cancel_futures=True)
+            self._model_thread = None
+        if self._gl_thread is not None:
+            try:
+                self._gl_thread.submit(self._close_renderer).result()
+            finally:
+                self._gl_thread.shutdown(wait=True, cancel_futures=True)
+                self._gl_thread = None
 
     def __enter__(self) -> Simulation:
         return self
@@ -233,53 +298,59 @@ class Simulation:
         mujoco.mj_camlight(m, d)
         return self._T_map_rig[k] @ T_RIG_OPTICAL
 
-    def render_raw(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
-        """(rgb, true z-depth, geom-id segmentation or None, T_map_optical) for frame k."""
+    def render_raw(self, k: int) -> RawRender:
+        """Frame k's renders: colour and true z-depth from one rasterisation, geom ids at full
+        size when ground-truth boxes are on, and geom ids at ``THERMAL_SUPERSAMPLE`` times
+        the thermal resolution when the thermal camera is on."""
         r = self._renderer_ready()
         T_map_optical = self._set_camera(k)
-        d = self.world.data
-        r.update_scene(d, CAMERA_NAME)
-        rgb = r.render().copy()
-        r.enable_depth_rendering()
-        r.update_scene(d, CAMERA_NAME)
-        depth = r.render().copy()
-        r.disable_depth_rendering()
-        seg = None
+        r.update(self.world.data)
+        rgb, depth = r.color_depth()
         sens = self.scenario.sensors
-        if sens.truth_boxes or (sens.thermal.enabled):
-            r.enable_segmentation_rendering()
-            r.update_scene(d, CAMERA_NAME)
-            s = r.render()
-            r.disable_segmentation_rendering()
-            seg = np.where(s[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), s[..., 0], -1).astype(np.int32)
-        return rgb, depth, seg, T_map_optical
+        seg = r.geom_segmentation(relabel=self.world.geom_object_id) if sens.truth_boxes else None
+        thermal_seg = None
+        if sens.thermal.enabled:
+            w = min(sens.thermal.width * THERMAL_SUPERSAMPLE, self.intrinsics.width)
+            h = min(sens.thermal.height * THERMAL_SUPERSAMPLE, self.intrinsics.height)
+            thermal_seg = r.geom_segmentation(w, h)
+        return RawRender(rgb=rgb, z_m=depth, object_ids=seg, thermal_seg=thermal_seg, T_map_optical=T_map_optical)
 
-    def _color_noise(self, rng: np.random.Generator, shape) -> np.ndarray:
-        if self._color_pool is None:
-            pool_rng = np.random.default_rng([self.scenario.seed, SENSOR_STREAM, 10**9])
-            sigma = self.scenario.sensors.d435.color_noise_sigma
-            self._color_pool = np.round(
-                pool_rng.standard_normal((COLOR_NOISE_POOL, *shape), dtype=np.float32) * sigma
-            ).astype(np.int16)
-        i = int(rng.integers(COLOR_NOISE_POOL))
-        shift = int(rng.integers(shape[0]))
-        return np.roll(self._color_pool[i], shift, axis=0)
+    def _noise_pools(self) -> tuple[NoisePool, NoisePool]:
+        """(colour, depth) pools of pre-drawn noise from the scenario seed."""
+        H, W = self.intrinsics.height, self.intrinsics.width
+        sigma = self.scenario.sensors.d435.color_noise_sigma
+        seed = self.scenario.seed
+        colour = NoisePool.standard_normal([seed, SENSOR_STREAM, 10**9], NOISE_POOL_FRAMES * H * W * 3)
+        colour = NoisePool(np.round(colour.samples * np.float32(sigma)).astype(np.int16))
+        depth = NoisePool.standard_normal([seed, SENSOR_STREAM, 10**9 + 1], NOISE_POOL_FRAMES * H * W)
+        return colour, depth
 
     def frame(self, k: int) -> tuple[Frame, FrameTruth]:
+        """Frame k and its ground truth: rendered on the GL thread, sensor models on this one."""
+        if not 0 <= k < self.n_frames:
+            raise IndexError(f"frame {k} out of range 0..{self.n_frames - 1}")
+        return self._sensor_frame(self.on_gl_thread(self.render_raw, k), k)
+
+    def _sensor_frame(self, raw: RawRender, k: int) -> tuple[Frame, FrameTruth]:
+        """The sensor models and ground truth of frame k from its renders.
+
+        Reads nothing that rendering other frames changes, so it may run on any
+        thread while the GL thread renders ahead.
+        """
         sc = self.scenario
         sens = sc.sensors
         noise = sens.noise
         rng = np.random.default_rng([sc.seed, SENSOR_STREAM, k])
-        rgb, z_true, seg, T_map_optical = self.render_raw(k)
-        if noise and sens.d435.color_noise_sigma > 0:
-            rgb = np.clip(rgb.astype(np.int16) + self._color_noise(rng, rgb.shape), 0, 255).astype(np.uint8)
+        rgb, z_true, T_map_optical = raw.rgb, raw.z_m, raw.T_map_optical
+        colour_pool, depth_pool = self._pools if noise else (None, None)
+        if colour_pool is not None and sens.d435.color_noise_sigma > 0:
+            rgb = np.clip(rgb.astype(np.int16) + colour_pool.take(rng, rgb.shape), 0, 255).astype(np.uint8)
         depth = None
         if sens.d435.enabled:
-            depth = simulate_depth(z_true, sens.d435.depth, self.intrinsics.fx, rng, noise)
+            depth = simulate_depth(z_true, sens.d435.depth, self.intrinsics.fx, rng, noise, depth_pool)
         thermal = None
-        if sens.thermal.enabled and seg is not None:
-            geom_img = np.where(seg >= 0, seg, -1)
-            thermal = thermal_image(geom_img, self._temp_of_geom, sens.thermal, rng, noise)
+        if raw.thermal_seg is not None:
+            thermal = thermal_image(raw.thermal_seg, self._temp_of_geom, sens.thermal, rng, noise)
         frame = Frame(
             index=k,
             timestamp_s=float(self.times_s[k]),
@@ -298,26 +369,52 @@ class Simulation:
             T_map_tracker=self.T_map_tracker_true[k],
             visible=[],
         )
-        if seg is not None and sens.truth_boxes:
-            truth.object_mask, truth.visible = self._visible_objects(seg, T_map_optical)
+        if raw.object_ids is not None:
+            truth.object_mask = raw.object_ids
+            truth.visible = self._visible_objects(raw.object_ids, T_map_optical)
         return frame, truth
 
-    def frames(self, start: int = 0, stop: int | None = None, step: int = 1) -> Iterator[tuple[Frame, FrameTruth]]:
+    def frames(
+        self, start: int = 0, stop: int | None = None, step: int = 1, prefetch: int = PREFETCH_FRAMES
+    ) -> Iterator[tuple[Frame, FrameTruth]]:
+        """Frames start, start + step, ... before ``stop``, the same as ``frame(k)`` gives.
+
+        A two-stage pipeline keeps up to ``prefetch`` frames in flight: the GL
+        thread renders frame k + 1 while a second thread runs the sensor models of
+        frame k and the caller works on frame k - 1.
+        """
+        if self._gl_thread is None or self._model_thread is None:
+            raise RuntimeError("the simulation is closed")
         stop = self.n_frames if stop is None else min(stop, self.n_frames)
-        for k in range(start, stop, step):
-            yield self.frame(k)
+        ks = iter(range(start, stop, step))
+        pending: deque[Future] = deque()
+
+        def submit(k: int) -> None:
+            rendered = self._gl_thread.submit(self.render_raw, k)
+            pending.append(self._model_thread.submit(lambda: self._sensor_frame(rendered.result(), k)))
+
+        try:
+            for k in itertools.islice(ks, max(prefetch, 0) + 1):
+                submit(k)
+            while pending:
+                result = pending.popleft().result()
+                for k in itertools.islice(ks, 1):
+                    submit(k)
+                yield result
+        finally:
+            for f in pending:
+                f.cancel()
 
     # ------------------------------------------------------- visible objects
-    def _visible_objects(self, seg: np.ndarray, T_map_optical: np.ndarray):
-        owner = self.world.geom_object_id
-        lut = np.append(owner, -1)
-        objmap = lut[seg]  # seg == -1 indexes the appended -1
+    def _visible_objects(self, objmap: np.ndarray, T_map_optical: np.ndarray) -> list[VisibleObject]:
+        """Box, pixel count and visible fraction of every object with a pixel in ``objmap``."""
         ys, xs = np.nonzero(objmap >= 0)
         out: list[VisibleObject] = []
         if len(xs) == 0:
-            return objmap, out
+            return out
         ids = objmap[ys, xs]
         T_optical_map = invert_transform(T_map_optical)
+        T_optical_world = T_optical_map @ self.T_map_world
         by_id = {o.id: o for o in self.objects}
         for oid in np.unique(ids):
             sel = ids == oid
@@ -325,7 +422,7 @@ class Simulation:
             o = by_id[int(oid)]
             p_cam = transform_points(T_optical_map, transform_points(self.T_map_world, o.position))
             n = int(sel.sum())
-            full = self._unoccluded_pixels(int(oid))
+            full = self._unoccluded_pixels(int(oid), T_optical_world)
             out.append(
                 VisibleObject(
                     id=o.id,
@@ -342,9 +439,23 @@ class Simulation:
                     position_cam=p_cam,
                 )
             )
-        return objmap, out
+        return out
 
-    def _unoccluded_pixels(self, oid: int) -> int:
+    def _object_geom_corners(self) -> dict[int, list[np.ndarray]]:
+        """World-frame corners (8, 3) of each object geom's bounding box; objects never move."""
+        m, d = self.world.model, self.world.data
+        mujoco.mj_kinematics(m, d)
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+        out: dict[int, list[np.ndarray]] = {}
+        for g, oid in enumerate(self.world.geom_object_id):
+            if oid < 0:
+                continue
+            aabb = m.geom_aabb[g]
+            corners_local = aabb[:3] + signs * aabb[3:]
+            out.setdefault(int(oid), []).append(corners_local @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g])
+        return out
+
+    def _unoccluded_pixels(self, oid: int, T_optical_world: np.ndarray) -> int:
         """Pixels the object would cover with nothing in front and no image border.
 
         The union of each of its geoms' projected bounding boxes (convex hulls),
@@ -352,23 +463,15 @@ class Simulation:
         includes truncation. An estimate for round shapes (their boxes are a little
         larger than their silhouettes).
         """
-        m, d = self.world.model, self.world.data
         intr = self.intrinsics
-        cam_pos = d.cam_xpos[0]
-        cam_mat = d.cam_xmat[0].reshape(3, 3)
-        # MuJoCo camera frame -> optical frame: flip y and z
-        R_oc = cam_mat @ np.diag([1.0, -1.0, -1.0])
-        geoms = np.nonzero(self.world.geom_object_id == oid)[0]
         polys = []
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-        for g in geoms:
-            aabb = m.geom_aabb[g]
-            corners_local = aabb[:3] + signs * aabb[3:]
-            corners_w = corners_local @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g]
-            pc = (corners_w - cam_pos) @ R_oc
+        for corners_w in self._object_corners_world.get(oid, []):
+            pc = transform_points(T_optical_world, corners_w)
             z = np.maximum(pc[:, 2], 0.05)
             uv = np.stack([intr.fx * pc[:, 0] / z + intr.ppx, intr.fy * pc[:, 1] / z + intr.ppy], axis=1)
             polys.append(uv)
+        if not polys:
+            return 0
         allpts = np.concatenate(polys)
         lo = np.floor(allpts.min(axis=0)).astype(int)
         hi = np.ceil(allpts.max(axis=0)).astype(int)

@@ -84,6 +84,12 @@ def _lights(world: ET.Element, visual: ET.Element, lighting: str, maze, rng: np.
         raise ValueError(f"lighting: expected bright, dim or uneven, got {lighting!r}")
 
 
+def door_gap_m(length_m: float, door: PlacedObject, wall_height_m: float) -> tuple[float, float, float]:
+    """(a, b, top): a door's frame spans [a, b] along its wall piece (centred) and rises to ``top``."""
+    fw, fh = door_frame_extent_m(door.size_m, wall_height_m)
+    return (length_m - fw) / 2, (length_m + fw) / 2, fh
+
+
 def build_world_xml(
     maze, objects: list[PlacedObject], intr: Intrinsics, lighting: str, rng: np.random.Generator
 ) -> tuple[str, dict[str, bytes]]:
@@ -145,8 +151,7 @@ def build_world_xml(
         boxes = [(-t2, length + t2, 0.0, s.wall_height_m)]
         if seg.name in doors:
             # the door fills a frame in the middle; wall stays either side and above it
-            fw, fh = door_frame_extent_m(doors[seg.name].size_m, s.wall_height_m)
-            a, b = (length - fw) / 2, (length + fw) / 2
+            a, b, fh = door_gap_m(length, doors[seg.name], s.wall_height_m)
             boxes = [(-t2, a, 0.0, s.wall_height_m), (b, length + t2, 0.0, s.wall_height_m)]
             if fh < s.wall_height_m - 1e-6:
                 boxes.append((a, b, fh, s.wall_height_m))

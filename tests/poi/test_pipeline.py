@@ -117,6 +117,54 @@ def test_qr_reader_only_sees_qr_detections_without_text(monkeypatch):
     assert [d.text for d in res.detections] == ["Chart X", "Chart Y", ""]
 
 
+def _counting_reader(calls: list[int], text: str = "Chart X"):
+    def reader(rgb, dets):
+        calls.append(len(dets))
+        return [Detection(**{**d.__dict__, "text": text}) for d in dets]
+
+    return reader
+
+
+@pytest.mark.parametrize(("settled_votes", "expected_reads"), [(3, 3), (0, 6), (1, 1)])
+def test_a_settled_qr_code_is_not_decoded_again_but_still_tracked(monkeypatch, settled_votes, expected_reads):
+    calls: list[int] = []
+    monkeypatch.setattr(pipeline_mod, "_find_qr_reader", lambda: (_counting_reader(calls), None))
+    cfg = apply_overrides(load_config(), [f"qr.settled_votes={settled_votes}"])
+    pipe = Pipeline(cfg, [FakeDetector({i: [("qr", DOOR_BOX, 0.9, "")] for i in range(6)})])
+    for i in range(6):
+        res = pipe.process(make_frame(i))
+        assert len(res.observations) == 1 and res.detections[0].track_id is not None
+    (snap,) = pipe.tracks()
+    assert sum(calls) == expected_reads
+    assert snap.text == "Chart X" and snap.n_detections == 6  # unread detections still update it
+    assert snap.extra["text_votes"] == {"Chart X": expected_reads}
+
+
+def test_a_qr_code_elsewhere_is_decoded_even_when_another_is_settled(monkeypatch):
+    calls: list[int] = []
+    monkeypatch.setattr(pipeline_mod, "_find_qr_reader", lambda: (_counting_reader(calls), None))
+    script = {i: [("qr", DOOR_BOX, 0.9, "")] for i in range(3)}
+    script[3] = [("qr", DOOR_BOX, 0.9, ""), ("qr", GHOST_BOX, 0.9, "")]  # a second code, 0.9 m aside
+    pipe = Pipeline(load_config(), [FakeDetector(script)])
+    for i in range(4):
+        pipe.process(make_frame(i))
+    assert calls == [1, 1, 1, 1]  # frame 3: only the new code is read
+
+
+def test_qr_detections_without_depth_are_not_decoded_on_tracked_frames(monkeypatch):
+    calls: list[int] = []
+    monkeypatch.setattr(pipeline_mod, "_find_qr_reader", lambda: (_counting_reader(calls), None))
+    pipe = Pipeline(
+        load_config(), [FakeDetector({0: [("qr", DOOR_BOX, 0.9, "")], 1: [("qr", DOOR_BOX, 0.9, "")]})]
+    )
+    frame = make_frame(0)
+    frame.depth_m[:] = 0.0  # no valid depth anywhere: no observation
+    res = pipe.process(frame)
+    assert res.observations == [] and calls == [] and res.detections[0].text == ""
+    res = pipe.process(make_frame(1, pose=False))  # skipped frame: read for display
+    assert calls == [1] and res.detections[0].text == "Chart X"
+
+
 def test_annotate_draws_and_leaves_the_input_alone():
     img = np.full((120, 160, 3), 40, np.uint8)
     before = img.copy()

@@ -12,6 +12,7 @@ from sim.sensors.d435_depth import (
     simulate_depth,
     to_millimetres,
 )
+from sim.sensors.noise_pool import NoisePool, two_sided_threshold
 from sim.sensors.t265 import simulate_t265
 from sim.sensors.thermal import thermal_image
 
@@ -26,6 +27,34 @@ def test_depth_noise_sigma_grows_with_square_of_distance(z):
     # adds variance q^2/12 in disparity (about 2% of sigma_d^2 at sigma_d = 0.08), so 5%
     assert np.std(zs) == pytest.approx(expected, rel=0.05)
     assert abs(np.mean(zs) - z) < 0.05 * expected + 1e-4
+
+
+def test_pooled_noise_has_the_same_statistics_and_is_deterministic():
+    spec = DepthSpec(edge_holes=False, dropout=0.02)
+    pool = NoisePool.standard_normal([7, 1, 99], 3 * 300 * 400)
+    z = np.full((300, 400), 2.0, np.float32)
+    a = simulate_depth(z, spec, 612.4, np.random.default_rng(5), True, pool)
+    b = simulate_depth(z, spec, 612.4, np.random.default_rng(5), True, pool)
+    assert np.array_equal(a, b)
+    valid = a > 0
+    # dropout: |n| beyond the two-sided 2% quantile; 120k pixels give +-0.1% (3 sigma ~ 0.13%)
+    assert 1.0 - valid.mean() == pytest.approx(0.02, abs=0.0015)
+    expected = depth_sigma_m(2.0, spec.sigma_d_px, spec.fx_depth_px, spec.baseline_m)
+    assert np.std(a[valid]) == pytest.approx(expected, rel=0.05)
+    c = simulate_depth(z, spec, 612.4, np.random.default_rng(6), True, pool)
+    assert not np.array_equal(a, c)  # another frame's generator: another window
+
+
+def test_noise_pool_windows_and_threshold():
+    pool = NoisePool(np.arange(100, dtype=np.float32))
+    w = pool.take(np.random.default_rng(0), (4, 5))
+    assert w.shape == (4, 5) and not w.flags.writeable
+    assert np.array_equal(np.diff(w.ravel()), np.ones(19))  # a contiguous window
+    with pytest.raises(ValueError, match="cannot fill"):
+        pool.take(np.random.default_rng(0), (11, 10))
+    assert two_sided_threshold(0.3173) == pytest.approx(1.0, abs=1e-3)
+    with pytest.raises(ValueError, match="probability"):
+        two_sided_threshold(0.0)
 
 
 def test_disparity_is_quantised_to_subpixel_steps():

@@ -143,3 +143,22 @@ def test_ground_truth_positions_are_in_the_map_frame():
             back = transform_points(sim.T_world_map, o.position_map)
             assert np.allclose(back, o.placed.position)
             assert 0.0 <= o.position_map[2] <= sim.maze.settings.wall_height_m
+
+
+def test_map_walls_leave_the_door_opening_and_nothing_else(clean_default):
+    sim, _ = clean_default
+    (door,) = [o for o in sim.truth_objects() if o.type == "door"]
+    walls = sim.walls_in_map()
+    total = sum(np.hypot(b[0] - a[0], b[1] - a[1]) for a, b in walls)
+    full = sum(np.hypot(s.x1 - s.x0, s.y1 - s.y0) for s in sim.maze.wall_segments())
+    width = 0.8 + 2 * 0.05  # door_frame_extent_m(0.8 m door): 5 cm of frame each side
+    assert door.placed.size_m == pytest.approx(0.8)
+    assert total == pytest.approx(full - width, abs=1e-9)
+
+    # the door's centre is in the gap: every wall segment stays at least half the opening away
+    def dist(p, a, b):
+        a, b, p = np.array(a), np.array(b), np.asarray(p[:2])
+        t = np.clip(np.dot(p - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+        return float(np.linalg.norm(p - (a + t * (b - a))))
+
+    assert min(dist(door.position_map, a, b) for a, b in walls) == pytest.approx(width / 2, abs=0.06)

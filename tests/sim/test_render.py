@@ -1,0 +1,118 @@
+"""sim.render.SceneRenderer against mujoco.Renderer, and the streamed frames against single ones."""
+
+# isort: off
+import sim.gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+import mujoco
+
+# isort: on
+import numpy as np
+import pytest
+
+from sim.render import SceneRenderer
+from sim.scenario import load_scenario
+from sim.simulator import Simulation
+from sim.world import CAMERA_NAME
+
+
+@pytest.fixture(scope="module")
+def default_sim():
+    with Simulation(load_scenario("default")) as sim:
+        yield sim
+
+
+def _both(sim: Simulation, k: int):
+    """(ours, mujoco.Renderer's) colour, depth and geom segmentation of frame k, on the GL thread."""
+
+    def job():
+        m, d = sim.world.model, sim.world.data
+        sim._set_camera(k)
+        ours = SceneRenderer(m, 640, 480, CAMERA_NAME)
+        try:
+            ours.update(d)
+            rgb, z = ours.color_depth()
+            seg = ours.geom_segmentation()
+            small = ours.geom_segmentation(160, 120)
+        finally:
+            ours.close()
+        with mujoco.Renderer(m, 480, 640) as r:
+            r.update_scene(d, CAMERA_NAME)
+            rgb0 = r.render().copy()
+            r.enable_depth_rendering()
+            r.update_scene(d, CAMERA_NAME)
+            z0 = r.render().copy()
+            r.disable_depth_rendering()
+            r.enable_segmentation_rendering()
+            r.update_scene(d, CAMERA_NAME)
+            s0 = r.render().copy()
+        seg0 = np.where(s0[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM), s0[..., 0], -1)
+        return (rgb, z, seg, small), (rgb0, z0, seg0)
+
+    return sim.on_gl_thread(job)
+
+
+@pytest.mark.parametrize("k", [0, 300])
+def test_one_pass_matches_mujoco_renderer(default_sim, k):
+    (rgb, z, seg, small), (rgb0, z0, seg0) = _both(default_sim, k)
+    assert np.array_equal(rgb, rgb0)
+    assert np.array_equal(seg, seg0)
+    # depth of one rasterisation, converted in float32: same metres to 5e-6 relative wherever
+    # geometry is drawn (the colour pass also draws the sky, at hundreds of metres, where the
+    # segmentation-flagged depth pass reads the far plane; both are far beyond any sensor's range)
+    geom = seg0 >= 0
+    assert geom.mean() > 0.5
+    assert np.max(np.abs(z[geom] - z0[geom]) / z0[geom]) < 5e-6
+    assert np.all(z[~geom] > 100.0) and np.all(z0[~geom] > 100.0)
+    # a quarter-size segmentation is the same view sampled coarser: pixel (i, j) covers
+    # full-size pixels 4i..4i+3, so it agrees with one of them (only edges can differ)
+    agree = np.zeros(small.shape, bool)
+    for di in range(4):
+        for dj in range(4):
+            agree |= small == seg[di::4, dj::4]
+    assert agree.mean() > 0.999
+
+
+def test_segmentation_relabels_in_one_gather(default_sim):
+    def job():
+        sim = default_sim
+        sim._set_camera(300)
+        r = sim._renderer_ready()
+        r.update(sim.world.data)
+        return r.geom_segmentation(), r.geom_segmentation(relabel=sim.world.geom_object_id)
+
+    geoms, objects = default_sim.on_gl_thread(job)
+    lut = np.append(default_sim.world.geom_object_id, -1)
+    assert np.array_equal(objects, lut[geoms])
+    assert (objects >= 0).any()
+
+
+def test_renderer_refuses_sizes_it_cannot_draw(default_sim):
+    m = default_sim.world.model
+    with pytest.raises(ValueError, match="offscreen buffer"):
+        SceneRenderer(m, 4000, 480, CAMERA_NAME)
+    with pytest.raises(ValueError, match="no camera named"):
+        SceneRenderer(m, 640, 480, "nope")
+
+
+def test_streamed_frames_equal_single_frames(default_sim):
+    sim = default_sim
+    ks = range(40, 47)
+    streamed = list(sim.frames(40, 47))
+    for k, (f, t) in zip(ks, streamed, strict=True):
+        f1, t1 = sim.frame(k)
+        assert f.index == k
+        for a, b in ((f.rgb, f1.rgb), (f.depth_m, f1.depth_m), (f.thermal_c, f1.thermal_c), (f.pose, f1.pose)):
+            assert np.array_equal(a, b)
+        assert [(v.id, v.box_xyxy, v.pixels) for v in t.visible] == [
+            (v.id, v.box_xyxy, v.pixels) for v in t1.visible
+        ]
+
+
+def test_a_closed_simulation_says_so():
+    sim = Simulation(load_scenario("default"))
+    sim.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        sim.frame(0)
+    with pytest.raises(RuntimeError, match="closed"):
+        next(sim.frames())
+    with pytest.raises(IndexError, match="out of range"):
+        Simulation(load_scenario("default")).frame(10**6)
