@@ -93,12 +93,18 @@ class VisibleObject:
 
 
 @dataclass(kw_only=True)
-class RawRender:
+class ColourDepthRender:
+    """One rasterisation of frame k's view."""
+
     rgb: np.ndarray  # (H, W, 3) uint8
     z_m: np.ndarray  # (H, W) float32 true z-depth; sky reads far beyond any sensor range
-    object_ids: np.ndarray | None  # (H, W) int32 object id, -1 for none; only with truth boxes
-    thermal_seg: np.ndarray | None  # geom ids at THERMAL_SUPERSAMPLE x the thermal size
     T_map_optical: np.ndarray
+
+
+@dataclass(kw_only=True)
+class SegmentationRender:
+    object_ids: np.ndarray | None  # (H, W) int32 object id, -1 for none; only with truth boxes
+    thermal_geoms: np.ndarray | None  # geom ids at THERMAL_SUPERSAMPLE x the thermal size
 
 
 @dataclass(kw_only=True)
@@ -298,22 +304,40 @@ class Simulation:
         mujoco.mj_camlight(m, d)
         return self._T_map_rig[k] @ T_RIG_OPTICAL
 
-    def render_raw(self, k: int) -> RawRender:
-        """Frame k's renders: colour and true z-depth from one rasterisation, geom ids at full
-        size when ground-truth boxes are on, and geom ids at ``THERMAL_SUPERSAMPLE`` times
-        the thermal resolution when the thermal camera is on."""
+    def _render_colour_depth(self, k: int) -> ColourDepthRender:
+        """Colour and true z-depth of frame k from one rasterisation (GL thread)."""
         r = self._renderer_ready()
         T_map_optical = self._set_camera(k)
         r.update(self.world.data)
         rgb, depth = r.color_depth()
+        return ColourDepthRender(rgb=rgb, z_m=depth, T_map_optical=T_map_optical)
+
+    def _render_segmentation(self, k: int) -> SegmentationRender:
+        """Object ids at full size when ground-truth boxes are on, geom ids at
+        ``THERMAL_SUPERSAMPLE`` times the thermal size when the thermal camera is on (GL thread)."""
         sens = self.scenario.sensors
-        seg = r.geom_segmentation(relabel=self.world.geom_object_id) if sens.truth_boxes else None
-        thermal_seg = None
+        if not sens.truth_boxes and not sens.thermal.enabled:
+            return SegmentationRender(object_ids=None, thermal_geoms=None)
+        r = self._renderer_ready()
+        self._set_camera(k)
+        r.update(self.world.data)
+        objects = r.geom_segmentation(relabel=self.world.geom_object_id) if sens.truth_boxes else None
+        thermal = None
         if sens.thermal.enabled:
             w = min(sens.thermal.width * THERMAL_SUPERSAMPLE, self.intrinsics.width)
             h = min(sens.thermal.height * THERMAL_SUPERSAMPLE, self.intrinsics.height)
-            thermal_seg = r.geom_segmentation(w, h)
-        return RawRender(rgb=rgb, z_m=depth, object_ids=seg, thermal_seg=thermal_seg, T_map_optical=T_map_optical)
+            thermal = r.geom_segmentation(w, h)
+        return SegmentationRender(object_ids=objects, thermal_geoms=thermal)
+
+    def _submit_renders(self, k: int) -> tuple[Future, Future]:
+        """Queue frame k's two render jobs on the GL thread; the colour one comes back first, so
+        the sensor models of colour and depth run while the segmentation renders."""
+        if self._gl_thread is None:
+            raise RuntimeError("the simulation is closed")
+        return (
+            self._gl_thread.submit(self._render_colour_depth, k),
+            self._gl_thread.submit(self._render_segmentation, k),
+        )
 
     def _noise_pools(self) -> tuple[NoisePool, NoisePool]:
         """(colour, depth) pools of pre-drawn noise from the scenario seed."""
@@ -329,10 +353,10 @@ class Simulation:
         """Frame k and its ground truth: rendered on the GL thread, sensor models on this one."""
         if not 0 <= k < self.n_frames:
             raise IndexError(f"frame {k} out of range 0..{self.n_frames - 1}")
-        return self._sensor_frame(self.on_gl_thread(self.render_raw, k), k)
+        return self._sensor_frame(k, *self._submit_renders(k))
 
-    def _sensor_frame(self, raw: RawRender, k: int) -> tuple[Frame, FrameTruth]:
-        """The sensor models and ground truth of frame k from its renders.
+    def _sensor_frame(self, k: int, colour_depth: Future, segmentation: Future) -> tuple[Frame, FrameTruth]:
+        """The sensor models and ground truth of frame k from its render jobs.
 
         Reads nothing that rendering other frames changes, so it may run on any
         thread while the GL thread renders ahead.
@@ -341,6 +365,7 @@ class Simulation:
         sens = sc.sensors
         noise = sens.noise
         rng = np.random.default_rng([sc.seed, SENSOR_STREAM, k])
+        raw = colour_depth.result()
         rgb, z_true, T_map_optical = raw.rgb, raw.z_m, raw.T_map_optical
         colour_pool, depth_pool = self._pools if noise else (None, None)
         if colour_pool is not None and sens.d435.color_noise_sigma > 0:
@@ -348,9 +373,10 @@ class Simulation:
         depth = None
         if sens.d435.enabled:
             depth = simulate_depth(z_true, sens.d435.depth, self.intrinsics.fx, rng, noise, depth_pool)
+        seg = segmentation.result()
         thermal = None
-        if raw.thermal_seg is not None:
-            thermal = thermal_image(raw.thermal_seg, self._temp_of_geom, sens.thermal, rng, noise)
+        if seg.thermal_geoms is not None:
+            thermal = thermal_image(seg.thermal_geoms, self._temp_of_geom, sens.thermal, rng, noise)
         frame = Frame(
             index=k,
             timestamp_s=float(self.times_s[k]),
@@ -369,9 +395,9 @@ class Simulation:
             T_map_tracker=self.T_map_tracker_true[k],
             visible=[],
         )
-        if raw.object_ids is not None:
-            truth.object_mask = raw.object_ids
-            truth.visible = self._visible_objects(raw.object_ids, T_map_optical)
+        if seg.object_ids is not None:
+            truth.object_mask = seg.object_ids
+            truth.visible = self._visible_objects(seg.object_ids, T_map_optical)
         return frame, truth
 
     def frames(
@@ -390,8 +416,7 @@ class Simulation:
         pending: deque[Future] = deque()
 
         def submit(k: int) -> None:
-            rendered = self._gl_thread.submit(self.render_raw, k)
-            pending.append(self._model_thread.submit(lambda: self._sensor_frame(rendered.result(), k)))
+            pending.append(self._model_thread.submit(self._sensor_frame, k, *self._submit_renders(k)))
 
         try:
             for k in itertools.islice(ks, max(prefetch, 0) + 1):
