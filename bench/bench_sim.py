@@ -23,6 +23,7 @@ import mujoco
 # isort: on
 from sim.scenario import apply_settings, load_scenario  # noqa: E402
 from sim.simulator import Simulation  # noqa: E402
+from sim.world import CAMERA_NAME  # noqa: E402
 
 
 def _ms(fn, n):
@@ -62,13 +63,31 @@ def main() -> None:
 
             s.on_gl_thread(job)
 
+        H, W = s.intrinsics.height, s.intrinsics.width
+        ref = s.on_gl_thread(lambda: mujoco.Renderer(s.world.model, H, W))
+
+        def ref_pass(mode):
+            def fn():
+                getattr(ref, f"enable_{mode}_rendering")() if mode else None
+                ref.update_scene(d, CAMERA_NAME)
+                ref.render()
+                getattr(ref, f"disable_{mode}_rendering")() if mode else None
+
+            return fn
+
         res = {
+            "colour render (mujoco.Renderer, for reference)": _ms(lambda i=0: on_gl(ref_pass(None), i), n),
+            "depth render (mujoco.Renderer, for reference)": _ms(lambda i=0: on_gl(ref_pass("depth"), i), n),
+            "segmentation (mujoco.Renderer, for reference)": _ms(
+                lambda i=0: on_gl(ref_pass("segmentation"), i), n
+            ),
             "colour + depth render (one pass)": _ms(lambda i=0: on_gl(r.color_depth, i), n),
             "segmentation render 640x480": _ms(lambda i=0: on_gl(r.geom_segmentation, i), n),
             f"segmentation render {2 * th.width}x{2 * th.height} (thermal)": _ms(
                 lambda i=0: on_gl(lambda: r.geom_segmentation(2 * th.width, 2 * th.height), i), n
             ),
         }
+        s.on_gl_thread(ref.close)
         full = apply_settings(sc, [f"maze.file={args.maze}"])
         sensors = apply_settings(full, ["sensors.truth_boxes=false"])
     with Simulation(sensors) as s2:
