@@ -30,7 +30,7 @@ def _command_modules() -> list:
     import importlib
 
     mods = []
-    for name in ("eval.commands_sim", "eval.commands_run", "eval.score_cli"):
+    for name in ("eval.commands_sim", "eval.commands_run", "eval.score_cli", "eval.commands_detector"):
         try:
             mods.append(importlib.import_module(name))
         except ModuleNotFoundError as e:

@@ -175,6 +175,7 @@ class Simulation:
         self.times_s = np.arange(0.0, duration + 1e-9, 1.0 / sc.sensors.fps)
         self.T_tracker_optical_nominal, self.T_tracker_optical_true = mount_transforms(sc.sensors.mount)
         T_rig_tracker = T_RIG_OPTICAL @ invert_transform(self.T_tracker_optical_true)
+        self._T_rig_tracker = T_rig_tracker
         self._T_map_rig = [
             self.T_map_world @ rig_pose(self.route, t, self.mast_height_m, np.deg2rad(sc.robot.tilt_deg))
             for t in self.times_s
@@ -293,8 +294,10 @@ class Simulation:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def _set_camera(self, k: int) -> np.ndarray:
-        T_world_rig = self.T_world_map @ self._T_map_rig[k]
+    def _set_camera(self, k: int | np.ndarray) -> np.ndarray:
+        """Move the rig to frame k's pose (or to a given T_map_rig); returns T_map_optical."""
+        T_map_rig = self._T_map_rig[k] if isinstance(k, (int, np.integer)) else np.asarray(k, float)
+        T_world_rig = self.T_world_map @ T_map_rig
         m, d = self.world.model, self.world.data
         d.mocap_pos[self.world.rig_mocap_id] = T_world_rig[:3, 3]
         q = np.empty(4)
@@ -302,9 +305,9 @@ class Simulation:
         d.mocap_quat[self.world.rig_mocap_id] = q
         mujoco.mj_kinematics(m, d)
         mujoco.mj_camlight(m, d)
-        return self._T_map_rig[k] @ T_RIG_OPTICAL
+        return T_map_rig @ T_RIG_OPTICAL
 
-    def _render_colour_depth(self, k: int) -> ColourDepthRender:
+    def _render_colour_depth(self, k: int | np.ndarray) -> ColourDepthRender:
         """Colour and true z-depth of frame k from one rasterisation (GL thread)."""
         r = self._renderer_ready()
         T_map_optical = self._set_camera(k)
@@ -312,7 +315,7 @@ class Simulation:
         rgb, depth = r.color_depth()
         return ColourDepthRender(rgb=rgb, z_m=depth, T_map_optical=T_map_optical)
 
-    def _render_segmentation(self, k: int) -> SegmentationRender:
+    def _render_segmentation(self, k: int | np.ndarray) -> SegmentationRender:
         """Object ids at full size when ground-truth boxes are on, geom ids at
         ``THERMAL_SUPERSAMPLE`` times the thermal size when the thermal camera is on (GL thread)."""
         sens = self.scenario.sensors
@@ -329,9 +332,10 @@ class Simulation:
             thermal = r.geom_segmentation(w, h)
         return SegmentationRender(object_ids=objects, thermal_geoms=thermal)
 
-    def _submit_renders(self, k: int) -> tuple[Future, Future]:
-        """Queue frame k's two render jobs on the GL thread; the colour one comes back first, so
-        the sensor models of colour and depth run while the segmentation renders."""
+    def _submit_renders(self, k: int | np.ndarray) -> tuple[Future, Future]:
+        """Queue the two render jobs of frame k (or of a rig pose T_map_rig) on the GL thread; the
+        colour one comes back first, so the sensor models of colour and depth run while the
+        segmentation renders."""
         if self._gl_thread is None:
             raise RuntimeError("the simulation is closed")
         return (
@@ -355,8 +359,22 @@ class Simulation:
             raise IndexError(f"frame {k} out of range 0..{self.n_frames - 1}")
         return self._sensor_frame(k, *self._submit_renders(k))
 
-    def _sensor_frame(self, k: int, colour_depth: Future, segmentation: Future) -> tuple[Frame, FrameTruth]:
-        """The sensor models and ground truth of frame k from its render jobs.
+    def view(self, T_map_rig: np.ndarray, k: int) -> tuple[Frame, FrameTruth]:
+        """A frame from an arbitrary rig pose (datasets), with frame k's sensor noise draws.
+
+        The frame's pose is the true tracker pose (no T265 model: there is no
+        trajectory), its timestamp 0.
+        """
+        T_map_rig = np.asarray(T_map_rig, dtype=float)
+        if T_map_rig.shape != (4, 4) or not np.all(np.isfinite(T_map_rig)):
+            raise ValueError("view: T_map_rig must be a finite 4x4 transform")
+        return self._sensor_frame(k, *self._submit_renders(T_map_rig), T_map_rig=T_map_rig)
+
+    def _sensor_frame(
+        self, k: int, colour_depth: Future, segmentation: Future, T_map_rig: np.ndarray | None = None
+    ) -> tuple[Frame, FrameTruth]:
+        """The sensor models and ground truth of frame k (or of a view from ``T_map_rig``, with
+        frame k's noise) from its render jobs.
 
         Reads nothing that rendering other frames changes, so it may run on any
         thread while the GL thread renders ahead.
@@ -377,22 +395,28 @@ class Simulation:
         thermal = None
         if seg.thermal_geoms is not None:
             thermal = thermal_image(seg.thermal_geoms, self._temp_of_geom, sens.thermal, rng, noise)
+        if T_map_rig is None:
+            t_s, pose, confidence = float(self.times_s[k]), self.pose_track.poses[k], self.pose_track.confidence[k]
+            T_map_tracker = self.T_map_tracker_true[k]
+        else:
+            T_map_tracker = T_map_rig @ self._T_rig_tracker
+            t_s, pose, confidence = 0.0, T_map_tracker, "high"
         frame = Frame(
             index=k,
-            timestamp_s=float(self.times_s[k]),
+            timestamp_s=t_s,
             rgb=rgb,
             intrinsics=self.intrinsics,
             depth_m=depth,
-            pose=self.pose_track.poses[k],
-            pose_confidence=self.pose_track.confidence[k],
+            pose=pose,
+            pose_confidence=confidence,
             thermal_c=thermal,
             thermal_intrinsics=self.thermal_intrinsics if thermal is not None else None,
         )
         truth = FrameTruth(
             index=k,
-            timestamp_s=float(self.times_s[k]),
+            timestamp_s=t_s,
             T_map_camera=T_map_optical,
-            T_map_tracker=self.T_map_tracker_true[k],
+            T_map_tracker=T_map_tracker,
             visible=[],
         )
         if seg.object_ids is not None:

@@ -1,0 +1,154 @@
+"""``poibench dataset`` and ``poibench train``: the detector's training data and its training."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from eval.detector_quality import EVAL_SEED
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    d = sub.add_parser("dataset", help="render a YOLO-format detection dataset from randomised scenarios")
+    d.add_argument("--out", required=True, help="output folder (a rerun with the same settings resumes)")
+    d.add_argument("--images", type=int, required=True, help="number of images")
+    d.add_argument("--seed", type=int, default=0, help="seed of every scenario and view (default 0)")
+    d.add_argument("--per-scenario", type=int, default=40, help="images per scenario (default 40)")
+    d.add_argument("--val-every", type=int, default=5, help="every Nth scenario is validation (default 5)")
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
+    d.set_defaults(func=cmd_dataset)
+
+    t = sub.add_parser("train", help="train the YOLO detector on a dataset and export ONNX (extra 'train')")
+    t.add_argument("--data", required=True, help="a dataset folder from 'poibench dataset' (or its data.yaml)")
+    t.add_argument("--out", required=True, help="run folder: weights, plots, model.onnx (resumes if interrupted)")
+    t.add_argument("--model", default="yolo11n.yaml", help="Ultralytics model (default: yolo11n.yaml)")
+    t.add_argument("--epochs", type=int, default=60)
+    t.add_argument("--imgsz", type=int, default=320, help="training and export input size (default 320)")
+    t.add_argument("--batch", type=int, default=16)
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--device", default="cpu", help="cpu or a CUDA device index (default cpu)")
+    t.add_argument("--workers", type=int, default=2)
+    t.set_defaults(func=cmd_train)
+
+    for name, helptext in (
+        ("evaluate-detector", "mAP50, mAP50-95, per-class AP and recall, confusion matrix image"),
+        ("calibrate", "fit the centre-error model and the misclassification table (seed 1, 2.1.4-2.1.5)"),
+    ):
+        e = sub.add_parser(name, help=helptext)
+        e.add_argument("--model", required=True, help="an ONNX detector")
+        e.add_argument("--data", help="a 'poibench dataset' folder to use (its val split) instead of fresh scenes")
+        e.add_argument("--images", type=int, default=400, help="fresh evaluation images (default 400)")
+        e.add_argument(
+            "--seed", type=int, default=EVAL_SEED, help=f"seed of the fresh scenes (default {EVAL_SEED})"
+        )
+        e.add_argument("--conf", type=float, default=0.25, help="operating confidence (default 0.25)")
+        e.add_argument("--quiet", action="store_true", help="no progress bars")
+        if name == "evaluate-detector":
+            e.add_argument("--out", required=True, help="folder for evaluation.json and confusion.png")
+            e.set_defaults(func=cmd_evaluate)
+        else:
+            e.add_argument(
+                "--out", required=True, help="calibration file to write (YAML); its plot goes beside it"
+            )
+            e.set_defaults(func=cmd_calibrate)
+
+
+def cmd_dataset(args) -> int:
+    from tqdm import tqdm
+
+    from eval.dataset import DatasetSpec, write_dataset
+
+    spec = DatasetSpec(
+        images=args.images, seed=args.seed, images_per_scenario=args.per_scenario, val_every=args.val_every
+    )
+    with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:
+        summary = write_dataset(spec, args.out, progress=bar.update)
+    n = summary["images"]
+    inst = summary["instances"]
+    print(f"{args.out}: {n['train']} train and {n['val']} val images from {spec.n_scenarios} scenarios")
+    print(f"{'class':26s} {'train':>6s} {'val':>6s}")
+    for c in inst["train"]:
+        print(f"{c:26s} {inst['train'][c]:6d} {inst['val'][c]:6d}")
+    print(f"data.yaml, manifest.csv and classes.png in {args.out}")
+    return 0
+
+
+def cmd_train(args) -> int:
+    from eval.train import TrainSpec, train
+
+    out = train(
+        TrainSpec(
+            data=args.data,
+            out=args.out,
+            model=args.model,
+            epochs=args.epochs,
+            imgsz=args.imgsz,
+            batch=args.batch,
+            seed=args.seed,
+            device=args.device,
+            workers=args.workers,
+        )
+    )
+    print(f"model: {out}")
+    print("to make it the default detector: cp it to poi/models/default.onnx")
+    return 0
+
+
+def _labelled_images(args, work: Path):
+    """The val split of --data, or fresh scenes rendered from --seed into ``work``."""
+    from tqdm import tqdm
+
+    from eval.dataset import DatasetSpec, write_dataset
+    from eval.detector_quality import DetectorQualityError, load_split, model_training_seed
+
+    if args.data:
+        return load_split(args.data, "val")
+    trained = model_training_seed(args.model)
+    if trained is not None and trained == args.seed:
+        raise DetectorQualityError(
+            f"{args.model} was trained on scenes from seed {args.seed}; evaluate on another --seed"
+        )
+    spec = DatasetSpec(images=args.images, seed=args.seed, val_every=1)
+    with tqdm(total=spec.images, desc="scenes", unit="img", disable=args.quiet, file=sys.stderr) as bar:
+        write_dataset(spec, work, progress=bar.update)
+    return load_split(work, "val")
+
+
+def _detect(args, images, conf):
+    from tqdm import tqdm
+
+    from eval.detector_quality import detect_all
+
+    with tqdm(total=len(images), desc="detect", unit="img", disable=args.quiet, file=sys.stderr) as bar:
+        return detect_all(args.model, images, conf, progress=bar.update)
+
+
+def cmd_evaluate(args) -> int:
+    from eval.detector_quality import AP_CONF, evaluation_report, format_evaluation, write_evaluation
+
+    out = Path(args.out)
+    images = _labelled_images(args, out / "scenes")
+    report = evaluation_report(_detect(args, images, AP_CONF), args.conf)
+    report["model"] = str(args.model)
+    report["data"] = str(args.data or out / "scenes")
+    write_evaluation(out, report)
+    print(format_evaluation(report))
+    print(f"evaluation.json and confusion.png in {out}")
+    return 0
+
+
+def cmd_calibrate(args) -> int:
+    from eval.detector_quality import center_samples, write_calibration
+
+    out = Path(args.out)
+    images = _labelled_images(args, out.parent / f"{out.stem}_scenes")
+    samples, mis = center_samples(_detect(args, images, args.conf))
+    counts = write_calibration(out, samples, mis, args.model)
+    fitted = [c for c, n in counts.items() if n >= 30]
+    print(
+        f"{out}: centre-error fits for default and {len(fitted)} classes from {len(samples.w)} detections; "
+        f"{int(mis.sum())} misclassified"
+    )
+    print(f"plot: {out.with_suffix('.png')}; use it with --set calibration={out}")
+    return 0

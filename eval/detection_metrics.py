@@ -1,0 +1,182 @@
+"""Detection metrics against labelled boxes: AP (COCO-style), recall, confusion, matching.
+
+Boxes are (x1, y1, x2, y2) pixels. Per class and IoU threshold t, average
+precision follows the COCO evaluation (Lin et al., "Microsoft COCO", 2014, and
+its reference cocoeval): detections of the class over all images in
+descending confidence; each is a true positive when its best-IoU unmatched
+ground-truth box of the class (same image) has IoU >= t; precision is made
+monotone (the running maximum from high recall down) and averaged over the 101
+recall points 0, 0.01, ..., 1 (0 where a recall is never reached).
+mAP50 is the mean over classes with ground truth of AP at t = 0.5; mAP50-95
+the mean over t = 0.50, 0.55, ..., 0.95 as well.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+IOU_THRESHOLDS = np.round(np.arange(0.5, 0.951, 0.05), 2)
+RECALL_POINTS = np.linspace(0.0, 1.0, 101)
+
+
+@dataclass(kw_only=True)
+class ImageBoxes:
+    """Ground truth and detections of one image; classes are indices."""
+
+    gt_boxes: np.ndarray  # (G, 4)
+    gt_classes: np.ndarray  # (G,)
+    det_boxes: np.ndarray  # (D, 4)
+    det_classes: np.ndarray  # (D,)
+    det_scores: np.ndarray  # (D,)
+
+
+def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(len(a), len(b)) intersection over union of xyxy boxes.
+
+    >>> iou_matrix(np.array([[0, 0, 2, 2]]), np.array([[1, 0, 3, 2], [5, 5, 6, 6]])).round(4).tolist()
+    [[0.3333, 0.0]]
+    """
+    a = np.asarray(a, float).reshape(-1, 4)
+    b = np.asarray(b, float).reshape(-1, 4)
+    ix = np.clip(np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0]), 0, None)
+    iy = np.clip(np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1]), 0, None)
+    inter = ix * iy
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    union = area_a[:, None] + area_b[None, :] - inter
+    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
+
+
+def average_precision(tp: np.ndarray, n_gt: int) -> float:
+    """101-point interpolated AP from true-positive flags in descending-confidence order.
+
+    >>> average_precision(np.array([True, False, True]), 2)  # P = 1, 1/2, 2/3 at R = 1/2, 1/2, 1
+    0.834983
+    """
+    if n_gt == 0:
+        return float("nan")
+    if len(tp) == 0:
+        return 0.0
+    tps = np.cumsum(tp)
+    fps = np.cumsum(~tp)
+    recall = tps / n_gt
+    precision = tps / (tps + fps)
+    envelope = np.maximum.accumulate(precision[::-1])[::-1]
+    idx = np.searchsorted(recall, RECALL_POINTS, side="left")
+    values = np.where(idx < len(envelope), envelope[np.minimum(idx, len(envelope) - 1)], 0.0)
+    return round(float(values.mean()), 6)
+
+
+def _tp_flags(images: list[ImageBoxes], cls: int, t: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """(scores, tp flags) of class ``cls`` detections in descending score, and its GT count."""
+    scores, flags = [], []
+    n_gt = 0
+    for im in images:
+        gsel = im.gt_classes == cls
+        dsel = im.det_classes == cls
+        n_gt += int(gsel.sum())
+        if not dsel.any():
+            continue
+        d_scores = im.det_scores[dsel]
+        order = np.argsort(-d_scores, kind="stable")
+        d_boxes = im.det_boxes[dsel][order]
+        ious = iou_matrix(d_boxes, im.gt_boxes[gsel])
+        taken = np.zeros(ious.shape[1], bool)
+        for k in range(len(d_boxes)):
+            best, best_iou = -1, t
+            for g in range(ious.shape[1]):
+                if not taken[g] and ious[k, g] >= best_iou:
+                    best, best_iou = g, ious[k, g]
+            if best >= 0:
+                taken[best] = True
+            flags.append(best >= 0)
+        scores.extend(d_scores[order])
+    scores_a = np.asarray(scores, float)
+    flags_a = np.asarray(flags, bool)
+    order = np.argsort(-scores_a, kind="stable")
+    return scores_a[order], flags_a[order], n_gt
+
+
+@dataclass(kw_only=True)
+class ClassMetrics:
+    n_gt: int
+    ap50: float
+    ap50_95: float
+    recall: float  # at IoU 0.5 among detections scoring at least the operating threshold
+    precision: float
+
+
+def class_metrics(images: list[ImageBoxes], n_classes: int, conf: float) -> list[ClassMetrics]:
+    """Per-class AP50, AP50-95, and recall and precision at confidence ``conf``."""
+    out = []
+    for c in range(n_classes):
+        aps = []
+        rec = prec = float("nan")
+        n_gt = 0
+        for t in IOU_THRESHOLDS:
+            scores, tp, n_gt = _tp_flags(images, c, float(t))
+            aps.append(average_precision(tp, n_gt))
+            if t == 0.5:
+                sel = scores >= conf
+                hits = int(tp[sel].sum())
+                rec = hits / n_gt if n_gt else float("nan")
+                prec = hits / int(sel.sum()) if sel.any() else float("nan")
+        out.append(
+            ClassMetrics(
+                n_gt=n_gt,
+                ap50=aps[0],
+                ap50_95=float(np.mean(aps)) if n_gt else float("nan"),
+                recall=rec,
+                precision=prec,
+            )
+        )
+    return out
+
+
+def mean_ap(metrics: list[ClassMetrics]) -> tuple[float, float]:
+    """(mAP50, mAP50-95) over classes with ground truth."""
+    m = [x for x in metrics if x.n_gt > 0]
+    if not m:
+        return float("nan"), float("nan")
+    return float(np.mean([x.ap50 for x in m])), float(np.mean([x.ap50_95 for x in m]))
+
+
+def match_boxes(gt_boxes: np.ndarray, det_boxes: np.ndarray, iou_min: float = 0.5) -> list[tuple[int, int]]:
+    """Class-agnostic one-to-one (gt, det) pairs with IoU >= ``iou_min``, greedily by IoU."""
+    ious = iou_matrix(gt_boxes, det_boxes)
+    pairs = []
+    if ious.size == 0:
+        return pairs
+    cand = np.argwhere(ious >= iou_min)
+    order = np.argsort(-ious[cand[:, 0], cand[:, 1]], kind="stable")
+    used_g, used_d = set(), set()
+    for g, d in cand[order]:
+        if g in used_g or d in used_d:
+            continue
+        used_g.add(int(g))
+        used_d.add(int(d))
+        pairs.append((int(g), int(d)))
+    return sorted(pairs)
+
+
+def confusion_counts(images: list[ImageBoxes], n_classes: int, conf: float, iou_min: float = 0.5) -> np.ndarray:
+    """(C + 1, C + 1) counts, rows the true class, columns the detected class; index C is
+    background (a missed object in the last column, a false detection in the last row)."""
+    M = np.zeros((n_classes + 1, n_classes + 1), dtype=np.int64)
+    for im in images:
+        keep = im.det_scores >= conf
+        dboxes, dcls = im.det_boxes[keep], im.det_classes[keep]
+        pairs = match_boxes(im.gt_boxes, dboxes, iou_min)
+        for g, d in pairs:
+            M[int(im.gt_classes[g]), int(dcls[d])] += 1
+        matched_g = {g for g, _ in pairs}
+        matched_d = {d for _, d in pairs}
+        for g in range(len(im.gt_boxes)):
+            if g not in matched_g:
+                M[int(im.gt_classes[g]), n_classes] += 1
+        for d in range(len(dboxes)):
+            if d not in matched_d:
+                M[n_classes, int(dcls[d])] += 1
+    return M
