@@ -30,7 +30,13 @@ def _command_modules() -> list:
     import importlib
 
     mods = []
-    for name in ("eval.commands_sim", "eval.commands_run", "eval.score_cli", "eval.commands_detector"):
+    for name in (
+        "eval.commands_sim",
+        "eval.commands_run",
+        "eval.score_cli",
+        "eval.commands_detector",
+        "eval.commands_sweep",
+    ):
         try:
             mods.append(importlib.import_module(name))
         except ModuleNotFoundError as e:
