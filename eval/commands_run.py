@@ -37,7 +37,32 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-frames", type=int, help="stop after this many frames")
     p.add_argument("--no-video", action="store_true", help="do not write trial.mp4")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--live", action="store_true", help="serve the live view on 127.0.0.1 while the trial runs")
+    p.add_argument("--port", type=int, default=0, help="live view port (default: a free one, printed)")
     p.set_defaults(func=cmd_run)
+
+    v = sub.add_parser("view", help="replay a finished trial in the browser (time slider)")
+    v.add_argument("trial_dir", help="a folder written by poibench run")
+    v.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (default: a free one, printed)")
+    v.set_defaults(func=cmd_view)
+
+
+def cmd_view(args) -> int:
+    import time
+
+    from eval.live_server import LiveServer, ReplaySource
+
+    server = LiveServer(args.port, replay=ReplaySource(args.trial_dir))
+    url = server.start()
+    print(f"replay of {args.trial_dir}: {url}  (Ctrl-C to stop)", flush=True)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        print("stopped", file=sys.stderr)
+    finally:
+        server.stop()
+    return 0
 
 
 def cmd_run(args) -> int:
@@ -47,7 +72,6 @@ def cmd_run(args) -> int:
     from eval.score_report import format_tables
     from eval.trial import run_trial
     from poi.config import flatten_config
-    from sim.scenario import Scenario as _Sc  # noqa: F401
     from sim.scenario import ScenarioError, parse_scenario
 
     _, pipe_sets = split_settings(args.set)
@@ -71,17 +95,28 @@ def cmd_run(args) -> int:
     else:
         sc = resolve_scenario(args.scenario, args.seed, args.set, args.noise)
     rules = load_rules(rules_name)
-    res = run_trial(
-        sc,
-        args.out,
-        pipeline_sets=pipe_sets,
-        detector=detector,
-        rules=rules,
-        rules_name=rules_name,
-        video=not args.no_video,
-        progress=not args.quiet,
-        max_frames=max_frames,
-    )
+    server = None
+    if args.live:
+        from eval.live_server import LiveServer
+
+        server = LiveServer(args.port)
+        print(f"live view: {server.start()}", flush=True)
+    try:
+        res = run_trial(
+            sc,
+            args.out,
+            pipeline_sets=pipe_sets,
+            detector=detector,
+            rules=rules,
+            rules_name=rules_name,
+            video=not args.no_video,
+            progress=not args.quiet,
+            max_frames=max_frames,
+            live_server=server,
+        )
+    finally:
+        if server is not None:
+            server.stop()
     for note in res.notes:
         print(f"note: {note}", file=sys.stderr)
     print(format_tables(res.score))

@@ -215,6 +215,7 @@ def run_task(task: TrialTask) -> dict:
             rules_name=task.rules,
             video=False,
             progress=False,
+            record_live=False,
         )
         errs = [o.distance_m for o in res.score.objects if o.found_by is not None and o.distance_m is not None]
         row.update(

@@ -129,6 +129,8 @@ def run_trial(
     progress: bool = True,
     max_frames: int | None = None,
     on_frame=None,
+    live_server=None,
+    record_live: bool = True,
 ) -> TrialResult:
     from tqdm import tqdm
 
@@ -168,6 +170,24 @@ def run_trial(
             else None
         )
         skipped = 0
+        live = None
+        if record_live or live_server is not None:
+            from eval.live_record import LiveRecorder
+
+            truth_file = read_poi_file(out / "truth.csv")
+
+            def running_score() -> dict:
+                r = score(read_poi_file(out / "pois.csv"), truth_file, rules)
+                return {"total": r.total, "max": r.max_total}
+
+            live = LiveRecorder(
+                out,
+                sim,
+                title=f"{sc.name} (seed {sc.seed})",
+                score_fn=running_score,
+                server=live_server,
+                record=record_live,
+            )
         try:
             for frame, truth in tqdm(
                 sim.frames(0, n),
@@ -184,13 +204,20 @@ def run_trial(
                     skipped += 1
                 for snap in res.newly_confirmed:
                     writer.append(snap)
+                view = None
+                if vid is not None or live is not None:
+                    view = annotate(frame.rgb, res.detections, pipe.confirmed(), frame.timestamp_s)
                 if vid is not None:
-                    vid.write(annotate(frame.rgb, res.detections, pipe.confirmed(), frame.timestamp_s))
+                    vid.write(view)
+                if live is not None:
+                    live.on_frame(frame, res, pipe, view)
                 if on_frame is not None:
                     on_frame(frame, truth, res, pipe)
         finally:
             if vid is not None:
                 vid.close()
+            if live is not None:
+                live.close()
         final = pipe.confirmed()
         writer.finalize(final)
         sim_duration = float(sim.times_s[n - 1]) if n else 0.0

@@ -143,4 +143,6 @@ def display_name(type_: str, text: str = "") -> str:
     """What an operator reads: 'Oxidizer' for a hazmat, the QR text, or 'Fire extinguisher'."""
     if text:
         return text if type_ == "qr" else text.replace("-", " ").capitalize()
+    if type_ == "qr":
+        return "QR code"
     return type_.replace("-", " ").capitalize()
