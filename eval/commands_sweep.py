@@ -155,7 +155,6 @@ def cmd_sweep(args) -> int:
 def cmd_regress(args) -> int:
     from eval.regress import baseline_doc, compare, load_baseline, write_junit
     from eval.suites import load_suite
-    from eval.sweep import SweepSpec
 
     suite = load_suite(args.suite)
     base_path = Path(args.baseline)
@@ -163,16 +162,7 @@ def cmd_regress(args) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.out) if args.out else Path(tmp)
         grid = [(k, [v]) for k, v in (item.split("=", 1) for item in args.set)] if args.set else []
-        spec = SweepSpec(
-            suite=args.suite,
-            grid=grid,
-            detector=args.detector,
-            rules=args.rules,
-            workers=args.workers,
-            backend=args.backend,
-            address=args.address,
-        )
-        df, _ = _run(spec, out, args.quiet)
+        df, _ = _run(_spec(args, grid), out, args.quiet)
     if args.update:
         if (df["error"] != "").any():
             bad = df[df["error"] != ""].iloc[0]

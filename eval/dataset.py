@@ -38,6 +38,7 @@ import yaml
 
 from poi.geometry import make_transform, rot_x, rot_y, rot_z
 from poi.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS, identity_to_class
+from sim.scenario import DEFAULT_COUNTS
 
 LIGHTING = ("bright", "dim", "uneven")
 FLOOR_MOUNTS = ("floor",)
@@ -64,18 +65,9 @@ class DatasetSpec:
     rmrc_fraction: float = 0.25  # scenarios on the smaller RMRC lane preset
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
     jpeg_quality: int = 95
+    # every type once, more hazmat placards (16 labels to cover) and fewer QR codes
     counts: dict[str, int] = field(
-        default_factory=lambda: {
-            "hazmat": HAZMAT_PER_SCENARIO,
-            "qr": 3,
-            "door": 1,
-            "valve": 1,
-            "baby-doll": 1,
-            "fire-extinguisher": 1,
-            "exit-sign": 1,
-            "fire-extinguisher-sign": 1,
-            "heat-source": 1,
-        }
+        default_factory=lambda: {**DEFAULT_COUNTS, "hazmat": HAZMAT_PER_SCENARIO, "qr": 3}
     )
 
     def __post_init__(self) -> None:

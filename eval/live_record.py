@@ -121,19 +121,11 @@ class LiveRecorder:
             live = self.out / "live"
             live.mkdir(parents=True, exist_ok=True)
             self._frames = open(live / "frames.jsonl", "w", encoding="utf-8")  # noqa: SIM115 (closed in close())
-            import imageio_ffmpeg
+            from eval.video import H264Writer
 
-            self._insets = imageio_ffmpeg.write_frames(
-                str(live / "insets.mp4"),
-                (2 * INSET_W, INSET_H),
-                fps=float(sim.scenario.sensors.fps),
-                codec="libx264",
-                quality=None,
-                macro_block_size=8,
-                output_params=["-pix_fmt", "yuv420p", "-preset", "ultrafast", "-crf", "23"],
-                ffmpeg_log_level="error",
+            self._insets = H264Writer(
+                live / "insets.mp4", 2 * INSET_W, INSET_H, float(sim.scenario.sensors.fps), crf=23
             )
-            self._insets.send(None)
         if server is not None:
             server.set_init(self.init)
 
@@ -170,7 +162,7 @@ class LiveRecorder:
         if self._frames is not None:
             self._frames.write(json.dumps(msg, separators=(",", ":")) + "\n")
             self._frames.flush()
-            self._insets.send(np.ascontiguousarray(insets))
+            self._insets.write(insets)
         if self.server is not None:
             self.server.publish(msg, camera_rgb, insets)
 

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-import numpy as np
 import yaml
 
 from eval.map_plot import draw_map, markers_from_score
@@ -28,6 +27,7 @@ from eval.rules import Rules
 from eval.score_report import to_json_dict
 from eval.scorer import ScoreResult, score
 from eval.truth import truth_rows, write_truth_csv
+from eval.video import H264Writer
 from poi.geometry import matrix_to_quat_wxyz
 from sim.scenario import Scenario
 
@@ -86,37 +86,6 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
     return dets, oracle
 
 
-class _Video:
-    """H.264 MP4 through the ffmpeg binary that imageio-ffmpeg ships.
-
-    x264 ``ultrafast`` at CRF 25: on default-trial frames (640x480, sensor noise
-    included) it took 3.1 ms of CPU per frame against 9.2 for ``veryfast`` and
-    about 15 for the default preset, for a file of about 6 KB per frame; the
-    cores are left to the simulator and the pipeline.
-    """
-
-    def __init__(self, path: Path, width: int, height: int, fps: float) -> None:
-        import imageio_ffmpeg
-
-        self._gen = imageio_ffmpeg.write_frames(
-            str(path),
-            (width, height),
-            fps=fps,
-            codec="libx264",
-            quality=None,
-            macro_block_size=1,
-            output_params=["-pix_fmt", "yuv420p", "-preset", "ultrafast", "-crf", "25"],
-            ffmpeg_log_level="error",
-        )
-        self._gen.send(None)
-
-    def write(self, rgb: np.ndarray) -> None:
-        self._gen.send(np.ascontiguousarray(rgb))
-
-    def close(self) -> None:
-        self._gen.close()
-
-
 def run_trial(
     sc: Scenario,
     out_dir: str | Path,
@@ -165,7 +134,7 @@ def run_trial(
         writer = PoiWriter(out / "pois.csv", header, robot=cfg.report.robot, mode=cfg.report.mode)
         n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
         vid = (
-            _Video(out / "trial.mp4", sim.intrinsics.width, sim.intrinsics.height, sc.sensors.fps)
+            H264Writer(out / "trial.mp4", sim.intrinsics.width, sim.intrinsics.height, sc.sensors.fps)
             if video
             else None
         )

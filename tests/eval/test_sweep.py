@@ -213,3 +213,25 @@ def test_tune_finds_settings_writes_the_study_and_repeats_itself(tmp_path, capsy
     assert main([*args, "--out", str(tmp_path / "b")]) == 0  # same seed, same draws, same scores
     again = pd.read_csv(tmp_path / "b" / "study.csv")
     pd.testing.assert_frame_equal(study.drop(columns=["duration"]), again.drop(columns=["duration"]))
+
+
+def test_tune_on_the_ray_backend_scores_like_the_local_one(tmp_path):
+    pytest.importorskip("optuna")
+    pytest.importorskip("ray")
+    args = [
+        "tune",
+        "--suite",
+        TINY,
+        "--param",
+        "tracker.gate=float:4:16",
+        "--trials",
+        "2",
+        "--seed",
+        "3",
+        "--quiet",
+    ]
+    assert main([*args, "--out", str(tmp_path / "local")]) == 0
+    assert main([*args, "--out", str(tmp_path / "ray"), "--backend", "ray", "--workers", "2"]) == 0
+    a = pd.read_csv(tmp_path / "local" / "study.csv").drop(columns=["duration"])
+    b = pd.read_csv(tmp_path / "ray" / "study.csv").drop(columns=["duration"])
+    pd.testing.assert_frame_equal(a, b)

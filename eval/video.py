@@ -1,0 +1,38 @@
+"""H.264 MP4 files through the ffmpeg binary that imageio-ffmpeg ships (no system ffmpeg)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+class H264Writer:
+    """Frames (RGB uint8) in, an H.264 MP4 out.
+
+    x264 ``ultrafast`` at CRF 25 by default: on default-trial frames (640x480,
+    sensor noise included) it took 3.1 ms of CPU per frame against 9.2 for
+    ``veryfast`` and about 15 for the default preset, for a file of about 6 KB
+    per frame; the cores are left to the simulator and the pipeline.
+    """
+
+    def __init__(self, path: Path, width: int, height: int, fps: float, crf: int = 25) -> None:
+        import imageio_ffmpeg
+
+        self._gen = imageio_ffmpeg.write_frames(
+            str(path),
+            (width, height),
+            fps=fps,
+            codec="libx264",
+            quality=None,
+            macro_block_size=1,
+            output_params=["-pix_fmt", "yuv420p", "-preset", "ultrafast", "-crf", str(crf)],
+            ffmpeg_log_level="error",
+        )
+        self._gen.send(None)
+
+    def write(self, rgb: np.ndarray) -> None:
+        self._gen.send(np.ascontiguousarray(rgb))
+
+    def close(self) -> None:
+        self._gen.close()
