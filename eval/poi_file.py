@@ -53,13 +53,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from poi.names import HAZMAT_LABELS, TYPES, canonical_label, canonical_type
+from poi.report import csv_cell, format_coord
 
 POI_MAGIC = "pois"
 POI_VERSION = "1.2"
 COLUMNS: tuple[str, ...] = ("id", "time", "text", "x", "y", "z", "robot", "mode", "type")
 HEADER_FIELDS: tuple[str, ...] = ("version", "team", "country", "date", "start_time", "mission")
 MODES: tuple[str, ...] = ("T", "A", "GT")
-COORD_DECIMALS = 3
 
 _DATE_RE = re.compile(r"^\d{4}-\d{2}-\d{2}$")
 _TIME_RE = re.compile(r"^\d{1,2}:\d{2}:\d{2}$")
@@ -364,11 +364,11 @@ def format_poi_text(header: PoiHeader, rows: list[PoiRow]) -> str:
     """
     lines: list[str] = []
     for value in (POI_MAGIC, *(getattr(header, f) for f in HEADER_FIELDS)):
-        lines.append(_csv_line([value]))
+        lines.append(csv_cell(value))
     lines.append(",".join(COLUMNS))
     for r in rows:
-        coords = [_coord(v) for v in (r.x, r.y, r.z)]
-        lines.append(_csv_line([str(r.id), r.time, r.text, *coords, r.robot, r.mode, r.type]))
+        coords = [format_coord(v) for v in (r.x, r.y, r.z)]
+        lines.append(",".join(csv_cell(v) for v in [str(r.id), r.time, r.text, *coords, r.robot, r.mode, r.type]))
     return "\n".join(lines) + "\n"
 
 
@@ -386,19 +386,3 @@ def write_poi_file(path: str | Path, header: PoiHeader, rows: list[PoiRow]) -> N
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-
-
-def _coord(value: float) -> str:
-    text = f"{value:.{COORD_DECIMALS}f}"
-    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
-
-
-def _csv_line(values: list[str]) -> str:
-    """One CSV record, quoting only values that need it (a comma, quote or edge space)."""
-    out = []
-    for v in values:
-        if any(ch in v for ch in ',"\r\n') or v != v.strip():
-            out.append('"' + v.replace('"', '""') + '"')
-        else:
-            out.append(v)
-    return ",".join(out)

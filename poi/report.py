@@ -56,14 +56,17 @@ def time_hms(start: datetime, t_s: float) -> str:
     return (start + timedelta(seconds=float(t_s))).strftime("%H:%M:%S")
 
 
-def _cell(value: str) -> str:
+def csv_cell(value: str) -> str:
+    """One CSV value of a POI file: quoted only when it holds a comma, a quote or edge spaces
+    (line breaks become spaces)."""
     value = value.replace("\r\n", " ").replace("\r", " ").replace("\n", " ")
     if any(ch in value for ch in ',"') or value != value.strip():
         return '"' + value.replace('"', '""') + '"'
     return value
 
 
-def _coord(value: float) -> str:
+def format_coord(value: float) -> str:
+    """A coordinate with RULES.md's three decimals, never \"-0.000\"."""
     text = f"{value:.{COORD_DECIMALS}f}"
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text  # no "-0.000"
 
@@ -75,9 +78,9 @@ def format_row(report_id: int, time: str, text: str, xyz, robot: str, mode: str,
     cells = [
         str(int(report_id)),
         time,
-        _cell(text),
-        *(_coord(float(c)) for c in xyz),
-        _cell(robot),
+        csv_cell(text),
+        *(format_coord(float(c)) for c in xyz),
+        csv_cell(robot),
         mode,
         type_,
     ]
@@ -95,7 +98,7 @@ def format_header(header: ReportHeader) -> str:
         header.start.strftime("%H:%M:%S"),
         header.mission,
     ]
-    return "".join(_cell(v) + "\n" for v in values) + COLUMNS + "\n"
+    return "".join(csv_cell(v) + "\n" for v in values) + COLUMNS + "\n"
 
 
 class PoiWriter:
