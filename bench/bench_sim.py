@@ -88,13 +88,12 @@ def main() -> None:
             ),
         }
         s.on_gl_thread(ref.close)
-        full = apply_settings(sc, [f"maze.file={args.maze}"])
-        sensors = apply_settings(full, ["sensors.truth_boxes=false"])
+        sensors = apply_settings(sc, ["sensors.truth_boxes=false"])
     with Simulation(sensors) as s2:
         ks2 = np.linspace(0, s2.n_frames - 1, n).astype(int)
         res["whole sensor set (colour+depth+thermal+pose)"] = _ms(lambda i=0: s2.frame(int(ks2[i % n])), n)
         res["  the same, streamed (frames() renders ahead)"] = _stream_ms(s2, n)
-    with Simulation(full) as s3:
+    with Simulation(sc) as s3:
         ks3 = np.linspace(0, s3.n_frames - 1, n).astype(int)
         res["sensor set + ground-truth boxes"] = _ms(lambda i=0: s3.frame(int(ks3[i % n])), n)
         res["  the same, streamed"] = _stream_ms(s3, n)

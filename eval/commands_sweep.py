@@ -66,11 +66,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.set_defaults(func=cmd_tune)
 
 
-def _spec(args, grid):
+def _spec(args, suite: str, grid):
     from eval.sweep import SweepSpec
 
     return SweepSpec(
-        suite=args.suite if hasattr(args, "suite") and args.suite else args.name,
+        suite=suite,
         grid=grid,
         detector=args.detector,
         rules=args.rules,
@@ -115,10 +115,9 @@ def cmd_suite_run(args) -> int:
     from eval.suites import load_suite
 
     suite = load_suite(args.name)
-    args.suite = args.name
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.out) if args.out else Path(tmp)
-        df, _ = _run(_spec(args, []), out, args.quiet)
+        df, _ = _run(_spec(args, args.name, []), out, args.quiet)
         print(f"suite {suite.name} v{suite.version}: {suite.description}")
         cols = [
             "scenario",
@@ -145,7 +144,7 @@ def cmd_sweep(args) -> int:
 
     grid = parse_grid(args.set)
     out = Path(args.out)
-    df, agg = _run(_spec(args, grid), out, args.quiet)
+    df, agg = _run(_spec(args, args.suite, grid), out, args.quiet)
     print(agg.to_string(index=False))
     failed = int((df["error"] != "").sum())
     print(f"{len(df)} trials ({failed} failed): trials.csv, aggregate.csv and plots in {out}")
@@ -162,7 +161,7 @@ def cmd_regress(args) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.out) if args.out else Path(tmp)
         grid = [(k, [v]) for k, v in (item.split("=", 1) for item in args.set)] if args.set else []
-        df, _ = _run(_spec(args, grid), out, args.quiet)
+        df, _ = _run(_spec(args, args.suite, grid), out, args.quiet)
     if args.update:
         if (df["error"] != "").any():
             bad = df[df["error"] != ""].iloc[0]

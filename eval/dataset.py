@@ -300,14 +300,17 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
         rows = []
         with sim:
             by_id = {o.id: o for o in sim.objects}
+            by_class: dict[str, list] = {}
+            for o in sim.objects:
+                by_class.setdefault(object_class(o), []).append(o)
+            present = sorted(by_class)
             per_class: Counter[str] = Counter()
             for i in range(n_img):
                 rng = np.random.default_rng([spec.seed, j, i, 7])
-                present = sorted({object_class(o) for o in sim.objects})
                 order = sorted(present, key=lambda c: (per_class[c], rng.random()))
                 view = None
                 for cls in order:
-                    cands = [o for o in sim.objects if object_class(o) == cls]
+                    cands = by_class[cls]
                     target = cands[int(rng.integers(len(cands)))]
                     view = sample_view(sim, target, spec, rng)
                     if view is not None:

@@ -52,8 +52,12 @@ class DetectorQualityError(ValueError):
 @dataclass(kw_only=True)
 class LabelledImage:
     path: Path
-    boxes: np.ndarray  # (G, 4) xyxy pixels
+    boxes_norm: np.ndarray  # (G, 4) xyxy as fractions of the image width and height
     classes: np.ndarray  # (G,)
+
+    def boxes_px(self, width: int, height: int) -> np.ndarray:
+        """(G, 4) xyxy pixels of an image ``width`` x ``height``."""
+        return self.boxes_norm * np.array([width, height, width, height], dtype=float)
 
 
 def model_training_seed(model: str | Path) -> int | None:
@@ -71,17 +75,14 @@ def model_training_seed(model: str | Path) -> int | None:
 
 
 def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
-    """Images and labels of one split of a YOLO dataset folder."""
+    """Images (paths) and labels of one split of a YOLO dataset folder; the images are read
+    once, by :func:`detect_all`."""
     root = Path(dataset)
     img_dir = root / "images" / split
     if not img_dir.is_dir():
         raise DetectorQualityError(f"{img_dir}: no such folder; give a folder written by 'poibench dataset'")
     out = []
     for img in sorted(img_dir.glob("*.jpg")):
-        pixels = cv2.imread(str(img))
-        if pixels is None:
-            raise DetectorQualityError(f"{img}: not a readable image")
-        h, w = pixels.shape[:2]
         lab = root / "labels" / split / f"{img.stem}.txt"
         rows = []
         if lab.exists():
@@ -95,9 +96,9 @@ def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
                     raise DetectorQualityError(f"{lab}:{n}: expected 'class cx cy w h'") from None
                 if not 0 <= c < len(CLASSES):
                     raise DetectorQualityError(f"{lab}:{n}: class {c} is not in 0..{len(CLASSES) - 1}")
-                rows.append((c, (x - bw / 2) * w, (y - bh / 2) * h, (x + bw / 2) * w, (y + bh / 2) * h))
+                rows.append((c, x - bw / 2, y - bh / 2, x + bw / 2, y + bh / 2))
         arr = np.array(rows, dtype=float).reshape(-1, 5)
-        out.append(LabelledImage(path=img, boxes=arr[:, 1:], classes=arr[:, 0].astype(int)))
+        out.append(LabelledImage(path=img, boxes_norm=arr[:, 1:], classes=arr[:, 0].astype(int)))
     if not out:
         raise DetectorQualityError(f"{img_dir}: no images")
     return out
@@ -112,13 +113,15 @@ def detect_all(model: str | Path, images: list[LabelledImage], conf: float, prog
     out = []
     for k, im in enumerate(images):
         bgr = cv2.imread(str(im.path))
+        if bgr is None:
+            raise DetectorQualityError(f"{im.path}: not a readable image")
         rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
         h, w = rgb.shape[:2]
         K = Intrinsics(width=w, height=h, fx=1.0, fy=1.0, ppx=w / 2, ppy=h / 2)
         dets = det.detect(Frame(index=k, timestamp_s=0.0, rgb=rgb, intrinsics=K))
         out.append(
             ImageBoxes(
-                gt_boxes=im.boxes,
+                gt_boxes=im.boxes_px(w, h),
                 gt_classes=im.classes,
                 det_boxes=np.array([d.box_xyxy for d in dets], float).reshape(-1, 4),
                 det_classes=np.array([CLASSES.index(d.class_name) for d in dets], int),

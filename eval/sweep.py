@@ -114,6 +114,7 @@ class TrialTask:
     scenario_yaml: str
     seed: int
     settings: dict[str, str]
+    pipeline_sets: list[str]  # the pipeline part of ``settings``, as key=value items
     detector: str
     rules: str
     out_dir: str
@@ -177,6 +178,7 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
                     scenario_yaml=sc.to_yaml(),
                     seed=sc.seed,
                     settings=combo,
+                    pipeline_sets=pipe_sets,
                     detector=spec.detector,
                     rules=spec.rules,
                     out_dir=str(out_dir / "trials" / tid),
@@ -199,17 +201,15 @@ def run_task(task: TrialTask) -> dict:
         **{SET_PREFIX + k: v for k, v in task.settings.items()},
     }
     try:
-        from eval.commands_sim import split_settings
         from eval.rules import load_rules
         from eval.trial import run_trial
         from sim.scenario import parse_scenario
 
         sc = parse_scenario(task.scenario_yaml, f"<{task.scenario_name}>")
-        _, pipe_sets = split_settings([f"{k}={v}" for k, v in task.settings.items()])
         res = run_trial(
             sc,
             task.out_dir,
-            pipeline_sets=pipe_sets,
+            pipeline_sets=task.pipeline_sets,
             detector=task.detector,
             rules=load_rules(task.rules),
             rules_name=task.rules,

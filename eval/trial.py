@@ -139,11 +139,10 @@ def run_trial(
             else None
         )
         skipped = 0
+        truth_file = read_poi_file(out / "truth.csv")
         live = None
         if record_live or live_server is not None:
             from eval.live_record import LiveRecorder
-
-            truth_file = read_poi_file(out / "truth.csv")
 
             def running_score() -> dict:
                 r = score(read_poi_file(out / "pois.csv"), truth_file, rules)
@@ -190,9 +189,7 @@ def run_trial(
         final = pipe.confirmed()
         writer.finalize(final)
         sim_duration = float(sim.times_s[n - 1]) if n else 0.0
-        report_file = read_poi_file(out / "pois.csv")
-        truth_file = read_poi_file(out / "truth.csv")
-        result = score(report_file, truth_file, rules)
+        result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
         doc = to_json_dict(result)
         doc["trial"] = {
             "scenario": sc.name,

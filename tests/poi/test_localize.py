@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from poi.config import apply_overrides, load_config
+from poi.detectors.base import make_detection
 from poi.geometry import R_BODY_OPTICAL, make_transform, rot_z
 from poi.localize import (
     LocalizeError,
@@ -14,7 +15,6 @@ from poi.localize import (
     localize,
     project_point_to_pixel,
 )
-from poi.names import class_to_identity
 from poi.types import Detection, Frame, Intrinsics
 from poi.visibility import in_view
 
@@ -32,14 +32,7 @@ K_BC = Intrinsics(
 
 
 def det(box, class_name="door", conf=0.9, text=None) -> Detection:
-    typ, label = class_to_identity(class_name)
-    return Detection(
-        class_name=class_name,
-        type=typ,
-        text=label if text is None else text,
-        box_xyxy=box,
-        confidence=conf,
-    )
+    return make_detection(class_name, box, conf, source="test", class_probs=None, text=text)
 
 
 def frame(depth=2.0, pose=None, index=0, t=0.0) -> Frame:

@@ -8,7 +8,7 @@ import pytest
 import poi.pipeline as pipeline_mod
 from poi.annotate import annotate
 from poi.config import apply_overrides, load_config
-from poi.names import class_to_identity
+from poi.detectors.base import make_detection
 from poi.pipeline import Pipeline
 from poi.types import Detection, Frame, Intrinsics
 
@@ -19,14 +19,7 @@ GHOST_BOX = (100.0, 100.0, 140.0, 140.0)
 
 
 def make_det(class_name: str, box, conf: float = 0.9, text: str | None = None) -> Detection:
-    typ, label = class_to_identity(class_name)
-    return Detection(
-        class_name=class_name,
-        type=typ,
-        text=label if text is None else text,
-        box_xyxy=box,
-        confidence=conf,
-    )
+    return make_detection(class_name, box, conf, source="test", class_probs=None, text=text)
 
 
 class FakeDetector:
