@@ -6,7 +6,10 @@ shares the CPU with the timed code); 30 tracks are seeded in the tracker so
 gating and the in-view test work at that size; the
 detector is the oracle (ground-truth boxes), so "detect" here is near zero and
 the figures are the pipeline's own cost. With ``--model FILE.onnx`` it also
-times that model's inference. Run: ``python bench/bench_pipeline.py``.
+times that model's inference; with ``--slam`` the pipeline runs in ``localize.mode:
+slam``. At the end it times the UKF-SLAM alone (seed 2, 2.2) with ``--landmarks``
+mapped landmarks (default 40), five of them observed per step. Run:
+``python bench/bench_pipeline.py``.
 """
 
 from __future__ import annotations
@@ -35,6 +38,8 @@ def main() -> None:
     ap.add_argument("--frames", type=int, help="time only the first N frames (default: all)")
     ap.add_argument("--tracks", type=int, default=30)
     ap.add_argument("--model", help="an ONNX detector to time as well")
+    ap.add_argument("--slam", action="store_true", help="run the pipeline with localize.mode=slam")
+    ap.add_argument("--landmarks", type=int, default=40, help="landmarks in the SLAM-alone timing (default 40)")
     args = ap.parse_args()
     sim = Simulation(load_scenario("default"))
     n = sim.n_frames if args.frames is None else min(args.frames, sim.n_frames)
@@ -45,7 +50,8 @@ def main() -> None:
         [
             f"mount.T_tracker_camera.translation_m=[{T[0, 3]}, {T[1, 3]}, {T[2, 3]}]",
             f"mount.T_tracker_camera.quaternion_wxyz=[{q[0]}, {q[1]}, {q[2]}, {q[3]}]",
-        ],
+        ]
+        + (["localize.mode=slam"] if args.slam else []),
     )
     oracle = OracleDetector(OracleSettings(seed=0))
     pipe = Pipeline(cfg, [oracle])
@@ -106,6 +112,48 @@ def main() -> None:
     )
     if onnx_ms:
         print(f"{'onnx detector':28s} mean {np.mean(onnx_ms[1:] or onnx_ms):7.3f} ms")
+    bench_slam(args.landmarks)
+
+
+def bench_slam(n_landmarks: int, visible: int = 5, steps: int = 500) -> None:
+    """The UKF-SLAM's predict and update with ``n_landmarks`` in the state (n = 3 + 2L),
+    ``visible`` of them observed per step, on a robot driving a circle among them."""
+    from poi.config import SlamConfig
+    from poi.slam import LandmarkObservation, UkfSlam, rot2
+
+    rng = np.random.default_rng(0)
+    names = [f"lm{i}" for i in range(n_landmarks)]
+    truth = rng.uniform(-6, 6, (n_landmarks, 2))
+    slam = UkfSlam(SlamConfig(n_min=1))
+    slam.observe(
+        [LandmarkObservation(class_name=c, xy=p, R=0.01 * np.eye(2)) for c, p in zip(names, truth, strict=True)],
+        0.0,
+    )
+    robot = np.zeros(3)
+    step = np.array([0.03, 0.0, 0.01])
+    t_pred, t_obs = [], []
+    for k in range(steps):
+        robot = robot + np.r_[rot2(robot[2]) @ step[:2], step[2]]
+        seen = np.argsort(np.linalg.norm(truth - robot[:2], axis=1))[:visible]
+        obs = [
+            LandmarkObservation(
+                class_name=names[i],
+                xy=rot2(robot[2]).T @ (truth[i] - robot[:2]) + rng.normal(0, 0.03, 2),
+                R=0.03**2 * np.eye(2),
+            )
+            for i in seen
+        ]
+        t0 = time.perf_counter()
+        slam.predict(step)
+        t1 = time.perf_counter()
+        slam.observe(obs, 0.1 * (k + 1))
+        t2 = time.perf_counter()
+        t_pred.append(1e3 * (t1 - t0))
+        t_obs.append(1e3 * (t2 - t1))
+    tot = np.add(t_pred, t_obs)
+    print(f"UKF-SLAM alone: {n_landmarks} landmarks (state n = {slam.n}), {visible} seen per step, {steps} steps")
+    for name, v in (("slam predict", t_pred), ("slam update", t_obs), ("slam predict + update", tot)):
+        print(f"{name:28s} mean {np.mean(v):7.3f} ms   p90 {np.percentile(v, 90):7.3f} ms")
 
 
 if __name__ == "__main__":

@@ -8,6 +8,8 @@ from pathlib import Path
 
 from eval.commands_sim import resolve_scenario, split_settings
 
+DEFAULT_RULES = "ex3"
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -24,7 +26,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="trial", help="output folder (default: ./trial)")
     p.add_argument("--seed", type=int, help="generate the scenario from seed N instead of the default")
     p.add_argument("--detector", default="default", help="default | oracle | FILE.onnx")
-    p.add_argument("--rules", default="ex3", help="ex3 | rmrc2025 | FILE (default: ex3)")
+    p.add_argument(
+        "--rules",
+        default=None,
+        help="ex3 | rmrc2025 | turtlebot | FILE (default: the scenario's own rules, else ex3)",
+    )
     p.add_argument("--noise", choices=["on", "off"], help="switch all sensor noise on or off")
     p.add_argument(
         "--set",
@@ -68,6 +74,7 @@ def cmd_view(args) -> int:
 def cmd_run(args) -> int:
     import yaml
 
+    from eval.map_error import MapErrorResult
     from eval.rules import load_rules
     from eval.score_report import format_tables
     from eval.trial import run_trial
@@ -76,6 +83,7 @@ def cmd_run(args) -> int:
 
     _, pipe_sets = split_settings(args.set)
     detector, rules_name, max_frames = args.detector, args.rules, args.max_frames
+    rules_note = None
     if args.config:
         path = Path(args.config)
         try:
@@ -90,11 +98,17 @@ def cmd_run(args) -> int:
             for k, v in flatten_config(doc.get("pipeline", {}))
         ] + pipe_sets
         detector = doc.get("detector", detector)
-        rules_name = doc.get("rules", rules_name)
+        rules_name = rules_name or doc.get("rules")
         max_frames = doc.get("max_frames", max_frames)
     else:
         sc = resolve_scenario(args.scenario, args.seed, args.set, args.noise)
+    if rules_name is None:
+        rules_name = sc.rules or DEFAULT_RULES
+        if sc.rules is not None:
+            rules_note = f"scoring with the '{sc.rules}' rules, the scenario's own (--rules to choose others)"
     rules = load_rules(rules_name)
+    if rules_note:
+        print(f"note: {rules_note}", file=sys.stderr)
     server = None
     if args.live:
         from eval.live_server import LiveServer
@@ -121,11 +135,14 @@ def cmd_run(args) -> int:
         print(f"note: {note}", file=sys.stderr)
     print(format_tables(res.score))
     s = res.score
-    frac = s.total / s.max_total if s.max_total else 0.0
+    if isinstance(s, MapErrorResult):
+        outcome = s.headline()
+    else:
+        frac = s.total / s.max_total if s.max_total else 0.0
+        outcome = f"{s.headline()} ({frac:.0%}), {s.false_reports} false reports, {s.misses} misses"
     print(
-        f"\n{sc.name} (seed {sc.seed}), detector {res.detector}, rules {rules_name}: "
-        f"{s.total:g} / {s.max_total:g} points ({frac:.0%}), {s.false_reports} false reports, "
-        f"{s.misses} misses; {res.n_frames} frames, {res.sim_duration_s:.0f} s simulated in {res.wall_s:.0f} s "
+        f"\n{sc.name} (seed {sc.seed}), detector {res.detector}, rules {rules_name}: {outcome}; "
+        f"{res.n_frames} frames, {res.sim_duration_s:.0f} s simulated in {res.wall_s:.0f} s "
         f"({res.real_time_factor:.1f}x real time)"
     )
     print(

@@ -28,6 +28,12 @@ def generated_scenario(seed: int, rows: int = 4, cols: int = 4, preset: str = "r
     )
 
 
+def generated_arena_scenario(seed: int) -> Scenario:
+    """The shipped ``turtlebot-goal`` scenario (the TurtleBot goal arena) laid out from ``seed``."""
+    sc = load_scenario("turtlebot-goal")
+    return apply_settings(sc, [f"seed={seed}", f"name=turtlebot-goal-{seed}"])
+
+
 def split_settings(sets: list[str]) -> tuple[list[str], list[str]]:
     """Split ``--set key=value`` items into scenario settings and pipeline settings."""
     sim_keys = set(Scenario.__dataclass_fields__)
@@ -59,6 +65,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     n.add_argument("--rows", type=int, default=4)
     n.add_argument("--cols", type=int, default=4)
     n.add_argument("--preset", choices=["rrl", "rmrc"], default="rrl")
+    n.add_argument(
+        "--arena",
+        action="store_true",
+        help="the TurtleBot goal arena (turtlebot-goal) laid out from --seed, instead of a maze",
+    )
     n.add_argument("-o", "--output", help="write to this file instead of stdout")
     n.set_defaults(func=cmd_scenario_new)
 
@@ -97,7 +108,10 @@ def truth_overlay(rgb: np.ndarray, truth) -> np.ndarray:
 
 
 def cmd_scenario_new(args) -> int:
-    sc = generated_scenario(args.seed, args.rows, args.cols, args.preset)
+    if args.arena:
+        sc = generated_arena_scenario(args.seed)
+    else:
+        sc = generated_scenario(args.seed, args.rows, args.cols, args.preset)
     # check it builds (maze and placement) before handing it out
     from sim.simulator import Simulation
 

@@ -128,6 +128,7 @@ def cmd_suite_run(args) -> int:
             "false_reports",
             "misses",
             "loc_err_median_m",
+            "pose_err_median_m",
             "wall_s",
             "error",
         ]

@@ -15,7 +15,8 @@ occlude objects partially; an object is labelled when at least
 
 Layout (what Ultralytics reads): ``images/{train,val}/*.jpg``,
 ``labels/{train,val}/*.txt`` (``class cx cy w h``, normalised), ``data.yaml``
-(class names in ``poi.names.CLASSES`` order), plus ``manifest.csv`` (one row
+(class names in ``poi.names.RESCUE_CLASSES`` order: the 24 rescue classes; a
+dataset renders rescue mazes only), plus ``manifest.csv`` (one row
 per image: scenario, view, target), ``dataset.yaml`` (the spec, to refuse
 mixing) and ``classes.png`` (labelled instances per class and split).
 Scenarios go wholly to train or to val (every ``val_every``-th one to val),
@@ -37,13 +38,14 @@ import numpy as np
 import yaml
 
 from poi.geometry import make_transform, rot_x, rot_y, rot_z
-from poi.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS, identity_to_class
+from poi.names import HAZMAT_LABELS, RESCUE_CLASSES, identity_to_class
 from sim.scenario import DEFAULT_COUNTS
 
 LIGHTING = ("bright", "dim", "uneven")
 FLOOR_MOUNTS = ("floor",)
 HAZMAT_PER_SCENARIO = 8
 SCENARIO_TRIES = 10
+RESCUE_CLASS_INDEX: dict[str, int] = {c: i for i, c in enumerate(RESCUE_CLASSES)}
 VIEW_TRIES = 120  # viewpoint draws per image before the target is given up for another
 
 
@@ -234,7 +236,7 @@ def yolo_labels(
         x1, y1, x2, y2 = v.box_xyxy
         if v.visible_fraction < spec.min_visible_fraction or min(x2 - x1, y2 - y1) < spec.min_box_px:
             continue
-        cls = CLASS_INDEX[object_class(objects_by_id[v.id])]
+        cls = RESCUE_CLASS_INDEX[object_class(objects_by_id[v.id])]
         out.append((cls, (x1 + x2) / 2 / width, (y1 + y2) / 2 / height, (x2 - x1) / width, (y2 - y1) / height))
     return out
 
@@ -325,7 +327,7 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                     rgb, blur_kind = blur(rgb, rng)
                 labels = yolo_labels(truth, by_id, spec, rgb.shape[1], rgb.shape[0])
                 for c, *_ in labels:
-                    per_class[CLASSES[c]] += 1
+                    per_class[RESCUE_CLASSES[c]] += 1
                 name = _image_name(j, i)
                 cv2.imwrite(
                     str(out / "images" / split / f"{name}.jpg"),
@@ -348,7 +350,7 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                         "angle_deg": round(info["angle_deg"], 1),
                         "camera_height_m": round(info["camera_height_m"], 3),
                         "blur": blur_kind,
-                        "labels": " ".join(CLASSES[c] for c, *_ in labels),
+                        "labels": " ".join(RESCUE_CLASSES[c] for c, *_ in labels),
                     }
                 )
                 if progress:
@@ -377,13 +379,13 @@ def _finish(out: Path, spec: DatasetSpec) -> dict:
         "path": str(out.resolve()),
         "train": "images/train",
         "val": "images/val",
-        "nc": len(CLASSES),
-        "names": dict(enumerate(CLASSES)),
+        "nc": len(RESCUE_CLASSES),
+        "names": dict(enumerate(RESCUE_CLASSES)),
     }
     (out / "data.yaml").write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     summary = {
         "images": {s: sum(r["split"] == s for r in rows) for s in counts},
-        "instances": {s: {c: counts[s][c] for c in CLASSES} for s in counts},
+        "instances": {s: {c: counts[s][c] for c in RESCUE_CLASSES} for s in counts},
     }
     (out / "dataset.yaml").write_text(
         yaml.safe_dump({"poibench_dataset": 1, "spec": spec.to_dict(), "summary": summary}, sort_keys=False),
@@ -400,10 +402,10 @@ def _plot_classes(path: Path, counts: dict[str, Counter]) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(10, 4.5))
-    x = np.arange(len(CLASSES))
-    ax.bar(x - 0.2, [counts["train"][c] for c in CLASSES], 0.4, label="train")
-    ax.bar(x + 0.2, [counts["val"][c] for c in CLASSES], 0.4, label="val")
-    ax.set_xticks(x, CLASSES, rotation=60, ha="right", fontsize=8)
+    x = np.arange(len(RESCUE_CLASSES))
+    ax.bar(x - 0.2, [counts["train"][c] for c in RESCUE_CLASSES], 0.4, label="train")
+    ax.bar(x + 0.2, [counts["val"][c] for c in RESCUE_CLASSES], 0.4, label="val")
+    ax.set_xticks(x, RESCUE_CLASSES, rotation=60, ha="right", fontsize=8)
     ax.set_ylabel("labelled instances")
     ax.legend()
     fig.tight_layout()

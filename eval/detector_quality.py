@@ -32,7 +32,7 @@ import yaml
 from scipy.optimize import nnls
 
 from eval.detection_metrics import ImageBoxes, class_metrics, confusion_counts, match_boxes, mean_ap
-from poi.names import CLASSES
+from poi.names import RESCUE_CLASSES
 
 EVAL_SEED = 1000  # default seed of evaluation scenes; 'poibench dataset' defaults to seed 0
 MIN_FIT_SAMPLES = 30
@@ -94,8 +94,8 @@ def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
                     c, x, y, bw, bh = int(parts[0]), *map(float, parts[1:5])
                 except (ValueError, IndexError):
                     raise DetectorQualityError(f"{lab}:{n}: expected 'class cx cy w h'") from None
-                if not 0 <= c < len(CLASSES):
-                    raise DetectorQualityError(f"{lab}:{n}: class {c} is not in 0..{len(CLASSES) - 1}")
+                if not 0 <= c < len(RESCUE_CLASSES):
+                    raise DetectorQualityError(f"{lab}:{n}: class {c} is not in 0..{len(RESCUE_CLASSES) - 1}")
                 rows.append((c, x - bw / 2, y - bh / 2, x + bw / 2, y + bh / 2))
         arr = np.array(rows, dtype=float).reshape(-1, 5)
         out.append(LabelledImage(path=img, boxes_norm=arr[:, 1:], classes=arr[:, 0].astype(int)))
@@ -119,12 +119,15 @@ def detect_all(model: str | Path, images: list[LabelledImage], conf: float, prog
         h, w = rgb.shape[:2]
         K = Intrinsics(width=w, height=h, fx=1.0, fy=1.0, ppx=w / 2, ppy=h / 2)
         dets = det.detect(Frame(index=k, timestamp_s=0.0, rgb=rgb, intrinsics=K))
+        # the datasets are rescue mazes labelled with RESCUE_CLASSES; a model that also knows
+        # the arena's classes has nothing to find of them here
+        dets = [d for d in dets if d.class_name in RESCUE_CLASSES]
         out.append(
             ImageBoxes(
                 gt_boxes=im.boxes_px(w, h),
                 gt_classes=im.classes,
                 det_boxes=np.array([d.box_xyxy for d in dets], float).reshape(-1, 4),
-                det_classes=np.array([CLASSES.index(d.class_name) for d in dets], int),
+                det_classes=np.array([RESCUE_CLASSES.index(d.class_name) for d in dets], int),
                 det_scores=np.array([d.confidence for d in dets], float),
             )
         )
@@ -137,7 +140,7 @@ def detect_all(model: str | Path, images: list[LabelledImage], conf: float, prog
 
 
 def evaluation_report(results: list[ImageBoxes], conf: float) -> dict:
-    per = class_metrics(results, len(CLASSES), conf)
+    per = class_metrics(results, len(RESCUE_CLASSES), conf)
     m50, m5095 = mean_ap(per)
 
     def num(x: float):
@@ -156,9 +159,9 @@ def evaluation_report(results: list[ImageBoxes], conf: float) -> dict:
                 "recall": num(p.recall),
                 "precision": num(p.precision),
             }
-            for c, p in zip(CLASSES, per, strict=True)
+            for c, p in zip(RESCUE_CLASSES, per, strict=True)
         },
-        "confusion": confusion_counts(results, len(CLASSES), conf).tolist(),
+        "confusion": confusion_counts(results, len(RESCUE_CLASSES), conf).tolist(),
     }
 
 
@@ -169,7 +172,7 @@ def plot_confusion(path: Path, counts: np.ndarray) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    labels = [*CLASSES, "background"]
+    labels = [*RESCUE_CLASSES, "background"]
     M = np.asarray(counts, float)
     rows = M.sum(axis=1, keepdims=True)
     norm = np.divide(M, rows, out=np.zeros_like(M), where=rows > 0)
@@ -235,7 +238,7 @@ def center_samples(results: list[ImageBoxes]) -> tuple[CenterSamples, np.ndarray
     """Squared centre errors of paired detections, and (C, C) misclassification counts
     (row: detected class A, column: actual class B, A != B)."""
     cls, w, h, du2, dv2 = [], [], [], [], []
-    mis = np.zeros((len(CLASSES), len(CLASSES)), dtype=np.int64)
+    mis = np.zeros((len(RESCUE_CLASSES), len(RESCUE_CLASSES)), dtype=np.int64)
     for im in results:
         for g, d in match_boxes(im.gt_boxes, im.det_boxes, 0.5):
             gb, db = im.gt_boxes[g], im.det_boxes[d]
@@ -284,7 +287,7 @@ def calibration_doc(samples: CenterSamples, mis: np.ndarray) -> tuple[dict, dict
     counts = {}
     if len(samples.w):
         centers["default"] = {"u": fit_variance(samples.w, samples.du2), "v": fit_variance(samples.h, samples.dv2)}
-    for i, c in enumerate(CLASSES):
+    for i, c in enumerate(RESCUE_CLASSES):
         sel = samples.cls == i
         counts[c] = int(sel.sum())
         if sel.sum() >= MIN_FIT_SAMPLES:
@@ -296,7 +299,7 @@ def calibration_doc(samples: CenterSamples, mis: np.ndarray) -> tuple[dict, dict
         "poibench_calibration": 1,
         "center_variance_px2": centers,
         "confusion": {
-            "classes": list(CLASSES),
+            "classes": list(RESCUE_CLASSES),
             "matrix": [[round(float(x), 6) for x in row] for row in confusion_probabilities(mis)],
         },
     }
@@ -316,7 +319,7 @@ def plot_center_fits(path: Path, samples: CenterSamples, doc: dict) -> None:
     rows = max(1, -(-n // cols))
     fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.9 * rows), squeeze=False)
     for ax, name in zip(axes.ravel(), fitted, strict=False):
-        sel = np.ones(len(samples.w), bool) if name == "default" else samples.cls == CLASSES.index(name)
+        sel = np.ones(len(samples.w), bool) if name == "default" else samples.cls == RESCUE_CLASSES.index(name)
         coef = doc["center_variance_px2"][name]
         ax.scatter(samples.w[sel], samples.du2[sel], s=4, alpha=0.4, label="du² vs w")
         ax.scatter(samples.h[sel], samples.dv2[sel], s=4, alpha=0.4, label="dv² vs h")

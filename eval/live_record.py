@@ -20,15 +20,17 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from eval.map_plot import ARENA_RGB
 from poi.annotate import DEFAULT_COLOR_RGB, TYPE_COLORS_RGB
 from poi.names import display_name
 
 INSET_W, INSET_H = 160, 120
 THERMAL_RANGE_C = (15.0, 80.0)
 DEPTH_RANGE_M = (0.0, 6.0)
-# the competition map's marker shapes (FACTS.md): victims and QR codes circles, the rest diamonds
-MARKER_SHAPES = {"baby-doll": "circle", "qr": "circle"}
-MARKER_COLORS = {"baby-doll": (240, 10, 10), "qr": (10, 10, 240)}
+# the competition map's marker shapes (FACTS.md): victims and QR codes circles, the rest diamonds;
+# the goal arena's pillars and ball circles in their paint colours (as eval/map_plot.py draws them)
+MARKER_SHAPES = {"baby-doll": "circle", "qr": "circle", **{t: "circle" for t in ARENA_RGB}}
+MARKER_COLORS = {"baby-doll": (240, 10, 10), "qr": (10, 10, 240), **ARENA_RGB}
 DEFAULT_MARKER_COLOR = (255, 100, 30)
 
 
@@ -97,7 +99,8 @@ class LiveRecorder:
     def __init__(self, out_dir: Path, sim, *, title: str, score_fn=None, server=None, record: bool = True) -> None:
         self.out = Path(out_dir)
         self.server = server
-        self.score_fn = score_fn  # () -> {"total", "max"} of the confirmed objects so far, or None
+        # () -> the running score of the confirmed objects so far (eval.score_report.live_summary), or None
+        self.score_fn = score_fn
         self._score: dict | None = None
         self._n_confirmed = -1
         walls = [[round(a[0], 3), round(a[1], 3), round(b[0], 3), round(b[1], 3)] for a, b in sim.walls_in_map()]

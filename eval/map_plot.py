@@ -12,6 +12,14 @@ ex3) around each, false reports crossed with a black X and labelled ``false``,
 missed objects with a dashed outline labelled ``miss``, and reports identified
 but not located edged in black. Everything is in the map frame, metres, equal
 aspect. Drawing uses matplotlib's Agg canvas directly (no pyplot state).
+
+The TurtleBot goal arena's objects (not in the competition's conventions) are
+circles in their own colours: blue, red and green pillars, a yellow ball. A
+map-error result (eval/map_error.py) draws the truth circles at its pairing
+distance, and the goal: a dashed line between the two truth goal pillars, the
+truth centre as a black cross and the reported centre as a filled black dot joined
+to it (:class:`MapGoal`). :func:`score_layers` gives ``draw_map`` all of that from
+a score result of either kind.
 """
 
 from __future__ import annotations
@@ -29,6 +37,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Polygon
 
+from eval.map_error import STATUS_PAIRED, MapErrorResult
 from eval.scorer import STATUS_FALSE, STATUS_IGNORED, STATUS_LOCATED, ScoreResult
 
 CELL_SIZE_M = 1.0
@@ -46,6 +55,15 @@ VICTIM_RGB = (240, 10, 10)
 QR_RGB = (10, 10, 240)
 HAZARD_RGB = (255, 100, 30)
 FALSE_RGB = (0, 0, 0)
+# The goal arena's objects: circles in the colours they are painted (maze_assets/models.py).
+ARENA_RGB: dict[str, tuple[int, int, int]] = {
+    "pillar-blue": (20, 60, 220),
+    "pillar-red": (220, 30, 20),
+    "pillar-green": (30, 160, 50),
+    "ball": (245, 210, 10),
+}
+ARENA_LABELS = {"pillar-blue": "blue pillar", "pillar-red": "red pillar", "pillar-green": "green pillar"}
+GOAL_RGB = (0, 0, 0)
 
 # Figure layout in pixels: axes margins, with the legend in the right margin.
 _MARGIN_LEFT_PX, _MARGIN_BOTTOM_PX, _MARGIN_TOP_PX, LEGEND_WIDTH_PX = 60, 50, 40, 230
@@ -77,19 +95,51 @@ class MapTruth:
     text: str = ""
 
 
-def markers_from_score(result: ScoreResult) -> tuple[list[MapReport], list[MapTruth]]:
-    """Map markers of a :class:`~eval.scorer.ScoreResult`: readable reports, scored objects."""
+@dataclass(kw_only=True)
+class MapGoal:
+    """The goal on the map: its truth posts (2, 2) and the reported centre (None if unknown)."""
+
+    truth_posts: tuple[tuple[float, float], tuple[float, float]]
+    reported_center: tuple[float, float] | None = None
+
+
+def markers_from_score(result: ScoreResult | MapErrorResult) -> tuple[list[MapReport], list[MapTruth]]:
+    """Map markers of a score result: readable reports, scored objects (a paired map-error
+    report is drawn as located)."""
     reports = [
-        MapReport(id=r.id, type=r.type, text=r.text, x=r.x, y=r.y, status=r.status)
+        MapReport(
+            id=r.id,
+            type=r.type,
+            text=getattr(r, "text", ""),
+            x=r.x,
+            y=r.y,
+            status=STATUS_LOCATED if r.status == STATUS_PAIRED else r.status,
+        )
         for r in result.reports
         if r.x is not None and r.y is not None
     ]
     truth = [
-        MapTruth(x=o.x, y=o.y, type=o.type, text=o.text, id=o.id, found=o.found_by is not None)
+        MapTruth(x=o.x, y=o.y, type=o.type, text=getattr(o, "text", ""), id=o.id, found=o.found_by is not None)
         for o in result.objects
         if o.status != STATUS_IGNORED
     ]
     return reports, truth
+
+
+def score_layers(result: ScoreResult | MapErrorResult) -> dict[str, Any]:
+    """``draw_map`` keyword arguments for a score result: ``reports``, ``truth`` and, for a
+    map-error result, ``truth_circle_m`` (its pairing distance) and ``goal``."""
+    reports, truth = markers_from_score(result)
+    layers: dict[str, Any] = {"reports": reports, "truth": truth}
+    if isinstance(result, MapErrorResult):
+        layers["truth_circle_m"] = result.rules.max_pair_distance_m
+        posts = [o for o in result.objects if o.type == result.rules.goal_type]
+        if result.goal is not None and len(posts) == 2:
+            layers["goal"] = MapGoal(
+                truth_posts=((posts[0].x, posts[0].y), (posts[1].x, posts[1].y)),
+                reported_center=result.goal.reported_center,
+            )
+    return layers
 
 
 def style_of(type_: str | None) -> tuple[str, tuple[int, int, int]]:
@@ -97,7 +147,11 @@ def style_of(type_: str | None) -> tuple[str, tuple[int, int, int]]:
 
     >>> style_of("baby-doll"), style_of("qr"), style_of("valve")
     (('circle', (240, 10, 10)), ('circle', (10, 10, 240)), ('diamond', (255, 100, 30)))
+    >>> style_of("ball")
+    ('circle', (245, 210, 10))
     """
+    if type_ in ARENA_RGB:
+        return "circle", ARENA_RGB[type_]
     if type_ == "baby-doll":
         return "circle", VICTIM_RGB
     if type_ == "qr":
@@ -115,12 +169,15 @@ def draw_map(
     title: str = "",
     size_px: tuple[int, int] = (1200, 900),
     dpi: int = 100,
+    truth_circle_m: float = LOCATE_CIRCLE_M,
+    goal: MapGoal | None = None,
 ) -> Path:
     """Draw the map and write it as a PNG of exactly ``size_px`` (width, height) pixels.
 
     ``walls`` are ((x0, y0), (x1, y1)) segments and ``robot_path`` an (N, 2) array,
     both in the map frame (metres). ``reports`` and ``truth`` are :class:`MapReport` /
-    :class:`MapTruth` records or mappings with the same keys.
+    :class:`MapTruth` records or mappings with the same keys. ``truth_circle_m`` is the
+    radius of the circle round each truth object; ``goal`` draws the goal arena's goal.
     """
     width_px, height_px = int(size_px[0]), int(size_px[1])
     if width_px < _MARGIN_LEFT_PX + LEGEND_WIDTH_PX + 100 or height_px < 200:
@@ -133,7 +190,7 @@ def draw_map(
     # Axes rectangle (pixels) and a view that fills it at equal aspect.
     ax_w_px = width_px - _MARGIN_LEFT_PX - LEGEND_WIDTH_PX
     ax_h_px = height_px - _MARGIN_BOTTOM_PX - _MARGIN_TOP_PX
-    xlim, ylim = _view(segs, path_xy, reps, objs, ax_w_px / ax_h_px)
+    xlim, ylim = _view(segs, path_xy, reps, objs, ax_w_px / ax_h_px, truth_circle_m)
     px_per_m = ax_w_px / (xlim[1] - xlim[0])
 
     fig = Figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi)
@@ -164,7 +221,9 @@ def draw_map(
             )
         )
     for o in objs:
-        _draw_truth(ax, o, pt_per_px, px_per_m)
+        _draw_truth(ax, o, pt_per_px, px_per_m, truth_circle_m)
+    if goal is not None:
+        _draw_goal(ax, goal, pt_per_px)
     if len(path_xy):
         _draw_path(ax, path_xy, pt_per_px, px_per_m)
     font_pt = float(np.clip(0.9 * MARKER_RADIUS_M * px_per_m * pt_per_px, 4.0, 12.0))
@@ -175,8 +234,9 @@ def draw_map(
     ax.set_ylabel("y (m)")
     if title:
         ax.set_title(title)
+    arena = sorted({t for t in [*(r.type for r in reps), *(o.type for o in objs)] if t in ARENA_RGB})
     ax.legend(
-        handles=_legend_handles(pt_per_px),
+        handles=_legend_handles(pt_per_px, truth_circle_m, arena, goal is not None),
         loc="upper left",
         bbox_to_anchor=(1.02, 1.0),
         borderaxespad=0.0,
@@ -220,19 +280,12 @@ def _view(
     reps: list[MapReport],
     objs: list[MapTruth],
     aspect: float,
+    circle_m: float = LOCATE_CIRCLE_M,
 ) -> tuple[tuple[float, float], tuple[float, float]]:
-    """x and y limits: everything plus the 1 m truth circles, whole metres, at ``aspect``."""
+    """x and y limits: everything plus the truth circles, whole metres, at ``aspect``."""
     pts = [segs.reshape(-1, 2), path_xy]
     pts += [np.array([[r.x, r.y]]) for r in reps]
-    pts += [
-        np.array(
-            [
-                [o.x - LOCATE_CIRCLE_M, o.y - LOCATE_CIRCLE_M],
-                [o.x + LOCATE_CIRCLE_M, o.y + LOCATE_CIRCLE_M],
-            ]
-        )
-        for o in objs
-    ]
+    pts += [np.array([[o.x - circle_m, o.y - circle_m], [o.x + circle_m, o.y + circle_m]]) for o in objs]
     allp = np.concatenate([p for p in pts if p.size], axis=0) if any(p.size for p in pts) else None
     if allp is None:
         lo, hi = np.array([-1.0, -1.0]), np.array([1.0, 1.0])
@@ -277,14 +330,16 @@ def _marker(shape: str, x: float, y: float, r: float, **kw: Any) -> Any:
     return Polygon([(x + r, y), (x, y + r), (x - r, y), (x, y - r)], closed=True, **kw)
 
 
-def _draw_truth(ax: Any, o: MapTruth, pt_per_px: float, px_per_m: float) -> None:
+def _draw_truth(
+    ax: Any, o: MapTruth, pt_per_px: float, px_per_m: float, circle_m: float = LOCATE_CIRCLE_M
+) -> None:
     shape, rgb = style_of(o.type)
     colour = _rgb(rgb)
     style = "solid" if o.found else (0, (4, 3))
     ax.add_patch(
         Circle(
             (o.x, o.y),
-            LOCATE_CIRCLE_M,
+            circle_m,
             fill=False,
             edgecolor=colour,
             alpha=0.55,
@@ -317,6 +372,20 @@ def _draw_truth(ax: Any, o: MapTruth, pt_per_px: float, px_per_m: float) -> None
             va="top",
             zorder=6,
         )
+
+
+def _draw_goal(ax: Any, goal: MapGoal, pt_per_px: float) -> None:
+    """The goal line between the truth posts (dashed), its truth centre (a cross) and the
+    reported centre (a dot) joined to it."""
+    (x0, y0), (x1, y1) = goal.truth_posts
+    colour = _rgb(GOAL_RGB)
+    ax.plot([x0, x1], [y0, y1], color=colour, linestyle=(0, (5, 3)), linewidth=1.5 * pt_per_px, zorder=3)
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    ax.plot([cx], [cy], marker="x", markersize=10, markeredgewidth=2.0, color=colour, zorder=6)
+    if goal.reported_center is not None:
+        rx, ry = goal.reported_center
+        ax.plot([cx, rx], [cy, ry], color=colour, linewidth=1.0 * pt_per_px, zorder=6)
+        ax.plot([rx], [ry], marker="o", markersize=6, color=colour, zorder=6)
 
 
 def _draw_path(ax: Any, path_xy: np.ndarray, pt_per_px: float, px_per_m: float) -> None:
@@ -365,11 +434,12 @@ def _draw_report(ax: Any, r: MapReport, pt_per_px: float, font_pt: float) -> Non
         )
     )
     if r.id is not None:
+        light = 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2] > 170  # the yellow ball: dark digits
         ax.text(
             r.x,
             r.y,
             str(r.id),
-            color="white",
+            color="black" if light else "white",
             fontsize=font_pt,
             fontweight="bold",
             ha="center",
@@ -395,38 +465,34 @@ def _draw_report(ax: Any, r: MapReport, pt_per_px: float, font_pt: float) -> Non
         ax.text(r.x + d, r.y + d, "false", color="black", fontsize=8, ha="left", va="bottom", zorder=7)
 
 
-def _legend_handles(pt_per_px: float) -> list[Line2D]:
+def _legend_handles(
+    pt_per_px: float, circle_m: float = LOCATE_CIRCLE_M, arena: Sequence[str] = (), goal: bool = False
+) -> list[Line2D]:
+    """The legend: the competition's markers, or the arena's types when ``arena`` lists any."""
+
     def h(label: str, **kw: Any) -> Line2D:
         return Line2D([], [], label=label, **kw)
 
     ms = 9
-    return [
+    head = [
         h("robot path", color=_rgb(PATH_RGB), linewidth=PATH_WIDTH_PX * pt_per_px),
         h("wall", color=_rgb(WALL_RGB), linewidth=4 * pt_per_px),
-        h(
-            "victim (baby doll)",
-            marker="o",
-            linestyle="",
-            markersize=ms,
-            markerfacecolor=_rgb(VICTIM_RGB),
-            markeredgecolor=_rgb(VICTIM_RGB),
-        ),
-        h(
-            "QR code",
-            marker="o",
-            linestyle="",
-            markersize=ms,
-            markerfacecolor=_rgb(QR_RGB),
-            markeredgecolor=_rgb(QR_RGB),
-        ),
-        h(
-            "hazard / other object",
-            marker="D",
-            linestyle="",
-            markersize=ms * 0.8,
-            markerfacecolor=_rgb(HAZARD_RGB),
-            markeredgecolor=_rgb(HAZARD_RGB),
-        ),
+    ]
+    if arena:
+        kinds = [
+            h(
+                ARENA_LABELS.get(t, t),
+                marker="o",
+                linestyle="",
+                markersize=ms,
+                markerfacecolor=_rgb(ARENA_RGB[t]),
+                markeredgecolor=_rgb(ARENA_RGB[t]),
+            )
+            for t in arena
+        ]
+    else:
+        kinds = _competition_handles(h, ms)
+    tail = [
         h(
             "identified, not located",
             marker="o",
@@ -453,7 +519,7 @@ def _legend_handles(pt_per_px: float) -> list[Line2D]:
             markeredgewidth=1.5,
         ),
         h(
-            f"{LOCATE_CIRCLE_M:g} m around truth",
+            f"{circle_m:g} m around truth",
             marker="o",
             linestyle="",
             markersize=ms * 1.6,
@@ -462,6 +528,44 @@ def _legend_handles(pt_per_px: float) -> list[Line2D]:
             markeredgewidth=0.8,
         ),
         h("missed object (dashed)", color="0.3", linestyle=(0, (4, 3)), linewidth=1.5),
+    ]
+    if arena:
+        tail = [t for t in tail if t.get_label() != "identified, not located"]
+    if goal:
+        tail += [
+            h("goal line (truth)", color="black", linestyle=(0, (5, 3)), linewidth=1.5),
+            h("goal centre: truth", marker="x", linestyle="", markersize=8, color="black", markeredgewidth=2),
+            h("goal centre: reported", marker="o", linestyle="", markersize=6, color="black"),
+        ]
+    return head + kinds + tail
+
+
+def _competition_handles(h: Any, ms: float) -> list[Line2D]:
+    return [
+        h(
+            "victim (baby doll)",
+            marker="o",
+            linestyle="",
+            markersize=ms,
+            markerfacecolor=_rgb(VICTIM_RGB),
+            markeredgecolor=_rgb(VICTIM_RGB),
+        ),
+        h(
+            "QR code",
+            marker="o",
+            linestyle="",
+            markersize=ms,
+            markerfacecolor=_rgb(QR_RGB),
+            markeredgecolor=_rgb(QR_RGB),
+        ),
+        h(
+            "hazard / other object",
+            marker="D",
+            linestyle="",
+            markersize=ms * 0.8,
+            markerfacecolor=_rgb(HAZARD_RGB),
+            markeredgecolor=_rgb(HAZARD_RGB),
+        ),
     ]
 
 

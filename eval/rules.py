@@ -1,6 +1,10 @@
 """Scoring rules as data: the YAML schema and its loader (RULES.md, "Scoring presets").
 
-A rules file is a mapping with these fields (all required, no others):
+A rules file says which kind of score it gives with ``scoring``: ``points`` (the
+default when the key is absent: ex3, rmrc2025) or ``map_error`` (turtlebot).
+
+A ``points`` rules file is a mapping with these fields (all required except
+``description`` and ``scoring``, no others):
 
 ``name``
     A non-empty string.
@@ -23,6 +27,23 @@ A rules file is a mapping with these fields (all required, no others):
     exactly when ``locate_radius_m`` is null) and ``identity_uses_text`` (whether
     the text is part of the identity, ex3 rule 1: true for hazmat and qr).
 
+A ``map_error`` rules file (the TurtleBot goal arena, seed 2 section 1; scored by
+eval/map_error.py) has these fields (all required except ``description``):
+
+``name``, ``description``
+    As above.
+``scoring``
+    ``map_error``.
+``types``
+    A non-empty list of canonical type names: every ground-truth object of these types
+    is paired with at most one report of its type (types not listed are ignored).
+``max_pair_distance_m``
+    Pairs farther apart than this (2D distance in the map frame) are never made: the
+    object is missed and the report false.
+``goal_type``
+    A type of ``types`` whose ground-truth objects, exactly two, mark the goal (its
+    centre is their midpoint), or ``null`` for no goal figure.
+
 >>> rules = load_rules("ex3")
 >>> rules.identify_radius_m, rules.types["door"].points, rules.types["door"].located_points
 (2.0, 5, 10)
@@ -30,6 +51,9 @@ A rules file is a mapping with these fields (all required, no others):
 (2, 3)
 >>> load_rules("rmrc2025").penalty("qr")
 0
+>>> tb = load_rules("turtlebot")
+>>> tb.scoring, tb.max_pair_distance_m, tb.goal_type
+('map_error', 1.0, 'pillar-blue')
 """
 
 from __future__ import annotations
@@ -37,20 +61,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import yaml
 
 from poi.names import TYPES
 
 RULES_DIR = Path(__file__).resolve().parent / "rules"
-PRESETS: tuple[str, ...] = ("ex3", "rmrc2025")
+PRESETS: tuple[str, ...] = ("ex3", "rmrc2025", "turtlebot")
+SCORINGS: tuple[str, ...] = ("points", "map_error")
 PENALTIES: tuple[str, ...] = ("type_points", "zero")
 UNSCORED_POLICIES: tuple[str, ...] = ("ignore",)
 
 _TOP_FIELDS = ("name", "identify_radius_m", "false_report_penalty", "unscored_types", "types")
-_TOP_OPTIONAL = ("description",)
+_TOP_OPTIONAL = ("description", "scoring")
 _TYPE_FIELDS = ("points", "locate_radius_m", "located_points", "identity_uses_text")
+_MAP_ERROR_FIELDS = ("name", "scoring", "types", "max_pair_distance_m", "goal_type")
 
 
 class RulesError(ValueError):
@@ -69,8 +95,9 @@ class TypeRule:
 
 @dataclass(kw_only=True, frozen=True)
 class Rules:
-    """A scoring preset: RULES.md "Scoring presets" as data."""
+    """A points preset: RULES.md "Scoring presets" as data."""
 
+    scoring: ClassVar[str] = "points"
     name: str
     identify_radius_m: float | None
     false_report_penalty: str
@@ -118,8 +145,40 @@ class Rules:
         }
 
 
-def load_rules(name_or_path: str | Path) -> Rules:
-    """Load a preset by name ("ex3", "rmrc2025") or a rules YAML file by path.
+@dataclass(kw_only=True, frozen=True)
+class MapErrorRules:
+    """A map-error preset (module docstring): how far the map puts each object."""
+
+    scoring: ClassVar[str] = "map_error"
+    name: str
+    types: tuple[str, ...]
+    max_pair_distance_m: float
+    goal_type: str | None
+    description: str = ""
+    source: str = field(default="", compare=False)
+
+    def is_scored(self, type_: str | None) -> bool:
+        """Whether reports and objects of ``type_`` are paired at all."""
+        return type_ is not None and type_ in self.types
+
+    def to_dict(self) -> dict[str, Any]:
+        """The rules as the YAML mapping they were loaded from (plus ``source``)."""
+        return {
+            "name": self.name,
+            "description": self.description,
+            "scoring": self.scoring,
+            "types": list(self.types),
+            "max_pair_distance_m": self.max_pair_distance_m,
+            "goal_type": self.goal_type,
+            "source": self.source,
+        }
+
+
+AnyRules = Rules | MapErrorRules
+
+
+def load_rules(name_or_path: str | Path) -> AnyRules:
+    """Load a preset by name ("ex3", "rmrc2025", "turtlebot") or a rules YAML file by path.
 
     Raises :class:`RulesError` naming the file and the field for anything missing or wrong.
     """
@@ -143,18 +202,19 @@ def load_rules(name_or_path: str | Path) -> Rules:
     return rules_from_dict(data, source=str(path))
 
 
-def rules_from_dict(data: Any, *, source: str = "<dict>") -> Rules:
-    """Validate a parsed rules mapping and build :class:`Rules` (``source`` names it in errors)."""
+def rules_from_dict(data: Any, *, source: str = "<dict>") -> AnyRules:
+    """Validate a parsed rules mapping and build :class:`Rules` or :class:`MapErrorRules`
+    (``source`` names it in errors)."""
     if not isinstance(data, dict):
         raise RulesError(f"{source}: expected a mapping of rules fields, got {_kind(data)}")
+    scoring = data.get("scoring", "points")
+    if scoring not in SCORINGS:
+        raise RulesError(f"{source}: field 'scoring': expected one of {', '.join(SCORINGS)}, got {scoring!r}")
+    if scoring == "map_error":
+        return _map_error_rules(data, source)
     _check_keys(data, _TOP_FIELDS, _TOP_OPTIONAL, source, where="")
 
-    name = data["name"]
-    if not isinstance(name, str) or not name.strip():
-        raise RulesError(f"{source}: field 'name': expected a non-empty string, got {name!r}")
-    description = data.get("description") or ""
-    if not isinstance(description, str):
-        raise RulesError(f"{source}: field 'description': expected a string, got {_kind(description)}")
+    name, description = _name_and_description(data, source)
     identify = _radius(data["identify_radius_m"], source, "identify_radius_m")
     penalty = data["false_report_penalty"]
     if penalty not in PENALTIES:
@@ -180,12 +240,54 @@ def rules_from_dict(data: Any, *, source: str = "<dict>") -> Rules:
             )
         types[type_name] = _type_rule(spec, source, f"types.{type_name}")
     return Rules(
-        name=name.strip(),
-        description=description.strip(),
+        name=name,
+        description=description,
         identify_radius_m=identify,
         false_report_penalty=penalty,
         unscored_types=unscored,
         types=types,
+        source=source,
+    )
+
+
+def _name_and_description(data: dict, source: str) -> tuple[str, str]:
+    name = data["name"]
+    if not isinstance(name, str) or not name.strip():
+        raise RulesError(f"{source}: field 'name': expected a non-empty string, got {name!r}")
+    description = data.get("description") or ""
+    if not isinstance(description, str):
+        raise RulesError(f"{source}: field 'description': expected a string, got {_kind(description)}")
+    return name.strip(), description.strip()
+
+
+def _map_error_rules(data: dict, source: str) -> MapErrorRules:
+    expected = {**_EXPECTED, "types": _EXPECTED["map_error_types"]}
+    _check_keys(data, _MAP_ERROR_FIELDS, ("description",), source, where="", expected=expected)
+    name, description = _name_and_description(data, source)
+    types = data["types"]
+    if not isinstance(types, list) or not types:
+        raise RulesError(f"{source}: field 'types': expected {_EXPECTED['map_error_types']}, got {_kind(types)}")
+    for i, t in enumerate(types):
+        if t not in TYPES:
+            raise RulesError(
+                f"{source}: field 'types[{i}]': unknown type {t!r}; expected one of {', '.join(TYPES)}"
+            )
+    if len(set(types)) != len(types):
+        raise RulesError(f"{source}: field 'types': expected each type once, got {types!r}")
+    radius = data["max_pair_distance_m"]
+    if not _is_number(radius) or radius <= 0:
+        raise RulesError(
+            f"{source}: field 'max_pair_distance_m': expected {_EXPECTED['max_pair_distance_m']}, got {radius!r}"
+        )
+    goal = data["goal_type"]
+    if goal is not None and goal not in types:
+        raise RulesError(f"{source}: field 'goal_type': expected one of the listed types or null, got {goal!r}")
+    return MapErrorRules(
+        name=name,
+        description=description,
+        types=tuple(types),
+        max_pair_distance_m=float(radius),
+        goal_type=goal,
         source=source,
     )
 
@@ -226,11 +328,18 @@ def _type_rule(spec: Any, source: str, where: str) -> TypeRule:
 
 
 def _check_keys(
-    data: dict, required: tuple[str, ...], optional: tuple[str, ...], source: str, *, where: str
+    data: dict,
+    required: tuple[str, ...],
+    optional: tuple[str, ...],
+    source: str,
+    *,
+    where: str,
+    expected: dict[str, str] | None = None,
 ) -> None:
+    expected = _EXPECTED if expected is None else expected
     for key in required:
         if key not in data:
-            raise RulesError(f"{source}: field '{where}{key}' is missing; expected {_EXPECTED[key]}")
+            raise RulesError(f"{source}: field '{where}{key}' is missing; expected {expected[key]}")
     for key in data:
         if key not in required and key not in optional:
             raise RulesError(
@@ -248,6 +357,10 @@ _EXPECTED: dict[str, str] = {
     "locate_radius_m": "a distance in metres > 0, or null for no locate bonus",
     "located_points": "a number >= points, or null when locate_radius_m is null",
     "identity_uses_text": "true or false",
+    "scoring": f"one of {', '.join(SCORINGS)}",
+    "map_error_types": "a non-empty list of type names",
+    "max_pair_distance_m": "a distance in metres > 0",
+    "goal_type": "a type of 'types' (two objects of it mark the goal) or null",
 }
 
 

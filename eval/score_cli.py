@@ -1,6 +1,7 @@
-"""``poibench score REPORT.csv --truth TRUTH.csv [--rules ex3|rmrc2025|FILE] [--json]``.
+"""``poibench score REPORT.csv --truth TRUTH.csv [--rules ex3|rmrc2025|turtlebot|FILE] [--json]``.
 
-Prints the score tables (or the JSON report) to stdout. Exit status 0 whenever
+Prints the score tables (or the JSON report) to stdout: points, or the map error of a
+``scoring: map_error`` preset (turtlebot). Exit status 0 whenever
 scoring succeeded, even when rows could not be read (they are listed and scored
 as false reports); 2 with a one-line ``poibench score: error: ...`` on stderr
 when an input cannot be read at all or the rules are invalid.

@@ -1,7 +1,10 @@
 """The score report (RULES.md "Scoring presets": what it lists) as JSON data and text tables.
 
 Per report: the paired object (or why none), the distance, the points; per object:
-found or missed; totals per type; the total; the maximum possible total.
+found or missed; totals per type; the total; the maximum possible total. A map-error
+result (eval/map_error.py, the TurtleBot arena) lists instead: per report its object
+and 2D distance (or why none), per object found or missed, per type the counts and the
+mean and max error, the goal's centre error, and the mean and max error over all.
 """
 
 from __future__ import annotations
@@ -9,17 +12,21 @@ from __future__ import annotations
 from dataclasses import asdict
 from typing import Any
 
+from eval.map_error import MapErrorResult
 from eval.scorer import ScoreResult
 
 _NUMERIC = ("line", "id", "x", "y", "z", "object", "found_by", "dist_m", "points")
 
 
-def to_json_dict(result: ScoreResult) -> dict[str, Any]:
+def to_json_dict(result: ScoreResult | MapErrorResult) -> dict[str, Any]:
     """A JSON-ready dict: total, max_total, counts, rows, per-type totals, problems, rules.
 
     Counts (``false_reports``, ``misses``, ``located``, ``identified``,
     ``ignored_reports``) are integers; the rows say which reports and objects they are.
+    A map-error result gives :func:`map_error_json` instead.
     """
+    if isinstance(result, MapErrorResult):
+        return map_error_json(result)
     return {
         "total": _num(result.total),
         "max_total": _num(result.max_total),
@@ -38,8 +45,47 @@ def to_json_dict(result: ScoreResult) -> dict[str, Any]:
     }
 
 
-def format_tables(result: ScoreResult) -> str:
+def map_error_json(result: MapErrorResult) -> dict[str, Any]:
+    """A JSON-ready dict of a map-error result: ``scoring: map_error``, the mean and max
+    error (m, null when nothing was paired), the goal's centre error (null when it is
+    missing, with the reason), the counts, the rows, per-type figures, problems, rules."""
+    goal = None if result.goal is None else asdict(result.goal)
+    if goal is not None:
+        for k in ("truth_center", "reported_center"):
+            goal[k] = None if goal[k] is None else [round(v, 4) for v in goal[k]]
+    return {
+        "scoring": "map_error",
+        "mean_error_m": _round(result.mean_error_m),
+        "max_error_m": _round(result.max_error_m),
+        "goal_center_error_m": None if result.goal is None else _round(result.goal.error_m),
+        "paired": result.paired,
+        "misses": result.misses,
+        "false_reports": result.false_reports,
+        "ignored_reports": result.ignored_reports,
+        "goal": goal,
+        "per_type": {
+            t: {k: _round(v) if k.endswith("_m") else v for k, v in asdict(tt).items() if k != "type"}
+            for t, tt in result.per_type.items()
+        },
+        "reports": [{k: _num(v) for k, v in asdict(r).items()} for r in result.reports],
+        "objects": [{k: _num(v) for k, v in asdict(o).items()} for o in result.objects],
+        "problems": [asdict(p) for p in result.problems],
+        "rules": result.rules.to_dict(),
+    }
+
+
+def live_summary(result: ScoreResult | MapErrorResult) -> dict[str, Any]:
+    """What the live view shows as the running score: ``{"total", "max"}`` of a points
+    result, ``{"text"}`` (the headline) of a map-error one."""
+    if isinstance(result, MapErrorResult):
+        return {"text": result.headline()}
+    return {"total": result.total, "max": result.max_total}
+
+
+def format_tables(result: ScoreResult | MapErrorResult) -> str:
     """Plain-text tables for a terminal: reports, objects, totals per type, problems."""
+    if isinstance(result, MapErrorResult):
+        return format_map_error_tables(result)
     rules = result.rules
     out: list[str] = [
         f"Score {_fmt(result.total)} of {_fmt(result.max_total)} "
@@ -164,6 +210,110 @@ def format_tables(result: ScoreResult) -> str:
             for p in result.problems
         ]
     return "\n".join(out) + "\n"
+
+
+def format_map_error_tables(result: MapErrorResult) -> str:
+    """Plain-text tables of a map-error result: reports, objects, per type, the goal, problems."""
+    rules = result.rules
+    n_obj = sum(t.objects for t in result.per_type.values())
+    out: list[str] = [
+        f"Map error: mean {_fmt_m(result.mean_error_m)}, max {_fmt_m(result.max_error_m)}"
+        + ("" if result.goal is None else f"; goal centre error {_fmt_m(result.goal.error_m)}")
+        + f" (rules {rules.name}{f': {rules.source}' if rules.source else ''})",
+        f"paired {result.paired} of {n_obj} objects (2D, at most {rules.max_pair_distance_m:g} m apart), "
+        f"misses {result.misses}, false reports {result.false_reports}"
+        + (f", ignored {result.ignored_reports}" if result.ignored_reports else ""),
+        "",
+        "Reports",
+    ]
+    out += _table(
+        ["line", "id", "type", "x", "y", "z", "object", "dist_m", "status", "reason"],
+        [
+            [
+                r.line,
+                r.id,
+                r.type or "?",
+                _fmt(r.x, 3),
+                _fmt(r.y, 3),
+                _fmt(r.z, 3),
+                r.object_id,
+                _fmt(r.distance_m, 3),
+                r.status,
+                r.reason,
+            ]
+            for r in result.reports
+        ],
+    )
+    out += ["", "Objects"]
+    out += _table(
+        ["line", "id", "type", "x", "y", "z", "found_by", "dist_m", "status"],
+        [
+            [
+                o.line,
+                o.id,
+                o.type,
+                _fmt(o.x, 3),
+                _fmt(o.y, 3),
+                _fmt(o.z, 3),
+                o.found_by,
+                _fmt(o.distance_m, 3),
+                o.status,
+            ]
+            for o in result.objects
+        ],
+    )
+    out += ["", "Per type"]
+    rows = [
+        [
+            t.type,
+            t.objects,
+            t.reports,
+            t.paired,
+            t.missed,
+            t.false_reports,
+            _fmt(t.mean_error_m, 3),
+            _fmt(t.max_error_m, 3),
+        ]
+        for t in result.per_type.values()
+    ]
+    rows.append(
+        [
+            "TOTAL",
+            n_obj,
+            sum(t.reports for t in result.per_type.values()),
+            result.paired,
+            result.misses,
+            result.false_reports,
+            _fmt(result.mean_error_m, 3),
+            _fmt(result.max_error_m, 3),
+        ]
+    )
+    out += _table(["type", "objects", "reports", "paired", "missed", "false", "mean_m", "max_m"], rows)
+    g = result.goal
+    if g is not None:
+        out += ["", f"Goal ({rules.goal_type} pair)"]
+        truth = "-" if g.truth_center is None else f"({g.truth_center[0]:.3f}, {g.truth_center[1]:.3f})"
+        rep = "-" if g.reported_center is None else f"({g.reported_center[0]:.3f}, {g.reported_center[1]:.3f})"
+        out.append(f"truth centre {truth}, reported centre {rep}, error {_fmt_m(g.error_m)}")
+        if g.reason:
+            out.append(f"no goal error: {g.reason}")
+    if result.problems:
+        out += ["", "Problems"]
+        out += [
+            f"{p.source} line {p.line} {p.severity}: {p.message}"
+            if p.line
+            else f"{p.source} {p.severity}: {p.message}"
+            for p in result.problems
+        ]
+    return "\n".join(out) + "\n"
+
+
+def _fmt_m(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3f} m"
+
+
+def _round(value: float | None, decimals: int = 4) -> float | None:
+    return None if value is None else round(float(value), decimals)
 
 
 def _table(headers: list[str], rows: list[list[Any]]) -> list[str]:

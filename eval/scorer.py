@@ -18,6 +18,9 @@ with status ``ignored`` and count for nothing). A hazmat report whose label is
 not one of the 16, or a text-identity report with empty text, pairs with nothing.
 An unreadable report row is a false report of the type it names (0 when unknown).
 
+Rules of another kind (``scoring: map_error``, the TurtleBot arena) are scored by
+:func:`eval.map_error.score_map_error`, which :func:`score` hands them to.
+
 Distances are compared with the radii with a tolerance of ``EPS_M`` = 1e-9 m,
 so a report written exactly 1.000 m from its object is located even when the
 float sum comes out a hair above 1.0 (coordinates are written to 1 mm, so the
@@ -28,13 +31,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from eval.poi_file import PoiFile, PoiRow
-from eval.rules import Rules
+from eval.rules import AnyRules, Rules
 from poi.names import HAZMAT_LABELS
+
+if TYPE_CHECKING:
+    from eval.map_error import MapErrorResult
 
 EPS_M = 1e-9
 
@@ -129,6 +136,10 @@ class ScoreResult:
     ignored_reports: int
     problems: list[ScoreProblem] = field(default_factory=list)
 
+    def headline(self) -> str:
+        """One line: ``12 / 20 points``."""
+        return f"{self.total:g} / {self.max_total:g} points"
+
 
 def optimal_pairs(D: np.ndarray, radius_m: float | None) -> list[tuple[int, int]]:
     """One-to-one pairs (i, j) of rows and columns of the distance matrix ``D`` (n, m).
@@ -181,8 +192,13 @@ def identity_of(type_: str, text: str, rules: Rules) -> Identity | None:
     return (type_, text)
 
 
-def score(reports: PoiFile, truth: PoiFile, rules: Rules) -> ScoreResult:
-    """Score ``reports`` against ``truth`` under ``rules`` (module docstring, rules 1-5)."""
+def score(reports: PoiFile, truth: PoiFile, rules: AnyRules) -> ScoreResult | MapErrorResult:
+    """Score ``reports`` against ``truth`` under ``rules`` (module docstring, rules 1-5); a
+    map-error preset gives a :class:`eval.map_error.MapErrorResult` instead."""
+    if rules.scoring == "map_error":
+        from eval.map_error import score_map_error  # it builds on this module's pairing
+
+        return score_map_error(reports, truth, rules)
     report_scores: dict[int, ReportScore] = {}  # by report line
     object_scores: list[ObjectScore] = []
     groups_r: dict[Identity, list[PoiRow]] = {}

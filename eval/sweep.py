@@ -42,6 +42,8 @@ ROW_FIELDS_TAIL = [
     "misses",
     "loc_err_median_m",
     "loc_err_p90_m",
+    "pose_err_median_m",
+    "pose_err_p90_m",
     "frames",
     "wall_s",
     "error",
@@ -226,6 +228,8 @@ def run_task(task: TrialTask) -> dict:
             misses=res.score.misses,
             loc_err_median_m=round(float(np.median(errs)), 4) if errs else float("nan"),
             loc_err_p90_m=round(float(np.percentile(errs, 90)), 4) if errs else float("nan"),
+            pose_err_median_m=res.pose_error.get("median_m", float("nan")),
+            pose_err_p90_m=res.pose_error.get("p90_m", float("nan")),
             frames=res.n_frames,
             error="",
         )
@@ -352,8 +356,15 @@ def run_sweep(
     spec: SweepSpec, out_dir: str | Path, progress: Callable[[int, int], None] | None = None
 ) -> tuple[object, object]:
     """Run (or resume) a sweep; returns (rows, aggregate) DataFrames, also written to out_dir."""
+    from eval.rules import load_rules
+
     out = Path(out_dir)
     suite = load_suite(spec.suite)
+    if load_rules(spec.rules).scoring != "points":
+        raise SweepError(
+            f"--rules {spec.rules}: sweeps, tune and regress aggregate points scores; "
+            f"{spec.rules} scores a map error (run its trials with poibench run)"
+        )
     _check_out(out, spec)
     out.mkdir(parents=True, exist_ok=True)
     tasks = make_tasks(suite, spec, out)
@@ -428,6 +439,7 @@ def aggregate(df, keys: list[str]):
             false_reports_mean=mean_of("false_reports", 3),
             misses_mean=mean_of("misses", 3),
             loc_err_median_m=mean_of("loc_err_median_m", 4),
+            pose_err_median_m=mean_of("pose_err_median_m", 4),
             wall_s_mean=round(float(g["wall_s"].astype(float).mean()), 2),
         )
         out.append(rec)

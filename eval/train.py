@@ -20,7 +20,7 @@ from pathlib import Path
 
 import yaml
 
-from poi.names import CLASSES
+from poi.names import RESCUE_CLASSES
 
 
 class TrainError(ValueError):
@@ -61,8 +61,11 @@ def data_yaml(data: str | Path) -> Path:
     names = doc.get("names")
     if isinstance(names, dict):
         names = [names[k] for k in sorted(names)]
-    if list(names or []) != list(CLASSES):
-        raise TrainError(f"{p}: 'names' must be poibench's {len(CLASSES)} classes in order (poi.names.CLASSES)")
+    if list(names or []) != list(RESCUE_CLASSES):
+        raise TrainError(
+            f"{p}: 'names' must be poibench's {len(RESCUE_CLASSES)} classes in order "
+            "(the rescue classes, poi.names.RESCUE_CLASSES)"
+        )
     return p
 
 
@@ -103,7 +106,8 @@ def train(spec: TrainSpec) -> Path:
             project=str(out.parent),
             name=out.name,
             exist_ok=True,
-            pretrained=False,
+            # a .pt model is fine-tuned from its weights; a .yaml one starts from scratch
+            pretrained=str(spec.model) if str(spec.model).endswith(".pt") else False,
             plots=True,
             # the scenes are rendered upright and placards carry text: no flips
             fliplr=0.0,

@@ -19,12 +19,14 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
+import numpy as np
 import yaml
 
-from eval.map_plot import draw_map, markers_from_score
+from eval.map_error import MapErrorResult
+from eval.map_plot import draw_map, score_layers
 from eval.poi_file import read_poi_file
-from eval.rules import Rules
-from eval.score_report import to_json_dict
+from eval.rules import AnyRules
+from eval.score_report import live_summary, to_json_dict
 from eval.scorer import ScoreResult, score
 from eval.truth import truth_rows, write_truth_csv
 from eval.video import H264Writer
@@ -40,13 +42,14 @@ MISSION_START = datetime(2026, 7, 1, 9, 0, 0)
 @dataclass(kw_only=True)
 class TrialResult:
     out_dir: Path
-    score: ScoreResult
+    score: ScoreResult | MapErrorResult
     n_frames: int
     sim_duration_s: float
     wall_s: float
     detector: str
     notes: list[str] = field(default_factory=list)
     skipped_frames: int = 0
+    pose_error: dict[str, float] = field(default_factory=dict)
 
     @property
     def real_time_factor(self) -> float:
@@ -62,7 +65,7 @@ def detector_label(choice: str) -> str:
 def make_detectors(choice: str, cfg, sim, notes: list[str]):
     """The detectors for a trial and the oracle (when used, it needs the truth of each frame)."""
     from poi.detectors import build_detector
-    from sim.oracle import OracleDetector, OracleSettings
+    from sim.oracle import oracle_for
 
     oracle = None
     dets = []
@@ -73,7 +76,7 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
         )
         choice = "oracle"
     if choice == "oracle":
-        oracle = OracleDetector(OracleSettings(seed=sim.scenario.seed))
+        oracle = oracle_for(sim)  # seeded by the scenario, knowing its world's classes
         dets.append(oracle)
     else:
         model = DEFAULT_MODEL if choice == "default" else Path(choice)
@@ -86,13 +89,38 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
     return dets, oracle
 
 
+def planar_pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
+    """Distance on the floor (m) and absolute heading difference (degrees) of two poses."""
+    dist = float(np.linalg.norm(T_est[:2, 3] - T_true[:2, 3]))
+    yaw = np.arctan2(T_est[1, 0], T_est[0, 0]) - np.arctan2(T_true[1, 0], T_true[0, 0])
+    return dist, abs(float(np.degrees((yaw + np.pi) % (2 * np.pi) - np.pi)))
+
+
+def pose_error_summary(errors: list[tuple[float, float]]) -> dict[str, float]:
+    """Median, 90th percentile, max and last of the per-frame planar position error (m) of the
+    pose the pipeline mapped with against the true tracker pose, and the median heading error
+    (degrees); frames with a pose only."""
+    if not errors:
+        return {"frames": 0}
+    e = np.asarray([d for d, _ in errors])
+    yaw = np.asarray([a for _, a in errors])
+    return {
+        "frames": int(e.size),
+        "median_m": round(float(np.median(e)), 4),
+        "p90_m": round(float(np.percentile(e, 90)), 4),
+        "max_m": round(float(e.max()), 4),
+        "final_m": round(float(e[-1]), 4),
+        "heading_median_deg": round(float(np.median(yaw)), 3),
+    }
+
+
 def run_trial(
     sc: Scenario,
     out_dir: str | Path,
     *,
     pipeline_sets: list[str] = (),
     detector: str = "default",
-    rules: Rules,
+    rules: AnyRules,
     rules_name: str,
     video: bool = True,
     progress: bool = True,
@@ -139,14 +167,14 @@ def run_trial(
             else None
         )
         skipped = 0
+        pose_errors: list[tuple[float, float]] = []
         truth_file = read_poi_file(out / "truth.csv")
         live = None
         if record_live or live_server is not None:
             from eval.live_record import LiveRecorder
 
             def running_score() -> dict:
-                r = score(read_poi_file(out / "pois.csv"), truth_file, rules)
-                return {"total": r.total, "max": r.max_total}
+                return live_summary(score(read_poi_file(out / "pois.csv"), truth_file, rules))
 
             live = LiveRecorder(
                 out,
@@ -170,6 +198,8 @@ def run_trial(
                 res = pipe.process(frame)
                 if res.skipped_reason:
                     skipped += 1
+                if res.pose_map is not None:
+                    pose_errors.append(planar_pose_error(res.pose_map, truth.T_map_tracker))
                 for snap in res.newly_confirmed:
                     writer.append(snap)
                 view = None
@@ -191,6 +221,8 @@ def run_trial(
         sim_duration = float(sim.times_s[n - 1]) if n else 0.0
         result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
         doc = to_json_dict(result)
+        pose_error = pose_error_summary(pose_errors)
+        doc["pose_error"] = pose_error
         doc["trial"] = {
             "scenario": sc.name,
             "seed": sc.seed,
@@ -201,14 +233,12 @@ def run_trial(
             "notes": notes,
         }
         (out / "score.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-        reports, objs = markers_from_score(result)
         draw_map(
             out / "map.png",
             walls=sim.walls_in_map(),
             robot_path=sim.robot_path_map()[:n],
-            reports=reports,
-            truth=objs,
-            title=f"{sc.name} (seed {sc.seed}): {result.total:g} / {result.max_total:g} points",
+            **score_layers(result),
+            title=f"{sc.name} (seed {sc.seed}): {result.headline()}",
         )
         config = {
             "poibench_trial": 1,
@@ -234,4 +264,5 @@ def run_trial(
         detector=detector_label(detector),
         notes=notes,
         skipped_frames=skipped,
+        pose_error=pose_error,
     )

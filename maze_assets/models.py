@@ -26,6 +26,12 @@ Reference points and extents, for a characteristic size ``s = obj.size_m``:
   the torso centre, 0.06 s / 0.35 above the floor.
 - heat-source: an oil-radiator-like heater ``s`` tall, ``s`` wide, 0.4 s deep, with a
   glowing orange-red grille on its +x face; the origin at its centroid.
+- pillar-blue, pillar-red, pillar-green (the TurtleBot goal arena, seed 2 section 1): a
+  vertical cylinder ``s`` tall (``PILLAR_HEIGHT_M`` by default) and ``PILLAR_DIAMETER_M``
+  across, standing on the floor, in a matte paint; the origin on its axis at half height
+  (floor at z = -s/2).
+- ball: a yellow sphere of diameter ``s`` (``BALL_DIAMETER_M``, a small football) resting
+  on the floor; the origin at its centre.
 
 >>> from sim.mjcf import SceneAssets
 >>> from sim.objects import PlacedObject
@@ -56,6 +62,25 @@ DOOR_FRAME_M = 0.05  # width of the jambs and the lintel
 DOOR_MAX_HEIGHT_M = 2.0
 DOLL_RRL_LENGTH_M = 0.35
 FIRE_EXTINGUISHER_RADIUS = 0.14  # body radius per unit height (0.07 m at 0.5 m)
+# The seed 2 arena's pillars are tubes about 5 cm across and 30-50 cm tall; its ball a small
+# football (a size 4 ball is about 21 cm across): 0.40 m pillars and a 0.21 m ball.
+PILLAR_DIAMETER_M = 0.05
+PILLAR_HEIGHT_M = 0.40
+BALL_DIAMETER_M = 0.21
+# Matte paints (linear RGB) told apart under every lighting preset: the hues sit far apart
+# (blue 225 deg, red 5 deg, green 135 deg) at similar brightness; specular kept low.
+PILLAR_RGBA: dict[str, tuple[float, float, float, float]] = {
+    "pillar-blue": (0.08, 0.22, 0.85, 1.0),
+    "pillar-red": (0.85, 0.10, 0.07, 1.0),
+    "pillar-green": (0.10, 0.62, 0.18, 1.0),
+}
+BALL_RGBA = (0.98, 0.85, 0.05, 1.0)
+ARENA_SIZE_M: dict[str, float] = {
+    "pillar-blue": PILLAR_HEIGHT_M,
+    "pillar-red": PILLAR_HEIGHT_M,
+    "pillar-green": PILLAR_HEIGHT_M,
+    "ball": BALL_DIAMETER_M,
+}
 
 
 class ModelError(ValueError):
@@ -402,6 +427,19 @@ def _heat_source(b: _Body) -> None:
     b.cylinder("knob", dark, (0.05 * H, 0.35 * H, H / 2), (0.05 * H, 0.35 * H, H / 2 + 0.04 * H), 0.04 * H)
 
 
+def _pillar(b: _Body) -> None:
+    H = b.obj.size_m
+    paint = _material(
+        b.assets, b.obj.type.replace("-", "_"), PILLAR_RGBA[b.obj.type], specular=0.05, shininess=0.05
+    )
+    b.cylinder("body", paint, (0, 0, -H / 2), (0, 0, H / 2), PILLAR_DIAMETER_M / 2)
+
+
+def _ball(b: _Body) -> None:
+    yellow = _material(b.assets, "ball_yellow", BALL_RGBA, specular=0.15, shininess=0.2)
+    b.sphere("body", yellow, (0, 0, 0), b.obj.size_m / 2)
+
+
 def build_object(
     obj: PlacedObject,
     assets: SceneAssets,
@@ -434,6 +472,10 @@ def build_object(
         _baby_doll(b)
     elif obj.type == "heat-source":
         _heat_source(b)
+    elif obj.type in PILLAR_RGBA:
+        _pillar(b)
+    elif obj.type == "ball":
+        _ball(b)
     else:  # PlacedObject already checks the type; this guards a new type without a model
         raise ModelError(f"object {obj.id}: no model for type {obj.type!r}")
     return b.el

@@ -32,6 +32,11 @@ TYPE_COLORS_RGB: dict[str, tuple[int, int, int]] = {
     "exit-sign": (0, 200, 60),
     "fire-extinguisher-sign": (200, 0, 90),
     "heat-source": (255, 255, 255),
+    # the TurtleBot goal arena: each in a contrasting hue to its paint, so the box shows
+    "pillar-blue": (0, 230, 255),
+    "pillar-red": (255, 0, 160),
+    "pillar-green": (170, 255, 0),
+    "ball": (120, 60, 255),
 }
 DEFAULT_COLOR_RGB = (200, 200, 200)
 FONT = cv2.FONT_HERSHEY_SIMPLEX

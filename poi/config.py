@@ -92,6 +92,7 @@ class CenterSigmaConfig:
 class LocalizeConfig:
     """Depth reading and deprojection (seed 1 section 2.2, seed 2 section 2.1.3)."""
 
+    mode: Literal["t265", "slam"] = "t265"
     depth_scale: float = _num(1.0, lo=0.0, lo_open=True)
     inner_fraction: float = _num(0.5, lo=0.0, hi=1.0, lo_open=True)
     sigma_d_px: float = _num(0.08, lo=0.0)
@@ -110,6 +111,38 @@ class LocalizeConfig:
             "baby-doll": 0.12,
             "heat-source": 0.12,
         }
+    )
+
+
+@dataclass(kw_only=True)
+class SlamConfig:
+    """UKF-SLAM drift correction (seed 2, 2.2.1-2.2.5), used when ``localize.mode`` is slam."""
+
+    alpha: float = _num(1.0, lo=0.0, lo_open=True)
+    beta: float = _num(2.0, lo=0.0)
+    kappa: float | None = None
+    sigma_xy_m: float = _num(0.002, lo=0.0)
+    sigma_xy_per_m: float = _num(0.1, lo=0.0)
+    sigma_theta_rad: float = _num(0.001, lo=0.0)
+    sigma_theta_per_rad: float = _num(0.02, lo=0.0)
+    sigma_theta_per_m: float = _num(0.02, lo=0.0)
+    associate_m: float = _num(0.5, lo=0.0, lo_open=True)
+    n_min: int = _num(5, lo=1)
+    t_max_s: float = _num(3.0, lo=0.0, lo_open=True)
+    landmark_sigma_m: float = _num(0.3, lo=0.0, lo_open=True)
+    max_range_m: float = _num(4.0, lo=0.0, lo_open=True)
+    landmark_types: list[str] = field(
+        default_factory=lambda: [
+            "exit-sign",
+            "fire-extinguisher-sign",
+            "hazmat",
+            "qr",
+            "valve",
+            "door",
+            "pillar-blue",
+            "pillar-red",
+            "pillar-green",
+        ]
     )
 
 
@@ -180,6 +213,7 @@ class PipelineConfig:
     localize: LocalizeConfig = field(default_factory=LocalizeConfig)
     visibility: VisibilityConfig = field(default_factory=VisibilityConfig)
     mount: MountConfig = field(default_factory=MountConfig)
+    slam: SlamConfig = field(default_factory=SlamConfig)
     qr: QrConfig = field(default_factory=QrConfig)
     thermal: SwitchConfig = field(default_factory=SwitchConfig)
     report: ReportConfig = field(default_factory=ReportConfig)
@@ -223,6 +257,8 @@ def _describe(tp: Any) -> str:
         return "one of " + "|".join(str(a) for a in typing.get_args(tp))
     if origin is tuple:
         return f"a list of {len(typing.get_args(tp))} numbers"
+    if origin is list:
+        return f"a list of {_describe(typing.get_args(tp)[0])}s"
     if origin is dict:
         return "a mapping"
     if _is_union(tp):
@@ -286,6 +322,11 @@ def _convert(tp: Any, value: Any, key: str) -> Any:
         if not all(_is_number(v) and math.isfinite(v) for v in value):
             raise _fail(key, tp, value)
         return tuple(float(v) for v in value)
+    if origin is list:
+        if not isinstance(value, (list, tuple)):
+            raise _fail(key, tp, value)
+        (et,) = typing.get_args(tp)
+        return [_convert(et, v, f"{key}[{i}]") for i, v in enumerate(value)]
     if origin is dict:
         if not isinstance(value, dict):
             raise _fail(key, tp, value)
@@ -344,6 +385,12 @@ def _cross_check(obj: Any, prefix: str) -> None:
                 f"{prefix}max_depth_m: expected a value > min_depth_m ({obj.min_depth_m:g}), "
                 f"got {obj.max_depth_m!r}"
             )
+    elif isinstance(obj, SlamConfig):
+        for i, t in enumerate(obj.landmark_types):
+            if t not in TYPES:
+                raise ConfigError(
+                    f"{prefix}landmark_types[{i}]: unknown type {t!r}; expected one of {', '.join(TYPES)}"
+                )
     elif isinstance(obj, TransformConfig):
         n = float(np.linalg.norm(obj.quaternion_wxyz))
         if abs(n - 1.0) > 1e-3:

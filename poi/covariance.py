@@ -21,11 +21,19 @@ The calibration file (YAML) holds what seed 1 says to fit on a validation set::
       default: {u: [1.0, 0.06, 0.0009], v: [1.0, 0.06, 0.0009]}
       door: {u: [4.0, 0.1], v: [4.0, 0.1]}
     # Optional. Row A: Pr(actually class B | detected A, A misclassified) (seed 1, 2.1.5);
-    # a C x C matrix over `classes` (default: poi.names.CLASSES in order; if given, each
-    # class exactly once); zero diagonal; rows sum to 1.
+    # a C x C matrix over `classes`: each of poi.names.CLASSES once, or each of the 24
+    # poi.names.RESCUE_CLASSES once (what `poibench calibrate` writes for a rescue
+    # detector); without `classes`, the matrix size says which, in that order. Zero
+    # diagonal; rows sum to 1.
     confusion:
       classes: [explosive, ...]
       matrix: [[0.0, 0.1, ...], ...]
+
+A confusion matrix over the rescue classes only is expanded to all of CLASSES
+(:func:`expand_confusion`): a covered class keeps its row (and is never mistaken for
+a class the matrix does not know: 0 there); a class it does not cover gets a uniform
+row, so the tracker's p(actual B | detected A) = (1 - p) C[A, B] spreads its 1 - p
+evenly over the other classes, as with no calibration.
 
 >>> round(sigma_depth_m(2.0, sigma_d_px=0.08, fx_depth_px=384.2, baseline_m=0.05), 6)  # 0.32/19.21
 0.016658
@@ -42,7 +50,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from poi.names import CLASS_INDEX, CLASSES
+from poi.names import CLASS_INDEX, CLASSES, RESCUE_CLASSES
 
 # Central-difference steps for J2. The deprojection is bilinear in (u, d) and (v, d) for
 # model "none", so any step is exact there; for Brown-Conrady the error is O(step^2) of a
@@ -231,16 +239,32 @@ def calibration_from_dict(doc: Any, source: str = "<calibration>") -> Calibratio
 
 
 def _confusion(entry: Any, where: str) -> np.ndarray:
+    """The (C, C) matrix over CLASSES from a ``confusion`` entry over CLASSES or RESCUE_CLASSES."""
     if not isinstance(entry, dict) or "matrix" not in entry or not set(entry) <= {"classes", "matrix"}:
         raise CalibrationError(f"{where}: expected a mapping with keys matrix (and optionally classes)")
-    classes = entry.get("classes", list(CLASSES))
-    C = len(CLASSES)
-    if not isinstance(classes, list) or sorted(classes) != sorted(CLASSES):
-        raise CalibrationError(f"{where}.classes: expected each of the {C} names of poi.names.CLASSES once")
     try:
         M = np.array(entry["matrix"], dtype=float)
     except (TypeError, ValueError):
-        raise CalibrationError(f"{where}.matrix: expected a {C} x {C} matrix of numbers") from None
+        raise CalibrationError(f"{where}.matrix: expected a square matrix of numbers") from None
+    spaces = {len(CLASSES): CLASSES, len(RESCUE_CLASSES): RESCUE_CLASSES}
+    expected = (
+        f"each of the {len(RESCUE_CLASSES)} names of poi.names.RESCUE_CLASSES once, "
+        f"or each of the {len(CLASSES)} of CLASSES once"
+    )
+    if "classes" in entry:
+        classes = entry["classes"]
+        space = spaces.get(len(classes)) if isinstance(classes, list) else None
+        if space is None or sorted(classes) != sorted(space):
+            raise CalibrationError(f"{where}.classes: expected {expected}")
+    else:
+        space = spaces.get(M.shape[0]) if M.ndim == 2 else None
+        if space is None:
+            raise CalibrationError(
+                f"{where}.matrix: expected a {len(RESCUE_CLASSES)} x {len(RESCUE_CLASSES)} (RESCUE_CLASSES) "
+                f"or {len(CLASSES)} x {len(CLASSES)} (CLASSES) matrix of numbers, got shape {M.shape}"
+            )
+        classes = list(space)
+    C = len(classes)
     if M.shape != (C, C) or not np.all(np.isfinite(M)):
         raise CalibrationError(f"{where}.matrix: expected a {C} x {C} matrix of numbers, got shape {M.shape}")
     if np.any(M < 0):
@@ -253,9 +277,31 @@ def _confusion(entry: Any, where: str) -> np.ndarray:
         i = int(bad[0])
         raise CalibrationError(f"{where}.matrix: row {i} ({classes[i]}) sums to {sums[i]:.6f}, expected 1")
     M = M / sums[:, None]
-    # reorder rows and columns into poi.names.CLASSES order
-    order = [classes.index(c) for c in CLASSES]
-    return M[np.ix_(order, order)]
+    return expand_confusion(M, classes)
+
+
+def expand_confusion(M: np.ndarray, classes: list[str] | tuple[str, ...]) -> np.ndarray:
+    """The (C, C) confusion matrix over CLASSES, in CLASSES order, from ``M`` over ``classes``.
+
+    Rows and columns of ``classes`` keep their values (a covered class is misread only as
+    another covered class); the row of a class ``classes`` lacks is uniform over the
+    other C - 1 classes, so its (1 - p) spreads evenly. Rows sum to 1 and the diagonal
+    stays 0.
+
+    >>> E = expand_confusion(np.array([[0.0, 1.0], [1.0, 0.0]]), ["qr", "door"])
+    >>> E.shape == (len(CLASSES), len(CLASSES)), float(E[CLASS_INDEX["qr"], CLASS_INDEX["door"]])
+    (True, 1.0)
+    >>> ball = E[CLASS_INDEX["ball"]]
+    >>> float(ball[CLASS_INDEX["ball"]]), round(float(ball[CLASS_INDEX["qr"]] * (len(CLASSES) - 1)), 12)
+    (0.0, 1.0)
+    """
+    C = len(CLASSES)
+    idx = [CLASS_INDEX[c] for c in classes]
+    E = np.full((C, C), 1.0 / (C - 1))
+    E[idx, :] = 0.0  # covered rows: only their own (covered) columns below
+    E[np.ix_(idx, idx)] = M
+    np.fill_diagonal(E, 0.0)
+    return E
 
 
 def load_calibration(path: str | Path) -> Calibration:

@@ -4,8 +4,11 @@ Implements the "Type names" and "Hazmat labels" sections of RULES.md: matching i
 case-insensitive and treats spaces, ``_`` and ``-`` alike.
 
 The detector's class space (``CLASSES``) is the 16 hazmat labels followed by the
-eight other types, so one class name says both the type and, for hazmats, the
-label.
+eight other rescue types (``RESCUE_CLASSES``, the 24 classes of the rescue
+detector's datasets and models), then the four types of the TurtleBot goal arena
+(``ARENA_TYPES``: seed 2, section 1, the blue goal pillars, the other pillars and
+the ball), so one class name says both the type and, for hazmats, the label.
+Rescue types and classes keep their order and indices; the arena's are appended.
 
 >>> canonical_type("QR Code")
 'qr'
@@ -19,11 +22,16 @@ label.
 ('baby-doll', '')
 >>> display_name("hazmat", "oxidizer")
 'Oxidizer'
+>>> canonical_type("Blue pillar"), class_to_identity("ball"), display_name("pillar-blue")
+('pillar-blue', ('ball', ''), 'Blue pillar')
+>>> len(RESCUE_CLASSES), len(CLASSES), CLASSES[len(RESCUE_CLASSES):] == ARENA_TYPES
+(24, 28, True)
 """
 
 from __future__ import annotations
 
-TYPES: tuple[str, ...] = (
+# The RoboCupRescue "recognize objects" types (RULES.md, "Type names").
+RESCUE_TYPES: tuple[str, ...] = (
     "hazmat",
     "qr",
     "door",
@@ -34,6 +42,19 @@ TYPES: tuple[str, ...] = (
     "fire-extinguisher-sign",
     "heat-source",
 )
+
+# The TurtleBot goal arena (seed 2, section 1, tasks 2 and 3): two blue pillars mark the
+# goal, pillars of other colours stand behind it, and a yellow ball lies before it.
+ARENA_TYPES: tuple[str, ...] = (
+    "pillar-blue",
+    "pillar-red",
+    "pillar-green",
+    "ball",
+)
+
+# Every canonical type: the rescue types first (their order is part of the file formats
+# and the class indices), then the arena's.
+TYPES: tuple[str, ...] = RESCUE_TYPES + ARENA_TYPES
 
 HAZMAT_LABELS: tuple[str, ...] = (
     "explosive",
@@ -65,6 +86,11 @@ TYPE_ALIASES: dict[str, str] = {
     "heat": "heat-source",
     "hotspot": "heat-source",
     "thermal": "heat-source",
+    "blue-pillar": "pillar-blue",
+    "red-pillar": "pillar-red",
+    "green-pillar": "pillar-green",
+    "yellow-ball": "ball",
+    "football": "ball",
 }
 
 LABEL_ALIASES: dict[str, str] = {
@@ -79,10 +105,31 @@ LABEL_ALIASES: dict[str, str] = {
     "organic-peroxides": "organic-peroxide",
 }
 
-# Detector class space: hazmat labels first, then every other type. Text-bearing
-# types other than hazmat (qr) get their text from a decoder, not the class.
-CLASSES: tuple[str, ...] = HAZMAT_LABELS + tuple(t for t in TYPES if t != "hazmat")
+# Detector class space: hazmat labels first, then every other rescue type, then the
+# arena types (class = type). Text-bearing types other than hazmat (qr) get their text
+# from a decoder, not the class. The rescue detector's datasets and models have exactly
+# RESCUE_CLASSES, a prefix of CLASSES, so their class indices are the same in both.
+RESCUE_CLASSES: tuple[str, ...] = HAZMAT_LABELS + tuple(t for t in RESCUE_TYPES if t != "hazmat")
+CLASSES: tuple[str, ...] = RESCUE_CLASSES + ARENA_TYPES
 CLASS_INDEX: dict[str, int] = {name: i for i, name in enumerate(CLASSES)}
+
+# What an operator reads where the type name written as a sentence would read badly.
+DISPLAY_NAMES: dict[str, str] = {
+    "pillar-blue": "Blue pillar",
+    "pillar-red": "Red pillar",
+    "pillar-green": "Green pillar",
+}
+
+
+def class_domain(class_name: str) -> tuple[str, ...]:
+    """The class space a class of CLASSES belongs to: ARENA_TYPES or RESCUE_CLASSES. A
+    detector of one domain never reports the other's classes, so it spreads a detection's
+    1 - p over its own domain (seed 1, section 2.1.5).
+
+    >>> len(class_domain("door")), class_domain("ball") == ARENA_TYPES
+    (24, True)
+    """
+    return ARENA_TYPES if class_name in ARENA_TYPES else RESCUE_CLASSES
 
 
 def normalise(name: str) -> str:
@@ -145,4 +192,4 @@ def display_name(type_: str, text: str = "") -> str:
         return text if type_ == "qr" else text.replace("-", " ").capitalize()
     if type_ == "qr":
         return "QR code"
-    return type_.replace("-", " ").capitalize()
+    return DISPLAY_NAMES.get(type_, type_.replace("-", " ").capitalize())

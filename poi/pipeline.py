@@ -1,4 +1,4 @@
-"""The perception pipeline: detect -> localise -> read QR text -> in-view check -> track.
+"""The perception pipeline: detect -> localise -> (SLAM) -> read QR text -> in-view check -> track.
 
 Per frame (:meth:`Pipeline.process`):
 
@@ -6,7 +6,9 @@ Per frame (:meth:`Pipeline.process`):
 2. a frame without a pose or a depth image stops here (``skipped_reason``): its
    detections get their QR text for display but nothing is localised or tracked;
 3. each detection is localised (seed 1, 2.2-2.3); one without valid depth gives no
-   observation;
+   observation; with ``localize.mode: slam`` the UKF-SLAM (poi.slam_localizer) then
+   corrects the frame's pose from the static landmarks seen, and the observations and
+   the rest of the frame's steps use the corrected pose;
 4. QR text is attached by ``poi.detectors.qr.attach_qr_text(rgb, detections)`` when
    ``qr.enabled`` and that function exists (else QR detections keep the text the
    detector gave, usually none, and a note says so once), to the QR observations
@@ -31,6 +33,7 @@ import numpy as np
 from poi.config import PipelineConfig, mount_matrix
 from poi.covariance import Calibration, load_calibration
 from poi.localize import localize
+from poi.slam_localizer import SlamLocalizer
 from poi.tracker import Tracker
 from poi.types import Detection, Frame, Observation, TrackSnapshot
 from poi.visibility import in_view
@@ -48,6 +51,7 @@ class FrameResult:
     newly_confirmed: list[TrackSnapshot]
     skipped_reason: str | None = None
     timing_ms: dict[str, float] = field(default_factory=dict)
+    pose_map: np.ndarray | None = None  # the pose the frame was mapped with (corrected in slam mode)
 
 
 def _find_qr_reader() -> tuple[Callable | None, str | None]:
@@ -80,6 +84,7 @@ class Pipeline:
         self.calibration = calibration
         self.T_tracker_camera = mount_matrix(cfg)
         self.tracker = Tracker(cfg.tracker, calibration)
+        self.slam = SlamLocalizer(cfg.slam) if cfg.localize.mode == "slam" else None
         self.notes: list[str] = []
         self._qr_reader: Callable | None = None
         if cfg.qr.enabled:
@@ -170,6 +175,13 @@ class Pipeline:
                 det_of_obs.append(k)
         t2 = time.perf_counter()
         timing["localize"] = 1e3 * (t2 - t1)
+        if self.slam is not None:
+            corrected = self.slam.step(frame.pose, observations, frame.timestamp_s)
+            observations = corrected.observations
+            frame = dataclasses.replace(frame, pose=corrected.pose)
+            t_slam = time.perf_counter()
+            timing["slam"] = 1e3 * (t_slam - t2)
+            t2 = t_slam
 
         if self._qr_reader is not None:
             unread = set(self._unread_qr(detections))
@@ -194,6 +206,7 @@ class Pipeline:
             newly_confirmed=step.newly_confirmed,
             skipped_reason=None,
             timing_ms=timing,
+            pose_map=np.asarray(frame.pose, dtype=float),
         )
 
     def confirmed(self) -> list[TrackSnapshot]:

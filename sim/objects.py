@@ -30,7 +30,8 @@ class PlacedObject:
 
     ``position`` is the reference point in world coordinates (metres): the centre
     of a sign's face, the centre of a door leaf, the centre of a valve's wheel, the
-    centroid of a free-standing object. ``size_m`` is the object's characteristic
+    centroid of a free-standing object (a pillar's: on its axis at half its height;
+    the ball's: its centre). ``size_m`` is the object's characteristic
     size (a placard's side, a door's width, a doll's length). ``temperature_c``
     is what the thermal camera sees on its surface (None: ambient).
     """

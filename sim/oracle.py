@@ -10,8 +10,14 @@ sees. Per visible object it
   sigma_v = a + b h (the form seed 1 section 2.1.4 fits) and jitters its size;
 * reports another class with probability ``confusion_rate``, drawn from a row of
   a confusion matrix (default: another label of the same type for hazmats, any
-  class otherwise);
+  other class otherwise);
 * adds Poisson(``false_positives_per_frame``) boxes of random classes.
+
+Like a real detector it knows one class space, ``classes``: the 24 rescue classes
+by default, the four arena classes for the TurtleBot goal arena
+(:func:`oracle_for`). Objects of other classes are never detected, and confusions
+and false positives stay within the space; ``class_probs`` spread 1 - p over its
+other classes (0 elsewhere in :data:`poi.names.CLASSES`).
 
 QR text is left empty by default so the pipeline's QR reader decodes it from the
 pixels, as it would for a real detector (``qr_text: truth`` copies the truth).
@@ -23,11 +29,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from poi.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS, class_to_identity, identity_to_class
+from poi.names import (
+    ARENA_TYPES,
+    CLASS_INDEX,
+    CLASSES,
+    HAZMAT_LABELS,
+    RESCUE_CLASSES,
+    class_to_identity,
+    identity_to_class,
+)
 from poi.types import Detection, Frame
 from sim.simulator import FrameTruth
 
 ORACLE_STREAM = 2
+# A pillar of the goal arena is 5 cm wide: 10 px at 3 m in a 640 px image. The seed 2
+# team's YOLO 11n finds them at 160-240 px image height (section 2.1.2), where such a
+# pillar is 3-5 px wide, so the arena's oracle keeps boxes down to 4 px on their short side.
+ARENA_MIN_BOX_PX = 4.0
 
 
 @dataclass(kw_only=True)
@@ -43,7 +61,9 @@ class OracleSettings:
     false_positives_per_frame: float = 0.01
     confidence_range: tuple[float, float] = (0.55, 0.97)
     qr_text: str = "decode"  # or "truth"
-    confusion: np.ndarray | None = field(default=None, repr=False)  # (C, C) rows: detected | actual
+    classes: tuple[str, ...] = RESCUE_CLASSES  # the detector's class space, names of poi.names.CLASSES
+    # (K, K) over ``classes``, rows: detected | actual; default: default_confusion(classes)
+    confusion: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         for name in ("miss_rate", "confusion_rate"):
@@ -52,21 +72,42 @@ class OracleSettings:
                 raise ValueError(f"oracle.{name}: expected a probability in [0, 1], got {v}")
         if self.qr_text not in ("decode", "truth"):
             raise ValueError(f"oracle.qr_text: expected 'decode' or 'truth', got {self.qr_text!r}")
+        unknown = [c for c in self.classes if c not in CLASS_INDEX]
+        if len(self.classes) < 2 or unknown or len(set(self.classes)) != len(self.classes):
+            raise ValueError(
+                f"oracle.classes: expected at least two distinct names of poi.names.CLASSES, got {self.classes!r}"
+            )
 
 
-def default_confusion() -> np.ndarray:
-    """Pr(reported class | actual class, misclassified): hazmats among hazmats, others uniform."""
-    C = len(CLASSES)
-    M = np.zeros((C, C))
-    nh = len(HAZMAT_LABELS)
-    for a in range(C):
-        if a < nh:
-            M[a, :nh] = 1.0
-        else:
-            M[a, nh:] = 1.0
+def default_confusion(classes: tuple[str, ...] = RESCUE_CLASSES) -> np.ndarray:
+    """Pr(reported class | actual class, misclassified) over ``classes``: hazmats among
+    hazmats, the others uniform among the other non-hazmat classes.
+
+    >>> default_confusion(("pillar-blue", "pillar-red", "ball")).tolist()[0]
+    [0.0, 0.5, 0.5]
+    """
+    K = len(classes)
+    hazmat = np.array([c in HAZMAT_LABELS for c in classes])
+    M = np.zeros((K, K))
+    for a in range(K):
+        M[a] = hazmat == hazmat[a]
         M[a, a] = 0.0
+        if M[a].sum() == 0:  # the only class of its kind: any other class
+            M[a] = 1.0
+            M[a, a] = 0.0
         M[a] /= M[a].sum()
     return M
+
+
+def oracle_for(sim) -> OracleDetector:
+    """The oracle detector for a simulation: seeded by its scenario, knowing the classes of
+    its world (the rescue classes in a maze; the arena's, down to ``ARENA_MIN_BOX_PX``, in
+    the TurtleBot goal arena)."""
+    if sim.arena is not None:
+        settings = OracleSettings(seed=sim.scenario.seed, classes=ARENA_TYPES, min_box_px=ARENA_MIN_BOX_PX)
+    else:
+        settings = OracleSettings(seed=sim.scenario.seed)
+    return OracleDetector(settings)
 
 
 class OracleDetector:
@@ -75,8 +116,14 @@ class OracleDetector:
     name = "oracle"
 
     def __init__(self, settings: OracleSettings | None = None) -> None:
-        self.settings = settings or OracleSettings()
-        self.confusion = self.settings.confusion if self.settings.confusion is not None else default_confusion()
+        self.settings = s = settings or OracleSettings()
+        self.classes = s.classes
+        K = len(self.classes)
+        self.confusion = s.confusion if s.confusion is not None else default_confusion(self.classes)
+        if np.shape(self.confusion) != (K, K):
+            raise ValueError(f"oracle.confusion: expected a {K} x {K} matrix over oracle.classes")
+        self._index = {c: i for i, c in enumerate(self.classes)}  # class name -> index in classes
+        self._full = np.array([CLASS_INDEX[c] for c in self.classes])  # index in classes -> in CLASSES
         self._truth: FrameTruth | None = None
         self.last_timing_ms: dict[str, float] = {}
 
@@ -84,8 +131,11 @@ class OracleDetector:
         self._truth = truth
 
     def _probs(self, cls: int, conf: float) -> np.ndarray:
-        p = np.full(len(CLASSES), (1.0 - conf) / (len(CLASSES) - 1))
-        p[cls] = conf
+        """Over CLASSES: ``conf`` on class ``cls`` (an index in ``classes``), 1 - conf spread
+        evenly over the other classes of the space."""
+        p = np.zeros(len(CLASSES))
+        p[self._full] = (1.0 - conf) / (len(self.classes) - 1)
+        p[self._full[cls]] = conf
         return p
 
     def detect(self, frame: Frame) -> list[Detection]:
@@ -109,12 +159,14 @@ class OracleDetector:
             cy = 0.5 * (y1 + y2) + noise[1] * (s.center_sigma_a_px + s.center_sigma_b * h)
             w2 = w * (1.0 + s.size_jitter * noise[2])
             h2 = h * (1.0 + s.size_jitter * noise[3])
-            actual = CLASS_INDEX[identity_to_class(v.type, v.text)]
+            actual = self._index.get(identity_to_class(v.type, v.text))
+            if actual is None:
+                continue  # not a class this detector knows
             cls = actual
             if draws[1] < s.confusion_rate:
-                cls = int(rng.choice(len(CLASSES), p=self.confusion[actual]))
+                cls = int(rng.choice(len(self.classes), p=self.confusion[actual]))
             conf = float(s.confidence_range[0] + draws[2] * (s.confidence_range[1] - s.confidence_range[0]))
-            typ, text = class_to_identity(CLASSES[cls])
+            typ, text = class_to_identity(self.classes[cls])
             if typ == "qr":
                 text = v.text if s.qr_text == "truth" and cls == actual else ""
             box = (
@@ -125,7 +177,7 @@ class OracleDetector:
             )
             out.append(
                 Detection(
-                    class_name=CLASSES[cls],
+                    class_name=self.classes[cls],
                     type=typ,
                     text=text,
                     box_xyxy=box,
@@ -135,14 +187,14 @@ class OracleDetector:
                 )
             )
         for _ in range(int(rng.poisson(s.false_positives_per_frame))):
-            cls = int(rng.integers(len(CLASSES)))
+            cls = int(rng.integers(len(self.classes)))
             bw, bh = rng.uniform(20, 120, 2)
             cx, cy = rng.uniform(bw / 2, W - bw / 2), rng.uniform(bh / 2, H - bh / 2)
             conf = float(rng.uniform(*s.confidence_range))
-            typ, text = class_to_identity(CLASSES[cls])
+            typ, text = class_to_identity(self.classes[cls])
             out.append(
                 Detection(
-                    class_name=CLASSES[cls],
+                    class_name=self.classes[cls],
                     type=typ,
                     text=text,
                     box_xyxy=(cx - bw / 2, cy - bh / 2, cx + bw / 2, cy + bh / 2),

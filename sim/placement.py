@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from poi.names import HAZMAT_LABELS
+from maze_assets.models import ARENA_SIZE_M
+from poi.names import ARENA_TYPES, HAZMAT_LABELS
 from sim.objects import PlacedObject
 from sim.scenario import ObjectsGenerate, ObjectSpec, Scenario
 
@@ -55,6 +56,10 @@ def _scale(maze) -> float:
 
 
 def default_size(type_: str, maze) -> float:
+    """A type's characteristic size in ``maze``: RRL sizes scaled with the cell size; the
+    arena's pillars and ball keep their real size (maze_assets.models.ARENA_SIZE_M)."""
+    if type_ in ARENA_SIZE_M:
+        return ARENA_SIZE_M[type_]
     return SIZE_AT_RRL_M[type_] * _scale(maze)
 
 
@@ -166,7 +171,7 @@ def _explicit(spec: ObjectSpec, obj_id: int, maze, rng) -> PlacedObject:
     temp = spec.temperature_c if spec.temperature_c is not None else _temperature(spec.type, rng)
     text = spec.text
     if spec.position is not None:
-        mount = spec.mount or ("floor" if spec.type in FLOOR_TYPES else "wall")
+        mount = spec.mount or ("floor" if spec.type in FLOOR_TYPES + ARENA_TYPES else "wall")
         return PlacedObject(
             id=obj_id,
             type=spec.type,

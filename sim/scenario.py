@@ -5,6 +5,15 @@ or generated), the lighting, the robot's route, the sensors' settings and the
 seed. Everything random in a trial is drawn from ``np.random.default_rng(seed)``
 made once at the top and passed down (STYLE.md "Randomness").
 
+Instead of a maze and its objects, a scenario can lay out the TurtleBot goal arena
+of seed 2, section 1 (an open floor with a goal of two blue pillars, a ball before
+it, obstacles and other pillars; ``sim.arena``)::
+
+    arena: {generate: {ball_axis_offset_m: 0.15, ball_goal_distance_m: [0.5, 1.5]}}
+    robot: {kind: turtlebot, route: arena}
+    sensors: {pose_source: wheels}
+    rules: turtlebot
+
 Example (``poibench scenario new --seed 3`` prints a complete one)::
 
     poibench_scenario: 1
@@ -25,7 +34,7 @@ from typing import Literal
 
 import yaml
 
-from poi.names import TYPES
+from poi.names import RESCUE_TYPES, TYPES
 from sim.schema import SchemaError, Source, build, convert, load_yaml, load_yaml_file, to_plain
 
 SCENARIO_VERSION = 1
@@ -116,8 +125,9 @@ class ObjectsGenerate:
 
     def __post_init__(self) -> None:
         for t, n in self.counts.items():
-            if t not in TYPES:
-                raise ValueError(f"counts: unknown type {t!r}; expected one of {', '.join(TYPES)}")
+            if t not in RESCUE_TYPES:
+                where = " (the arena's types are laid out by 'arena')" if t in TYPES else ""
+                raise ValueError(f"counts: unknown type {t!r}{where}; expected one of {', '.join(RESCUE_TYPES)}")
             if n < 0:
                 raise ValueError(f"counts.{t}: must be >= 0, got {n}")
         lo, hi = self.wall_height_m
@@ -131,20 +141,103 @@ class ObjectsSpec:
     explicit: list[ObjectSpec] = field(default_factory=list)
 
 
+ARENA_CELL_M = 0.5  # the arena's floor is a grid of these cells (its walls are pieces this long)
+
+
+def _range(name: str, lo: float, hi: float, *, positive: bool = False) -> None:
+    if not lo <= hi or lo < 0 or (positive and lo <= 0):
+        bound = "0 < low" if positive else "0 <= low"
+        raise ValueError(f"{name}: expected [low, high] with {bound} <= high, got [{lo}, {hi}]")
+
+
+@dataclass(kw_only=True)
+class ArenaGenerate:
+    """The TurtleBot goal arena (seed 2, section 1, tasks 2 and 3), laid out from the seed.
+
+    An open floor ``size_m`` (x by y) inside low boundary walls; the goal, two blue
+    pillars ``goal_width_m`` apart, ``behind_goal_m`` before the +x wall with its axis
+    along x; the ball within ``ball_axis_offset_m`` (c) of the axis and
+    ``ball_goal_distance_m`` (a..b) before the goal line; ``obstacles`` cubes of side
+    ``obstacle_size_m`` between the ball and the goal line that always leave a corridor
+    ``min_path_width_m`` wide from the ball to the goal; ``other_pillars`` red or green
+    pillars behind the goal, every two pillars at least ``min_pillar_spacing_m`` apart;
+    the robot starting ``robot_ball_distance_m`` (d..e) from the ball, facing roughly
+    towards it. Defaults are task 3's figures; task 2's are ``ball_axis_offset_m: 0.15``,
+    ``ball_goal_distance_m: [0.5, 1.5]``, ``obstacles: [0, 0]``. Counts and ranges are
+    drawn uniformly.
+    """
+
+    size_m: tuple[float, float] = (6.0, 5.0)
+    boundary_wall_height_m: float = 0.15  # below the camera (0.3 m) and the pillars: never hides one
+    goal_width_m: tuple[float, float] = (0.7, 1.0)  # between the blue pillars' centres; "at least 700 mm"
+    ball_axis_offset_m: float = 0.3  # c
+    ball_goal_distance_m: tuple[float, float] = (0.5, 2.0)  # a..b
+    obstacles: tuple[int, int] = (0, 2)  # "up to two obstacles before the line"
+    obstacle_size_m: float = 0.3
+    min_path_width_m: float = 0.6  # "a path at least 600 mm wide from the ball to the goal"
+    other_pillars: tuple[int, int] = (2, 4)  # "any number of pillars behind the goal"
+    min_pillar_spacing_m: float = 0.3
+    robot_ball_distance_m: tuple[float, float] = (0.7, 2.5)  # d..e
+    behind_goal_m: float = 1.5  # floor between the goal line and the +x wall
+
+    def __post_init__(self) -> None:
+        for i, v in enumerate(self.size_m):
+            if v <= 0 or abs(v / ARENA_CELL_M - round(v / ARENA_CELL_M)) > 1e-9:
+                raise ValueError(f"size_m[{i}]: expected a positive multiple of {ARENA_CELL_M} m, got {v}")
+        for name in ("boundary_wall_height_m", "obstacle_size_m", "min_path_width_m", "behind_goal_m"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)}")
+        if self.ball_axis_offset_m < 0 or self.min_pillar_spacing_m < 0:
+            raise ValueError("ball_axis_offset_m and min_pillar_spacing_m: expected numbers >= 0")
+        _range("goal_width_m", *self.goal_width_m, positive=True)
+        _range("ball_goal_distance_m", *self.ball_goal_distance_m, positive=True)
+        _range("robot_ball_distance_m", *self.robot_ball_distance_m, positive=True)
+        _range("obstacles", *self.obstacles)
+        _range("other_pillars", *self.other_pillars)
+        if self.goal_width_m[0] <= self.min_path_width_m:
+            raise ValueError(
+                f"goal_width_m: the goal ({self.goal_width_m[0]} m) must be wider than min_path_width_m "
+                f"({self.min_path_width_m} m)"
+            )
+        if self.behind_goal_m >= self.size_m[0]:
+            raise ValueError(
+                f"behind_goal_m: {self.behind_goal_m} m leaves no field in a {self.size_m[0]} m floor"
+            )
+
+
+@dataclass(kw_only=True)
+class ArenaSpec:
+    """An arena generated from the scenario seed (the only kind so far)."""
+
+    generate: ArenaGenerate = field(default_factory=ArenaGenerate)
+
+
 @dataclass(kw_only=True)
 class PanSpec:
     amplitude_deg: float = 80.0
     period_s: float = 5.0
 
 
+TURTLEBOT_CAMERA_HEIGHT_M = 0.30  # the D435 on a TurtleBot's top plate
+
+
 @dataclass(kw_only=True)
 class RobotSpec:
-    """The robot base and its camera mast (kinematic: it follows the route exactly)."""
+    """The robot base and its camera (kinematic: it follows the route exactly).
 
-    route: str = "tour"  # "tour" (visit every cell) or a CSV file of timed poses: t,x,y,yaw[,pan]
+    ``kind``: ``mast``, the rescue robot whose camera pans on a mast (``pan``); or
+    ``turtlebot``, a differential-drive base with the camera fixed on its top plate,
+    looking forward (``pan`` does not apply; ``mast_height_m`` is the camera's height,
+    default ``TURTLEBOT_CAMERA_HEIGHT_M``). ``route``: ``tour`` (visit every maze
+    cell), ``arena`` (the goal arena's look-around and approach, sim/arena_route.py) or
+    a CSV file of timed poses ``t,x,y,yaw[,pan]``.
+    """
+
+    kind: Literal["mast", "turtlebot"] = "mast"
+    route: str = "tour"
     speed_mps: float = 0.3
     yaw_rate_dps: float = 60.0
-    mast_height_m: float | None = None  # default: 0.5 m for RRL cells, 0.2 m for RMRC
+    mast_height_m: float | None = None  # default: 0.5 m for RRL cells, 0.2 m for RMRC; turtlebot 0.3 m
     tilt_deg: float = 0.0  # positive looks up
     pan: PanSpec = field(default_factory=PanSpec)
     max_duration_s: float | None = None
@@ -212,6 +305,44 @@ class T265Spec:
 
 
 @dataclass(kw_only=True)
+class WheelOdometrySpec:
+    """Differential-drive wheel odometry (sim/sensors/wheel_odometry.py). Defaults: a
+    TurtleBot 2 (Kobuki base, 0.23 m between the wheels) on a hard floor.
+
+    Systematic errors (fixed for a run): ``wheel_radius_error`` (the radius the odometry
+    assumes over the true one, minus 1: +0.05 reports every distance and turn 5% long),
+    ``wheel_radius_mismatch`` (true right minus left wheel radius over their mean: a
+    straight run curves), ``wheel_base_error`` (the wheel base the odometry assumes over
+    the true one, minus 1: +0.02 reports turns 2% short). Random slip, a random walk in
+    distance travelled: ``slip_m_per_sqrt_m`` (distance error sigma after 1 m driven),
+    ``slip_rad_per_sqrt_rad`` (heading error sigma after 1 rad turned),
+    ``slip_rad_per_sqrt_m`` (heading error sigma after 1 m driven).
+    """
+
+    wheel_base_m: float = 0.23
+    wheel_radius_error: float = 0.01  # worn or soft tyres: about 1%
+    wheel_radius_mismatch: float = 0.002  # UMBmark-size diameter ratio error: about 0.5 deg per metre
+    wheel_base_error: float = 0.01  # the contact patches' spread: about 1%, 3.6 deg per full turn
+    slip_m_per_sqrt_m: float = 0.01
+    slip_rad_per_sqrt_rad: float = 0.02  # about 2.9 deg after a full turn in place
+    slip_rad_per_sqrt_m: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.wheel_base_m <= 0:
+            raise ValueError(f"wheel_base_m: expected a positive number, got {self.wheel_base_m}")
+        for name in ("wheel_radius_error", "wheel_base_error"):
+            if getattr(self, name) <= -1.0:
+                raise ValueError(f"{name}: expected a relative error > -1, got {getattr(self, name)}")
+        if not abs(self.wheel_radius_mismatch) < 2.0:
+            raise ValueError(
+                f"wheel_radius_mismatch: expected a number in (-2, 2), got {self.wheel_radius_mismatch}"
+            )
+        for name in ("slip_m_per_sqrt_m", "slip_rad_per_sqrt_rad", "slip_rad_per_sqrt_m"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name}: expected a number >= 0, got {getattr(self, name)}")
+
+
+@dataclass(kw_only=True)
 class ThermalSpec:
     enabled: bool = True
     width: int = 160
@@ -233,7 +364,10 @@ class MountSpec:
 
     ``rpy_deg`` is roll-pitch-yaw applied on top of the optical-to-body rotation.
     ``error_*`` perturbs the true mount the simulator uses; the pipeline is given
-    the nominal one, so a calibration error can be simulated.
+    the nominal one, so a calibration error can be simulated. With
+    ``sensors.pose_source: wheels`` the tracker frame is the robot base (on the floor,
+    under the camera) and the nominal mount follows from the camera's height and tilt:
+    ``t_m`` and ``rpy_deg`` (the D435-to-T265 mounting) do not apply, ``error_*`` does.
     """
 
     t_m: tuple[float, float, float] = (0.0, 0.0, 0.045)
@@ -248,6 +382,10 @@ class SensorsSpec:
     fps: float = 10.0
     d435: D435Spec = field(default_factory=D435Spec)
     t265: T265Spec = field(default_factory=T265Spec)
+    # what Frame.pose comes from: the T265 (tracker frame: the T265), or the base's wheel
+    # odometry (tracker frame: the base; FACTS.md: "a wheeled robot feeds it wheel odometry")
+    pose_source: Literal["t265", "wheels"] = "t265"
+    wheel_odometry: WheelOdometrySpec = field(default_factory=WheelOdometrySpec)
     thermal: ThermalSpec = field(default_factory=ThermalSpec)
     mount: MountSpec = field(default_factory=MountSpec)
     truth_boxes: bool = True  # per-frame ground-truth boxes (a segmentation render)
@@ -259,14 +397,23 @@ class SensorsSpec:
 
 @dataclass(kw_only=True)
 class Scenario:
+    """A trial: a maze with its objects (default: the shipped ``default`` maze and the
+    default object counts), or an ``arena`` that lays out floor, objects and start itself.
+
+    ``rules`` names the scoring preset the scenario is meant for; ``poibench run`` uses it
+    when no ``--rules`` is given (none: ex3).
+    """
+
     poibench_scenario: int = SCENARIO_VERSION
     name: str = "scenario"
     seed: int = 0
-    maze: MazeSpec = field(default_factory=lambda: MazeSpec(file="default"))
-    objects: ObjectsSpec = field(default_factory=ObjectsSpec)
+    maze: MazeSpec | None = None
+    objects: ObjectsSpec | None = None
+    arena: ArenaSpec | None = None
     lighting: Literal["bright", "dim", "uneven"] = "bright"
     robot: RobotSpec = field(default_factory=RobotSpec)
     sensors: SensorsSpec = field(default_factory=SensorsSpec)
+    rules: str | None = None
     source_dir: str | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -274,6 +421,29 @@ class Scenario:
             raise ValueError(
                 f"poibench_scenario: unsupported version {self.poibench_scenario}; expected {SCENARIO_VERSION}"
             )
+        if self.arena is None:
+            if self.maze is None:
+                self.maze = MazeSpec(file="default")
+            if self.objects is None:
+                self.objects = ObjectsSpec()
+            if self.robot.route == "arena":
+                raise ValueError(
+                    "robot.route: 'arena' drives the goal arena; a maze scenario has none (use 'tour')"
+                )
+        else:
+            if self.maze is not None or self.objects is not None:
+                raise ValueError(
+                    "arena: an arena lays out its own floor and objects; give no 'maze' or 'objects' with it"
+                )
+            if self.robot.route == "tour":
+                raise ValueError("robot.route: 'tour' visits maze cells; in an arena use 'arena' or a CSV file")
+        if self.sensors.pose_source == "wheels" and self.robot.kind != "turtlebot":
+            raise ValueError(
+                "sensors.pose_source: 'wheels' needs robot.kind 'turtlebot' (odometry of a base the camera "
+                "is fixed to; the mast robot's camera pans)"
+            )
+        if self.rules is not None and not self.rules.strip():
+            raise ValueError("rules: expected a preset name or a rules file, got an empty string")
 
     def to_dict(self) -> dict:
         d = to_plain(self)

@@ -127,6 +127,8 @@ def convert(tp: Any, value: Any, src: Source, path: str) -> Any:
                 return convert(a, value, src, path)
             except SchemaError as e:
                 errors.append(e)
+        if len(errors) == 1:  # X | None: X's own error says what is wrong, and where
+            raise errors[0]
         raise _fail(src, path, f"expected {_describe(tp)}, got {value!r}")
     if origin is Literal:
         if value not in get_args(tp):

@@ -7,9 +7,14 @@ boxes, visible fraction and true camera-frame position) is kept apart for
 scoring, the oracle detector and datasets.
 
 Randomness: the scenario seed makes one ``np.random.Generator`` for building the
-world (maze, placement, lighting, T265 drift) and, for sensor noise, one
-generator per frame from ``SeedSequence([seed, 1, k])``, so frame k is the
-same whichever frames are rendered.
+world (maze and placement, or the goal arena's layout; lighting; T265 drift or wheel
+odometry errors) and, for sensor noise, one generator per frame from
+``SeedSequence([seed, 1, k])``, so frame k is the same whichever frames are rendered.
+
+Tracker frame: ``Frame.pose`` is the pose of the tracker frame, the T265 (mounted
+relative to the camera by ``sensors.mount``) or, with ``sensors.pose_source: wheels``,
+the robot base (on the floor under the camera, x forward), whose odometry the pipeline
+then gets. ``T_tracker_optical_nominal`` is the camera mount the pipeline is told.
 
 Threads: the OpenGL context lives on one worker thread per simulation, where
 every frame is made; ``frames()`` keeps a couple of frames in flight there
@@ -23,7 +28,7 @@ import itertools
 from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TypeVar
 
 import cv2
@@ -41,6 +46,8 @@ from poi.geometry import (
     transform_points,
 )
 from poi.types import Frame, Intrinsics
+from sim.arena import ArenaLayout, generate_arena
+from sim.arena_route import arena_route
 from sim.camera import T_RIG_OPTICAL
 from sim.maze import (
     PRESETS,
@@ -52,15 +59,17 @@ from sim.objects import PlacedObject
 from sim.placement import place_objects
 from sim.render import SceneRenderer
 from sim.route import Route, load_route_csv, rig_pose, route_from_tour
-from sim.scenario import MountSpec, Scenario
+from sim.scenario import TURTLEBOT_CAMERA_HEIGHT_M, MountSpec, Scenario
 from sim.sensors.d435_depth import simulate_depth
 from sim.sensors.noise_pool import NoisePool
 from sim.sensors.t265 import PoseTrack, simulate_t265
 from sim.sensors.thermal import thermal_image
+from sim.sensors.wheel_odometry import simulate_wheel_odometry
 from sim.tour import plan_tour
 from sim.world import CAMERA_NAME, World, build_world, door_gap_m
 
 SENSOR_STREAM = 1
+ARENA_LIGHT_HEIGHT_M = 2.5  # the goal arena's lamps hang from a room's ceiling, not over low walls
 PREFETCH_FRAMES = 2  # frames rendered ahead by Simulation.frames()
 NOISE_POOL_FRAMES = 3  # frames' worth of pre-drawn noise per pool (sim.sensors.noise_pool)
 # the thermal image integrates THERMAL_SUPERSAMPLE^2 segmentation samples per pixel
@@ -117,15 +126,25 @@ class FrameTruth:
     object_mask: np.ndarray | None = None  # (H, W) object id per pixel, -1 elsewhere
 
 
+def _rpy(deg) -> np.ndarray:
+    """Rotation of roll, pitch, yaw (degrees): Rz(yaw) Ry(pitch) Rx(roll)."""
+    a = np.deg2rad(deg)
+    return rot_z(a[2]) @ rot_y(a[1]) @ rot_x(a[0])
+
+
 def mount_transforms(m: MountSpec) -> tuple[np.ndarray, np.ndarray]:
     """(nominal, true) T_tracker_optical: p_tracker = Q0 p_c + t0."""
+    nominal = make_transform(_rpy(m.rpy_deg) @ R_BODY_OPTICAL, m.t_m)
+    error = make_transform(_rpy(m.error_rpy_deg), m.error_t_m)
+    return nominal, error @ nominal
 
-    def rpy(r):
-        a = np.deg2rad(r)
-        return rot_z(a[2]) @ rot_y(a[1]) @ rot_x(a[0])
 
-    nominal = make_transform(rpy(m.rpy_deg) @ R_BODY_OPTICAL, m.t_m)
-    error = make_transform(rpy(m.error_rpy_deg), m.error_t_m)
+def base_mount_transforms(height_m: float, tilt_rad: float, m: MountSpec) -> tuple[np.ndarray, np.ndarray]:
+    """(nominal, true) T_base_optical of a camera fixed ``height_m`` above the base, tilted
+    up by ``tilt_rad``; the true one carries ``m``'s ``error_*`` (as :func:`mount_transforms`)."""
+    # the rig above the base (sim.route.rig_pose with no pan), then rig -> optical
+    nominal = make_transform(rot_y(-tilt_rad) @ R_BODY_OPTICAL, [0.0, 0.0, height_m])
+    error = make_transform(_rpy(m.error_rpy_deg), m.error_t_m)
     return nominal, error @ nominal
 
 
@@ -137,53 +156,84 @@ class Simulation:
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = sc = scenario
         rng = np.random.default_rng(sc.seed)
-        if sc.maze.file is not None:
-            self.maze = load_maze(find_maze(sc.resolve(sc.maze.file)))
+        self.arena: ArenaLayout | None = None
+        if sc.arena is not None:
+            self.arena = generate_arena(sc.arena.generate, rng, name=f"arena-{sc.seed}")
+            self.maze = self.arena.floor
+            self.objects = self.arena.objects
+            start_xy, start_yaw = self.arena.start_xy, self.arena.start_yaw_rad
         else:
-            g = sc.maze.generate
-            self.maze = generate_maze(
-                g.rows,
-                g.cols,
-                rng,
-                loop_fraction=g.loop_fraction,
-                settings=PRESETS[g.preset],
-                name=f"generated-{sc.seed}",
-            )
-        self.objects = place_objects(sc, self.maze, rng)
+            if sc.maze.file is not None:
+                self.maze = load_maze(find_maze(sc.resolve(sc.maze.file)))
+            else:
+                g = sc.maze.generate
+                self.maze = generate_maze(
+                    g.rows,
+                    g.cols,
+                    rng,
+                    loop_fraction=g.loop_fraction,
+                    settings=PRESETS[g.preset],
+                    name=f"generated-{sc.seed}",
+                )
+            self.objects = place_objects(sc, self.maze, rng)
+            start_xy, start_yaw = self.maze.cell_center(*self.maze.start_cell), self.maze.start_heading_rad
         d = sc.sensors.d435
         self.intrinsics = Intrinsics(width=d.width, height=d.height, fx=d.fx, fy=d.fy, ppx=d.ppx, ppy=d.ppy)
         th = sc.sensors.thermal
         self.thermal_intrinsics = self.intrinsics.scaled(th.width, th.height)
-        self.world: World = build_world(self.maze, self.objects, self.intrinsics, sc.lighting, rng)
+        self.world: World = build_world(
+            self.maze,
+            self.objects,
+            self.intrinsics,
+            sc.lighting,
+            rng,
+            obstacles=self.arena.obstacles if self.arena is not None else (),
+            light_height_m=ARENA_LIGHT_HEIGHT_M if self.arena is not None else None,
+        )
 
-        sx, sy = self.maze.cell_center(*self.maze.start_cell)
-        self.T_world_map = make_transform(rot_z(self.maze.start_heading_rad), [sx, sy, 0.0])
+        self.T_world_map = make_transform(rot_z(start_yaw), [float(start_xy[0]), float(start_xy[1]), 0.0])
         self.T_map_world = invert_transform(self.T_world_map)
         if sc.robot.route == "tour":
             cells = plan_tour(self.maze, self.maze.start_cell)
             self.route: Route = route_from_tour(self.maze, cells, sc.robot, self.maze.start_heading_rad)
+        elif sc.robot.route == "arena":
+            self.route = arena_route(self.arena, sc.robot)
         else:
             self.route = load_route_csv(sc.resolve(sc.robot.route), self.T_world_map)
-        self.mast_height_m = (
-            sc.robot.mast_height_m
-            if sc.robot.mast_height_m is not None
-            else default_mast_height_m(self.maze.settings.cell_size_m)
-        )
+        turtlebot = sc.robot.kind == "turtlebot"
+        if turtlebot:  # the camera is fixed to the base: no pan, whatever the route file says
+            self.route = replace(self.route, pan_rad=None, pan_amplitude_rad=0.0)
+        if sc.robot.mast_height_m is not None:
+            self.mast_height_m = sc.robot.mast_height_m
+        elif turtlebot:
+            self.mast_height_m = TURTLEBOT_CAMERA_HEIGHT_M
+        else:
+            self.mast_height_m = default_mast_height_m(self.maze.settings.cell_size_m)
         duration = self.route.duration_s
         if sc.robot.max_duration_s is not None:
             duration = min(duration, sc.robot.max_duration_s)
         self.times_s = np.arange(0.0, duration + 1e-9, 1.0 / sc.sensors.fps)
-        self.T_tracker_optical_nominal, self.T_tracker_optical_true = mount_transforms(sc.sensors.mount)
+        tilt = np.deg2rad(sc.robot.tilt_deg)
+        wheels = sc.sensors.pose_source == "wheels"
+        if wheels:  # the tracker frame is the base, the camera fixed above it
+            mounts = base_mount_transforms(self.mast_height_m, tilt, sc.sensors.mount)
+        else:
+            mounts = mount_transforms(sc.sensors.mount)
+        self.T_tracker_optical_nominal, self.T_tracker_optical_true = mounts
         T_rig_tracker = T_RIG_OPTICAL @ invert_transform(self.T_tracker_optical_true)
         self._T_rig_tracker = T_rig_tracker
         self._T_map_rig = [
-            self.T_map_world @ rig_pose(self.route, t, self.mast_height_m, np.deg2rad(sc.robot.tilt_deg))
-            for t in self.times_s
+            self.T_map_world @ rig_pose(self.route, t, self.mast_height_m, tilt) for t in self.times_s
         ]
         self.T_map_tracker_true = [T @ T_rig_tracker for T in self._T_map_rig]
-        self.pose_track: PoseTrack = simulate_t265(
-            self.T_map_tracker_true, self.times_s, sc.sensors.t265, rng, sc.sensors.noise
-        )
+        if wheels:
+            self.pose_track: PoseTrack = simulate_wheel_odometry(
+                self.T_map_tracker_true, self.times_s, sc.sensors.wheel_odometry, rng, sc.sensors.noise
+            )
+        else:
+            self.pose_track = simulate_t265(
+                self.T_map_tracker_true, self.times_s, sc.sensors.t265, rng, sc.sensors.noise
+            )
         self._temp_of_geom = self._geom_temperatures()
         self._renderer: SceneRenderer | None = None
         self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
@@ -210,7 +260,7 @@ class Simulation:
 
     def walls_in_map(self) -> list[tuple[tuple[float, float], tuple[float, float]]]:
         """Wall pieces as map-frame 2D segments, for map plots; a door's piece is drawn as
-        the wall either side of its frame."""
+        the wall either side of its frame; the goal arena's obstacles by their outlines."""
         doors = {o.wall: o for o in self.objects if o.type == "door" and o.wall}
         out = []
         for seg in self.maze.wall_segments():
@@ -226,6 +276,12 @@ class Simulation:
                     continue
                 a2 = transform_points(self.T_map_world, q0)
                 b2 = transform_points(self.T_map_world, q1)
+                out.append(((float(a2[0]), float(a2[1])), (float(b2[0]), float(b2[1]))))
+        for ob in self.arena.obstacles if self.arena is not None else ():
+            c = np.c_[ob.corners(), np.zeros(4)]  # (4, 3) on the floor
+            m = transform_points(self.T_map_world, c)
+            for i in range(4):
+                a2, b2 = m[i], m[(i + 1) % 4]
                 out.append(((float(a2[0]), float(a2[1])), (float(b2[0]), float(b2[1]))))
         return out
 

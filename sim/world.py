@@ -1,6 +1,7 @@
 """Build the MuJoCo model of a scenario: floor, walls, lights, objects and the camera rig.
 
-Walls are boxes named ``wall_{row}_{col}_{side}`` (the maze's wall pieces);
+Walls are boxes named ``wall_{row}_{col}_{side}`` (the maze's wall pieces), the goal
+arena's obstacles boxes named ``obstacle_{k}``;
 objects are bodies named ``poi_{id}_{type}`` built by ``maze_assets.models``;
 the camera rig is a mocap body ``camera_rig`` whose child camera ``d435``
 reproduces the D435 colour intrinsics (``sim.camera``). Rendering only: no
@@ -10,7 +11,9 @@ geom collides, the robot is kinematic.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import mujoco  # noqa: E402
 import numpy as np
@@ -22,6 +25,9 @@ from poi.types import Intrinsics  # noqa: E402
 from sim.camera import mujoco_camera_attrs  # noqa: E402
 from sim.mjcf import SceneAssets, fmt  # noqa: E402
 from sim.objects import PlacedObject  # noqa: E402
+
+if TYPE_CHECKING:
+    from sim.arena import Obstacle
 
 CAMERA_NAME = "d435"
 RIG_BODY = "camera_rig"
@@ -38,7 +44,16 @@ class World:
     geom_object_id: np.ndarray  # (ngeom,) object id of each geom, -1 for walls/floor
 
 
-def _lights(world: ET.Element, visual: ET.Element, lighting: str, maze, rng: np.random.Generator) -> None:
+def _lights(
+    world: ET.Element,
+    visual: ET.Element,
+    lighting: str,
+    maze,
+    rng: np.random.Generator,
+    light_height_m: float | None = None,
+) -> None:
+    """Headlight and lights of a preset; ``light_height_m`` puts the spot lamps of ``uneven``
+    at that height (default: 1.8 wall heights, under a maze's ceiling)."""
     w, h = maze.size_m
     top = maze.settings.wall_height_m * 2.5 + 1.0
     head = ET.SubElement(visual, "headlight")
@@ -73,7 +88,7 @@ def _lights(world: ET.Element, visual: ET.Element, lighting: str, maze, rng: np.
                 "light",
                 name=f"spot_{i}",
                 castshadow="false",
-                pos=fmt([x, y, maze.settings.wall_height_m * 1.8]),
+                pos=fmt([x, y, maze.settings.wall_height_m * 1.8 if light_height_m is None else light_height_m]),
                 dir="0 0 -1",
                 cutoff="60",
                 exponent="2",
@@ -91,9 +106,20 @@ def door_gap_m(length_m: float, door: PlacedObject, wall_height_m: float) -> tup
 
 
 def build_world_xml(
-    maze, objects: list[PlacedObject], intr: Intrinsics, lighting: str, rng: np.random.Generator
+    maze,
+    objects: list[PlacedObject],
+    intr: Intrinsics,
+    lighting: str,
+    rng: np.random.Generator,
+    *,
+    obstacles: Sequence[Obstacle] = (),
+    light_height_m: float | None = None,
 ) -> tuple[str, dict[str, bytes]]:
-    """The MJCF text and its in-memory assets (PNG textures)."""
+    """The MJCF text and its in-memory assets (PNG textures).
+
+    ``obstacles`` (the goal arena's cubes, not POIs) are plywood boxes named by their
+    ``name``; ``light_height_m``: see :func:`_lights`.
+    """
     root = ET.Element("mujoco", model="poibench")
     ET.SubElement(root, "compiler", angle="radian")
     visual = ET.SubElement(root, "visual")
@@ -115,7 +141,7 @@ def build_world_xml(
         height="32",
     )
     world = ET.SubElement(root, "worldbody")
-    _lights(world, visual, lighting, maze, rng)
+    _lights(world, visual, lighting, maze, rng, light_height_m)
 
     w, h = maze.size_m
     s = maze.settings
@@ -172,6 +198,18 @@ def build_world_xml(
                 contype="0",
                 conaffinity="0",
             )
+    for ob in obstacles:
+        ET.SubElement(
+            world,
+            "geom",
+            name=ob.name,
+            type="box",
+            material="wall",
+            pos=fmt([ob.center_xy[0], ob.center_xy[1], ob.size_m / 2]),
+            size=fmt([ob.size_m / 2] * 3),
+            contype="0",
+            conaffinity="0",
+        )
     for obj in objects:
         world.append(build_object(obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m))
 
@@ -182,9 +220,18 @@ def build_world_xml(
 
 
 def build_world(
-    maze, objects: list[PlacedObject], intr: Intrinsics, lighting: str, rng: np.random.Generator
+    maze,
+    objects: list[PlacedObject],
+    intr: Intrinsics,
+    lighting: str,
+    rng: np.random.Generator,
+    *,
+    obstacles: Sequence[Obstacle] = (),
+    light_height_m: float | None = None,
 ) -> World:
-    xml, files = build_world_xml(maze, objects, intr, lighting, rng)
+    xml, files = build_world_xml(
+        maze, objects, intr, lighting, rng, obstacles=obstacles, light_height_m=light_height_m
+    )
     model = mujoco.MjModel.from_xml_string(xml, files)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)

@@ -141,7 +141,8 @@ function onFrame(m) {
   showDetections(m.detections);
   showTable(m.confirmed);
   $("clock").textContent = `t ${fmtTime(m.t)} · frame ${m.k + 1} / ${init.n_frames}`;
-  $("score").textContent = m.score ? `score ${m.score.total} / ${m.score.max}` : "";
+  // points presets send total and max; a map-error preset (turtlebot) sends its headline
+  $("score").textContent = !m.score ? "" : m.score.text ?? `score ${m.score.total} / ${m.score.max}`;
   if (m.images) {
     for (const key of ["camera", "thermal", "depth"]) if (m.images[key]) $(key).src = m.images[key];
   }

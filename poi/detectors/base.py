@@ -25,7 +25,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from poi.names import CLASS_INDEX, CLASSES, class_to_identity, identity_to_class
+from poi.names import CLASS_INDEX, CLASSES, class_domain, class_to_identity, identity_to_class
 from poi.types import Detection, Frame
 
 # The built-in detectors register themselves when poi.detectors is imported,
@@ -122,17 +122,23 @@ def spread_class_probs(scores: np.ndarray, top: int) -> np.ndarray:
 def one_class_probs(class_name: str, p: float) -> np.ndarray:
     """Class probabilities over CLASSES for a detector that knows only its top class.
 
-    ``class_name`` gets ``p``, every other class (1 - p) / (len(CLASSES) - 1)
-    (seed 1, section 2.1.5 with no information on the misclassification).
+    ``class_name`` gets ``p``, every other class of its domain (the rescue classes, or
+    the arena's: :func:`poi.names.class_domain`) (1 - p) / (domain size - 1), the other
+    domain 0 (seed 1, section 2.1.5 with no information on the misclassification).
 
     >>> pr = one_class_probs("heat-source", 0.9)
     >>> round(float(pr[CLASS_INDEX["heat-source"]]), 3), round(float(pr.sum()), 6)
     (0.9, 1.0)
+    >>> round(float(pr[CLASS_INDEX["door"]]) * 23, 6), float(pr[CLASS_INDEX["ball"]])
+    (0.1, 0.0)
     """
-    scores = np.zeros(len(CLASSES))
-    k = CLASS_INDEX[class_name]
+    domain = [CLASS_INDEX[c] for c in class_domain(class_name)]
+    scores = np.zeros(len(domain))
+    k = domain.index(CLASS_INDEX[class_name])
     scores[k] = p
-    return spread_class_probs(scores, k)
+    probs = np.zeros(len(CLASSES))
+    probs[domain] = spread_class_probs(scores, k)
+    return probs
 
 
 def canonical_class(model_name: str) -> str | None:

@@ -46,7 +46,7 @@ from poi.detectors.base import (
     register,
 )
 from poi.detectors.qr import attach_qr_text
-from poi.names import CLASS_INDEX, CLASSES
+from poi.names import CLASS_INDEX, CLASSES, class_domain
 from poi.types import Detection, Frame
 
 PAD_VALUE = 114  # Ultralytics' letterbox grey
@@ -236,6 +236,7 @@ class OnnxYoloDetector:
     _input_dtype: Any = field(default=np.float32, init=False, repr=False)
     _layout: str = field(default="", init=False, repr=False)
     _class_to_ours: np.ndarray = field(default=None, init=False, repr=False)  # type: ignore[assignment]
+    _domain: np.ndarray = field(default=None, init=False, repr=False)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         self._check_settings()
@@ -257,6 +258,10 @@ class OnnxYoloDetector:
         metadata = dict(session.get_modelmeta().custom_metadata_map)
         self.model_names = self._read_names(path, metadata)
         self._class_to_ours = self._map_classes(self.model_names)
+        # (len(CLASSES),) the classes of the model's domain(s), where no-information mass goes
+        self._domain = np.zeros(len(CLASSES), dtype=bool)
+        for m in self._class_to_ours[self._class_to_ours >= 0]:
+            self._domain[[CLASS_INDEX[c] for c in class_domain(CLASSES[int(m)])]] = True
         self.input_hw = self._read_input(session, path, metadata)
         outputs = session.get_outputs()
         self._layout = resolve_layout(outputs[0].shape, len(self.model_names), self.layout, metadata)
@@ -418,8 +423,11 @@ class OnnxYoloDetector:
 
         ``model_scores`` (K, C) are mapped onto CLASSES (the max over model names of
         one class); the top class keeps its score p, the rest 1 - p goes to the
-        others in proportion to their scores, or uniformly when those are all zero.
-        Row k equals ``spread_class_probs(mapped[k], top[k])``.
+        others in proportion to their scores, or, when those are all zero, uniformly
+        over the other classes of the model's domain (:func:`poi.names.class_domain`:
+        the 24 rescue classes for a rescue model, the arena's four for an arena model,
+        all of CLASSES for a model of both). With scores on other classes, row k
+        equals ``spread_class_probs(mapped[k], top[k])``.
         """
         K, n = len(top), len(CLASSES)
         S = np.zeros((K, n), dtype=np.float64)  # (K, len(CLASSES))
@@ -430,8 +438,9 @@ class OnnxYoloDetector:
         p = S[rows, top]  # (K,)
         rest = S.sum(axis=1) - p  # (K,)
         safe = np.where(rest > 0.0, rest, 1.0)
+        m_dom = max(int(self._domain.sum()) - 1, 1)
         probs = np.where(
-            (rest > 0.0)[:, None], S * ((1.0 - p) / safe)[:, None], ((1.0 - p) / (n - 1))[:, None]
+            (rest > 0.0)[:, None], S * ((1.0 - p) / safe)[:, None], self._domain * ((1.0 - p) / m_dom)[:, None]
         )  # (K, len(CLASSES))
         probs[rows, top] = p
         return probs

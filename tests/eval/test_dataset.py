@@ -10,7 +10,7 @@ import yaml
 from eval.cli import main
 from eval.dataset import DatasetError, DatasetSpec, _crosses, scenario_for, write_dataset, yolo_labels
 from eval.train import TrainError, TrainSpec, data_yaml
-from poi.names import CLASSES, HAZMAT_LABELS
+from poi.names import HAZMAT_LABELS, RESCUE_CLASSES
 from sim.simulator import FrameTruth, VisibleObject
 
 
@@ -34,7 +34,7 @@ def tiny(tmp_path_factory):
 def test_files_and_data_yaml(tiny):
     spec, out, summary = tiny
     data = yaml.safe_load((out / "data.yaml").read_text())
-    assert data["names"] == dict(enumerate(CLASSES)) and data["nc"] == 24
+    assert data["names"] == dict(enumerate(RESCUE_CLASSES)) and data["nc"] == 24
     assert (out / data["train"]).is_dir() and (out / data["val"]).is_dir()
     imgs = sorted((out / "images").rglob("*.jpg"))
     assert len(imgs) == 6 and summary["images"] == {"train": 3, "val": 3}
@@ -43,7 +43,7 @@ def test_files_and_data_yaml(tiny):
         assert lab.exists()
         for line in lab.read_text().splitlines():
             c, *xywh = line.split()
-            assert 0 <= int(c) < len(CLASSES)
+            assert 0 <= int(c) < len(RESCUE_CLASSES)
             x, y, w, h = map(float, xywh)
             assert 0 < w <= 1 and 0 < h <= 1 and x - w / 2 + 1e-6 >= 0 and x + w / 2 <= 1 + 1e-6
     assert (out / "classes.png").stat().st_size > 1000
@@ -121,7 +121,7 @@ def test_labels_follow_visibility_and_size_rules():
     )
     labels = yolo_labels(truth, objs, DatasetSpec(images=1), 640, 480)
     # only the placard: the door box is 3 px wide (< 4), then only 10% visible (< 30%)
-    assert labels == [(CLASSES.index("oxidizer"), 132 / 640, 72 / 480, 64 / 640, 64 / 480)]
+    assert labels == [(RESCUE_CLASSES.index("oxidizer"), 132 / 640, 72 / 480, 64 / 640, 64 / 480)]
 
 
 def test_sight_line_crossing():
@@ -147,3 +147,25 @@ def test_train_checks_its_inputs_before_needing_ultralytics(tiny, tmp_path):
         data_yaml(bad)
     with pytest.raises(TrainError, match="multiple of 32"):
         TrainSpec(data=str(out), out=str(tmp_path / "run"), imgsz=300)
+
+
+# The class names of every dataset written before the arena types were added, spelled out:
+# such datasets (and the models trained on them) must keep working unchanged.
+DATASET_NAMES_V1 = [
+    *("explosive", "blasting-agent", "flammable-gas", "non-flammable-gas", "oxygen", "fuel-oil"),
+    *("dangerous-when-wet", "flammable-solid", "spontaneously-combustible", "oxidizer", "organic-peroxide"),
+    *("inhalation-hazard", "poison", "radioactive", "corrosive", "infectious-substance", "qr", "door"),
+    *("valve", "baby-doll", "fire-extinguisher", "exit-sign", "fire-extinguisher-sign", "heat-source"),
+]
+
+
+def test_existing_24_class_datasets_still_pass_the_train_check(tmp_path):
+    old = tmp_path / "data.yaml"
+    old.write_text(yaml.safe_dump({"nc": 24, "names": dict(enumerate(DATASET_NAMES_V1))}))
+    assert data_yaml(old) == old
+    assert list(RESCUE_CLASSES) == DATASET_NAMES_V1
+    # the arena's classes are not part of a rescue dataset
+    grown = tmp_path / "grown.yaml"
+    grown.write_text(yaml.safe_dump({"names": [*DATASET_NAMES_V1, "pillar-blue"]}))
+    with pytest.raises(TrainError, match="24 classes in order"):
+        data_yaml(grown)

@@ -12,7 +12,7 @@ from eval.cli import main
 from eval.detection_metrics import ImageBoxes, average_precision, class_metrics, confusion_counts, mean_ap
 from eval.detector_quality import CenterSamples, calibration_doc, center_samples, fit_variance
 from poi.covariance import load_calibration
-from poi.names import CLASSES
+from poi.names import RESCUE_CLASSES
 
 _spec = importlib.util.spec_from_file_location("onnx_models", Path(__file__).parents[1] / "poi" / "onnx_models.py")
 onnx_models = importlib.util.module_from_spec(_spec)
@@ -41,10 +41,10 @@ def test_ap_of_perfect_and_of_ranked_false_positive():
 def test_ap50_95_counts_the_thresholds_a_box_passes():
     # IoU of (0,0,100,100) with (0,0,100,62) is 0.62: a hit at 0.50, 0.55, 0.60 and a miss above
     im = _im([[0, 0, 100, 100]], [3], [[0, 0, 100, 62]], [3], [0.9])
-    (m,) = [x for x in class_metrics([im], len(CLASSES), 0.5) if x.n_gt]
+    (m,) = [x for x in class_metrics([im], len(RESCUE_CLASSES), 0.5) if x.n_gt]
     assert m.ap50 == 1.0 and m.ap50_95 == pytest.approx(0.3)
     assert m.recall == 1.0 and m.precision == 1.0
-    assert mean_ap(class_metrics([im], len(CLASSES), 0.5)) == pytest.approx((1.0, 0.3))
+    assert mean_ap(class_metrics([im], len(RESCUE_CLASSES), 0.5)) == pytest.approx((1.0, 0.3))
 
 
 def test_recall_and_precision_at_the_operating_confidence():
@@ -55,14 +55,14 @@ def test_recall_and_precision_at_the_operating_confidence():
         [0, 0, 0],
         [0.9, 0.1, 0.8],
     )
-    m = class_metrics([im], len(CLASSES), 0.5)[0]
+    m = class_metrics([im], len(RESCUE_CLASSES), 0.5)[0]
     assert m.recall == 0.5 and m.precision == 0.5  # at conf 0.5: one hit, one false detection
     # ranking: TP 0.9, FP 0.8, TP 0.1 -> P 1, 1/2, 2/3 at R 1/2, 1/2, 1
     assert m.ap50 == pytest.approx((51 * 1.0 + 50 * 2 / 3) / 101, abs=1e-6)
 
 
 def test_confusion_counts_misses_and_false_detections():
-    C = len(CLASSES)
+    C = len(RESCUE_CLASSES)
     im = _im(
         [[0, 0, 10, 10], [20, 0, 30, 10], [40, 0, 50, 10]],
         [0, 1, 2],
@@ -107,11 +107,11 @@ def test_calibration_doc_loads_in_the_pipeline(tmp_path):
         du2=rng.uniform(0, 4, n + 5),
         dv2=rng.uniform(0, 4, n + 5),
     )
-    mis = np.zeros((len(CLASSES), len(CLASSES)), int)
+    mis = np.zeros((len(RESCUE_CLASSES), len(RESCUE_CLASSES)), int)
     mis[3, 4] = 9
     doc, counts = calibration_doc(s, mis)
-    assert set(doc["center_variance_px2"]) == {"default", CLASSES[0]}  # class 1 has 5 < 30 pairs
-    assert counts[CLASSES[0]] == n and counts[CLASSES[1]] == 5
+    assert set(doc["center_variance_px2"]) == {"default", RESCUE_CLASSES[0]}  # class 1 has 5 < 30 pairs
+    assert counts[RESCUE_CLASSES[0]] == n and counts[RESCUE_CLASSES[1]] == 5
     import yaml
 
     p = tmp_path / "cal.yaml"
@@ -127,19 +127,19 @@ def hand_dataset(tmp_path):
     root = tmp_path / "ds"
     for d in ("images/val", "labels/val"):
         (root / d).mkdir(parents=True)
-    ox = CLASSES.index("oxidizer")
-    door = CLASSES.index("door")
+    ox = RESCUE_CLASSES.index("oxidizer")
+    door = RESCUE_CLASSES.index("door")
     lab = f"{ox} {140 / 640:.6f} {120 / 480:.6f} {80 / 640:.6f} {80 / 480:.6f}\n"
     for name, extra in (("a", ""), ("b", f"{door} 0.5 0.5 0.25 0.5\n")):
         cv2.imwrite(str(root / "images/val" / f"{name}.jpg"), np.full((480, 640, 3), 90, np.uint8))
         (root / "labels/val" / f"{name}.txt").write_text(lab + extra)
     # a model that always finds the oxidizer, 2 px right of where it is: input 320x320, the
     # 640x480 image is scaled by 0.5 and padded 40 px at the top
-    scores = np.zeros((1, len(CLASSES)), np.float32)
+    scores = np.zeros((1, len(RESCUE_CLASSES)), np.float32)
     scores[0, ox] = 0.9
     out = onnx_models.yolov8_output([[(142) * 0.5, 120 * 0.5 + 40, 40, 40]], scores, 8)
     model = onnx_models.make_constant_model(
-        tmp_path / "m.onnx", out, metadata={"names": str(dict(enumerate(CLASSES)))}
+        tmp_path / "m.onnx", out, metadata={"names": str(dict(enumerate(RESCUE_CLASSES)))}
     )
     return root, model
 
@@ -176,8 +176,8 @@ def test_calibrate_command(hand_dataset, tmp_path):
 def test_evaluate_refuses_a_missing_dataset(tmp_path, capsys):
     model = onnx_models.make_constant_model(
         tmp_path / "m.onnx",
-        onnx_models.yolov8_output([[1, 1, 1, 1]], [[0.5] * len(CLASSES)], 4),
-        metadata={"names": str(dict(enumerate(CLASSES)))},
+        onnx_models.yolov8_output([[1, 1, 1, 1]], [[0.5] * len(RESCUE_CLASSES)], 4),
+        metadata={"names": str(dict(enumerate(RESCUE_CLASSES)))},
     )
     code = main(
         [

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from eval.rules import RULES_DIR, Rules, RulesError, load_rules, rules_from_dict
-from poi.names import TYPES
+from poi.names import RESCUE_TYPES
 
 # RULES.md, ex3 table: points per type; located doubles them.
 EX3_POINTS = {
@@ -30,7 +30,7 @@ def test_ex3_preset_matches_rules_md_table() -> None:
     assert rules.name == "ex3"
     assert rules.identify_radius_m == 2.0
     assert rules.false_report_penalty == "type_points"
-    assert set(rules.types) == set(TYPES)
+    assert set(rules.types) == set(RESCUE_TYPES)
     for type_, points in EX3_POINTS.items():
         rule = rules.types[type_]
         assert rule.points == points, type_

@@ -78,6 +78,12 @@ def test_a_failing_trial_is_a_row_and_the_sweep_goes_on(tmp_path, monkeypatch):
     assert len(pd.read_csv(tmp_path / "s" / "trials.csv")) == 3  # appended, never rewritten
 
 
+def test_a_map_error_preset_is_refused_before_any_trial(tmp_path):
+    with pytest.raises(SweepError, match="turtlebot scores a map error"):
+        run_sweep(SweepSpec(suite=TINY, rules="turtlebot"), tmp_path / "s")
+    assert not (tmp_path / "s").exists()
+
+
 def test_an_existing_sweep_needs_resume_with_the_same_settings(tmp_path):
     run_sweep(SweepSpec(suite=TINY), tmp_path)
     with pytest.raises(SweepError, match="--resume"):
@@ -147,6 +153,7 @@ def test_aggregate_mean_and_t_interval():
             "false_reports": [0, 0, 0, 0],
             "misses": [1, 1, 1, 0],
             "loc_err_median_m": [0.1, 0.1, 0.1, 0.1],
+            "pose_err_median_m": [0.2, 0.2, 0.2, 0.2],
             "wall_s": [1, 1, 1, 1],
         }
     )

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 
 from eval.cli import main
 from eval.poi_file import read_poi_file
@@ -32,6 +33,19 @@ def test_run_writes_every_file_and_reruns_from_its_config(tmp_path, capsys):
     assert main(["run", "--config", str(out / "config.yaml"), "--out", str(again), "--quiet", "--no-video"]) == 0
     assert (again / "pois.csv").read_bytes() == (out / "pois.csv").read_bytes()
     assert (again / "score.json").read_text() == (out / "score.json").read_text()
+
+
+def test_pose_error_is_reported_and_slam_keeps_a_clean_run_clean(tmp_path):
+    """score.json's pose_error compares the pose each frame was mapped with to the truth: zero
+    for a noise-free T265; the SLAM-corrected pose of a noise-free run stays within 2 cm."""
+    errors = {}
+    for mode in ("t265", "slam"):
+        out = tmp_path / mode
+        args = ["run", "--out", str(out), "--detector", "oracle", "--max-frames", "150", "--quiet", "--no-video"]
+        assert main([*args, "--noise", "off", "--set", f"localize.mode={mode}", *SMALL]) == 0
+        errors[mode] = json.loads((out / "score.json").read_text())["pose_error"]
+    assert errors["t265"]["frames"] == 150 and errors["t265"]["max_m"] == 0.0
+    assert errors["slam"]["max_m"] < 0.02 and errors["slam"]["heading_median_deg"] < 0.5
 
 
 def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
@@ -87,3 +101,31 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
     assert len(parsed.rows) >= 3
     assert parsed.header.mission == "default"
     assert not list(Path(out).glob(".pois.csv*")), "no temporary file left behind"
+
+
+def test_turtlebot_goal_trial_writes_the_map_error(tmp_path, capsys):
+    out = tmp_path / "tb"
+    argv = ["run", "turtlebot-goal", "--out", str(out), "--detector", "oracle", "--max-frames", "60"]
+    assert main([*argv, "--quiet", "--no-video"]) == 0
+    printed = capsys.readouterr()
+    # no --rules: the scenario's own preset, and a note that says so
+    assert "note: scoring with the 'turtlebot' rules" in printed.err
+    assert "Map error: mean" in printed.out and "Goal (pillar-blue pair)" in printed.out
+    doc = json.loads((out / "score.json").read_text())
+    assert doc["scoring"] == "map_error" and doc["rules"]["name"] == "turtlebot"
+    assert {
+        "mean_error_m",
+        "max_error_m",
+        "goal_center_error_m",
+        "goal",
+        "paired",
+        "misses",
+        "false_reports",
+    } <= set(doc)
+    assert doc["trial"]["frames"] == 60
+    # 6 s facing the ball and the goal: the oracle's pillars are confirmed and within the pairing distance
+    assert doc["paired"] >= 2 and doc["max_error_m"] <= 1.0
+    truth = read_poi_file(out / "truth.csv")
+    assert [r.type for r in truth.rows][:3] == ["pillar-blue", "pillar-blue", "ball"]
+    assert (out / "map.png").stat().st_size > 0
+    assert yaml.safe_load((out / "config.yaml").read_text())["rules"] == "turtlebot"

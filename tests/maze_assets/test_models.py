@@ -18,7 +18,10 @@ import mujoco
 # isort: on
 from maze_assets.hazmat import ORANGE, RED, YELLOW
 from maze_assets.models import (
+    ARENA_SIZE_M,
+    BALL_RGBA,
     FLAT_TYPES,
+    PILLAR_RGBA,
     QUAD_OFFSET_M,
     ModelError,
     build_object,
@@ -30,7 +33,7 @@ from sim.mjcf import SceneAssets, fmt
 from sim.objects import PlacedObject
 
 W, H = 640, 480
-SIZES = SIZE_AT_RRL_M  # the sizes placement gives each type at RRL scale
+SIZES = {**SIZE_AT_RRL_M, **ARENA_SIZE_M}  # the sizes placement gives each type at RRL scale
 TEXTS = {"hazmat": "organic-peroxide", "qr": "Chart M"}
 SPACING_M = 4.0  # objects stand this far apart along y, so each camera sees only its own
 
@@ -256,6 +259,34 @@ def test_bad_size_is_rejected():
         build_object(_object(0, "valve", size_m=0.0), SceneAssets())
     with pytest.raises(ValueError, match="laser"):
         build_object(_object(1, "hazmat", text="laser"), SceneAssets())
+
+
+@pytest.mark.parametrize("light", [0.5, 0.15])  # bright and dim headlight
+def test_arena_pillars_and_ball_render_in_distinct_matte_hues(light):
+    types = [*PILLAR_RGBA, "ball"]
+    objects = [_object(i, t) for i, t in enumerate(types)]
+    model, data, _ = _scene(objects, cam_dist_m=1.6)
+    model.vis.headlight.ambient[:] = float(light)
+    model.vis.headlight.diffuse[:] = float(light)
+    hues = {}
+    for o in objects:
+        img = _rgb(model, data, f"cam_{o.id}")
+        seg = _segmentation(model, data, f"cam_{o.id}")
+        body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"poi_{o.id}_{o.type}_body")
+        px = img[seg[:, :, 0] == body].astype(float)
+        assert len(px) > 1000, (o.type, light)
+        rgba = PILLAR_RGBA.get(o.type, BALL_RGBA)
+        target = tuple(int(255 * c) for c in rgba[:3])
+        assert _hue_close(np.median(px, axis=0), target, tol_deg=15.0), (o.type, np.median(px, axis=0))
+        hsv = cv2.cvtColor(np.uint8([[np.median(px, axis=0)]]), cv2.COLOR_RGB2HSV_FULL)[0, 0]
+        hues[o.type] = int(hsv[0]) * 360 / 256
+        # matte: no specular highlight, the brightest pixel stays close to the median
+        assert px.max(axis=0).max() < np.median(px, axis=0).max() + 60, o.type
+    names = sorted(hues)
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            d = abs(hues[a] - hues[b])
+            assert min(d, 360 - d) > 40, (a, b, hues)
 
 
 def test_flat_types_listed():

@@ -18,7 +18,7 @@ from poi.covariance import (
 )
 from poi.geometry import R_BODY_OPTICAL, rot_z
 from poi.localize import deproject_pixel_to_point
-from poi.names import CLASS_INDEX, CLASSES
+from poi.names import ARENA_TYPES, CLASS_INDEX, CLASSES, RESCUE_CLASSES
 from poi.types import Intrinsics
 
 # A plane tilted in the image: d = 2 + 0.1 col + 0.2 row (metres).
@@ -185,6 +185,54 @@ def test_confusion_matrix_loaded_and_reordered(tmp_path):
 def test_calibration_errors_name_the_key(tmp_path, doc, message):
     with pytest.raises(CalibrationError, match=message):
         load_calibration(_write(tmp_path, doc))
+
+
+def test_rescue_confusion_expands_to_all_classes_for_the_tracker(tmp_path):
+    # what `poibench calibrate` writes for a rescue detector: 24 x 24 over RESCUE_CLASSES
+    R = len(RESCUE_CLASSES)
+    M = np.full((R, R), 1.0 / (R - 1))
+    np.fill_diagonal(M, 0.0)
+    ox, ex, fl = (RESCUE_CLASSES.index(c) for c in ("oxygen", "explosive", "flammable-gas"))
+    M[ox] = 0.0
+    M[ox, ex], M[ox, fl] = 10 / 11, 1 / 11
+    doc = {"poibench_calibration": 1, "confusion": {"classes": list(RESCUE_CLASSES), "matrix": M.tolist()}}
+    cal = load_calibration(_write(tmp_path, doc))
+    C = len(CLASSES)
+    assert cal.confusion.shape == (C, C)
+    assert np.allclose(cal.confusion[:R, :R], M)  # rescue block unchanged (rescue indices are a prefix)
+    assert np.all(cal.confusion[:R, R:] == 0.0)  # a rescue class is never misread as an arena class
+    assert np.allclose(cal.confusion.sum(axis=1), 1.0) and np.all(np.diag(cal.confusion) == 0.0)
+    # the tracker's p(actual B | detected A) = (1 - p) C[A, B], p on A: seed 1, 2.1.5
+    from poi.tracker import observation_probs
+    from poi.types import Detection, Observation
+
+    def q(class_name: str, p: float) -> np.ndarray:
+        det = Detection(class_name=class_name, type=class_name, text="", box_xyxy=(0, 0, 1, 1), confidence=p)
+        o = Observation(
+            detection=det,
+            timestamp_s=0.0,
+            position_map=np.zeros(3),
+            R=np.eye(3),
+            position_cam=np.zeros(3),
+            Sigma_c=np.eye(3),
+            depth_m=1.0,
+        )
+        return observation_probs(o, "confusion", cal.confusion)
+
+    for arena in ARENA_TYPES:  # not covered: its 1 - p spread evenly over the other C - 1 classes
+        v = q(arena, 0.7)
+        assert v[CLASS_INDEX[arena]] == pytest.approx(0.7) and v.sum() == pytest.approx(1.0)
+        others = np.delete(v, CLASS_INDEX[arena])
+        assert np.allclose(others, 0.3 / (C - 1))
+    v = q("oxygen", 0.8)  # covered: the calibrated row, nothing on arena classes
+    assert v[CLASS_INDEX["explosive"]] == pytest.approx(0.2 * 10 / 11) and v[R:].sum() == 0.0
+    # without `classes`, a 24 x 24 matrix is read in RESCUE_CLASSES order
+    cal2 = load_calibration(_write(tmp_path, {"poibench_calibration": 1, "confusion": {"matrix": M.tolist()}}))
+    assert np.array_equal(cal2.confusion, cal.confusion)
+    classes = list(RESCUE_CLASSES[:-1]) + ["ball"]
+    bad = {"poibench_calibration": 1, "confusion": {"classes": classes, "matrix": M.tolist()}}
+    with pytest.raises(CalibrationError, match="confusion.classes: expected each of the 24 names"):
+        load_calibration(_write(tmp_path, bad))
 
 
 def test_confusion_row_sum_and_diagonal_checked(tmp_path):

@@ -27,7 +27,7 @@ from poi.detectors import (  # noqa: E402
     spread_class_probs,
 )
 from poi.detectors.onnx_yolo import letterbox, parse_names_metadata  # noqa: E402
-from poi.names import CLASS_INDEX, CLASSES  # noqa: E402
+from poi.names import CLASS_INDEX, CLASSES, RESCUE_CLASSES  # noqa: E402
 from poi.types import Frame, Intrinsics  # noqa: E402
 
 NAMES3 = "{0: 'oxidizer', 1: 'qr', 2: 'door'}"
@@ -126,7 +126,8 @@ def test_max_det_keeps_the_best(tmp_path):
 def test_class_probs_follow_seed_2_1_5(tmp_path):
     # Scores (oxidizer, qr, door) = (0.5, 0.3, 0.8): door keeps p = 0.8, the other 0.2 is split
     # 0.5 : 0.3 -> oxidizer 0.125, qr 0.075; every other class of CLASSES 0.
-    # A second anchor with only door 0.7: the other 0.3 is spread uniformly over 23 classes.
+    # A second anchor with only door 0.7: the other 0.3 is spread uniformly over the other 23
+    # classes of the model's domain (a rescue model: the rescue classes, none of the arena's).
     boxes = [[100, 100, 20, 20], [250, 200, 20, 20]]
     out = OnnxYoloDetector(model=_v8(tmp_path, boxes, [[0.5, 0.3, 0.8], [0, 0, 0.7]]), read_qr=False).detect(
         _frame()
@@ -142,8 +143,27 @@ def test_class_probs_follow_seed_2_1_5(tmp_path):
     assert np.allclose(p, spread_class_probs(mapped, CLASS_INDEX["door"]), atol=1e-7)
     q = out[1].class_probs
     assert q[CLASS_INDEX["door"]] == pytest.approx(0.7, abs=1e-6)
-    others = np.delete(q, CLASS_INDEX["door"])
+    others = np.delete(q[: len(RESCUE_CLASSES)], CLASS_INDEX["door"])
     assert np.allclose(others, 0.3 / 23, atol=1e-7)
+    assert np.all(q[len(RESCUE_CLASSES) :] == 0.0) and q.sum() == pytest.approx(1.0)
+
+
+def test_an_arena_model_maps_by_name_and_spreads_over_the_arena_classes(tmp_path):
+    # a model trained on seed 2's arena, its classes named as its team named them
+    meta = dict(V8_META, names="{0: 'blue_pillar', 1: 'red pillar', 2: 'Ball'}")
+    boxes = [[100, 100, 10, 60], [250, 200, 30, 30]]
+    det = OnnxYoloDetector(model=_v8(tmp_path, boxes, [[0.9, 0, 0], [0, 0, 0.8]], meta=meta), read_qr=False)
+    out = det.detect(_frame())
+    assert [(d.class_name, d.type, d.text) for d in out] == [
+        ("pillar-blue", "pillar-blue", ""),
+        ("ball", "ball", ""),
+    ]
+    q = out[1].class_probs
+    assert q[CLASS_INDEX["ball"]] == pytest.approx(0.8, abs=1e-6)
+    # no scores on the others: 0.2 spread over the arena's other three classes, none on the rescue ones
+    for c in ("pillar-blue", "pillar-red", "pillar-green"):
+        assert q[CLASS_INDEX[c]] == pytest.approx(0.2 / 3, abs=1e-6)
+    assert np.all(q[: len(RESCUE_CLASSES)] == 0.0)
 
 
 def test_yolov5_objectness_multiplies(tmp_path):

@@ -11,7 +11,7 @@ import pytest
 
 from poi.detectors import ThermalFrameError, ThermalHotSpotDetector, build_detector
 from poi.detectors.base import DetectorConfigError
-from poi.names import CLASS_INDEX
+from poi.names import CLASS_INDEX, RESCUE_CLASSES
 from poi.types import Frame, Intrinsics
 
 K = Intrinsics(width=640, height=480, fx=612.4, fy=610.6, ppx=314.3, ppy=237.8)
@@ -46,7 +46,10 @@ def test_hot_block_box_and_confidence():
     assert d.confidence == pytest.approx(0.745, abs=1e-9)
     p = d.class_probs
     assert p[CLASS_INDEX["heat-source"]] == pytest.approx(0.745)
-    assert np.allclose(np.delete(p, CLASS_INDEX["heat-source"]), 0.255 / 23)
+    # the rest spread over the other 23 rescue classes; a rescue detector never says "pillar"
+    rescue = p[: len(RESCUE_CLASSES)]
+    assert np.allclose(np.delete(rescue, CLASS_INDEX["heat-source"]), 0.255 / 23)
+    assert np.all(p[len(RESCUE_CLASSES) :] == 0.0)
 
 
 def test_doll_at_body_temperature_is_not_a_heat_source():

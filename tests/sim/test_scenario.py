@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from poi.names import TYPES
+from poi.names import RESCUE_TYPES
 from sim.maze import find_maze, load_maze
 from sim.placement import PlacementError, place_objects
 from sim.scenario import ScenarioError, apply_settings, load_scenario, parse_scenario
@@ -52,7 +52,7 @@ def test_generated_placement_has_every_type_and_keeps_spacing():
     sc = load_scenario("default")
     maze = load_maze(find_maze("default"))
     objs = place_objects(sc, maze, np.random.default_rng(3))
-    assert {o.type for o in objs} == set(TYPES)
+    assert {o.type for o in objs} == set(RESCUE_TYPES)
     assert sum(o.type == "hazmat" for o in objs) >= 2 and sum(o.type == "qr" for o in objs) >= 2
     pos = np.array([o.position for o in objs])
     d = np.linalg.norm(pos[:, None] - pos[None], axis=2) + np.eye(len(objs)) * 99

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from poi.geometry import transform_points
-from poi.names import TYPES
+from poi.names import RESCUE_TYPES
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 
@@ -70,7 +70,7 @@ def test_every_type_is_visible_on_the_standard_route(clean_default):
         for v in ft.visible:
             best[v.id] = max(best.get(v.id, 0.0), v.visible_fraction)
     seen_types = {o.type for o in sim.objects if best.get(o.id, 0.0) > 0.5}
-    assert seen_types == set(TYPES)
+    assert seen_types == set(RESCUE_TYPES)
     assert all(best.get(o.id, 0.0) > 0.5 for o in sim.objects), best
 
 
