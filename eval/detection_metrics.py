@@ -13,6 +13,7 @@ the mean over t = 0.50, 0.55, ..., 0.95 as well.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -180,3 +181,55 @@ def confusion_counts(images: list[ImageBoxes], n_classes: int, conf: float, iou_
             if d not in matched_d:
                 M[n_classes, int(dcls[d])] += 1
     return M
+
+
+SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, float("inf"))
+
+
+def recall_by_size(
+    images: list[ImageBoxes],
+    group_of_class: list[str],
+    conf: float,
+    bins: tuple[float, ...] = SIZE_BINS_PX,
+    iou_min: float = 0.5,
+) -> list[dict]:
+    """Per group of classes and band of box size (the shorter side of the true box, pixels):
+    how many true boxes, the fraction found by a detection of any class (class-agnostic
+    match at ``iou_min``, confidence >= ``conf``) and the fraction found with the right
+    class. Tells whether a detector fails to see objects or to name them, and from how far.
+
+    >>> im = ImageBoxes(gt_boxes=np.array([[0, 0, 10, 10], [0, 0, 50, 50]], float),
+    ...     gt_classes=np.array([0, 1]), det_boxes=np.array([[0, 0, 50, 50]], float),
+    ...     det_classes=np.array([0]), det_scores=np.array([0.9]))
+    >>> [(r["group"], r["band_px"], r["n"], r["found"], r["right_class"])
+    ...  for r in recall_by_size([im], ["a", "a"], 0.25, (0, 20, float("inf")))]
+    [('a', '0-20', 1, 0.0, 0.0), ('a', '20+', 1, 1.0, 0.0)]
+    """
+    counts: dict[tuple[str, int], list[int]] = {}
+    for im in images:
+        keep = im.det_scores >= conf
+        dcls = im.det_classes[keep]
+        matched = dict(match_boxes(im.gt_boxes, im.det_boxes[keep], iou_min))
+        for g, box in enumerate(im.gt_boxes):
+            side = min(box[2] - box[0], box[3] - box[1])
+            band = int(np.searchsorted(bins, side, side="right")) - 1
+            c = int(im.gt_classes[g])
+            key = (group_of_class[c], min(band, len(bins) - 2))
+            n_found_right = counts.setdefault(key, [0, 0, 0])
+            n_found_right[0] += 1
+            if g in matched:
+                n_found_right[1] += 1
+                n_found_right[2] += int(dcls[matched[g]] == c)
+    rows = []
+    for (group, band), (n, found, right) in sorted(counts.items()):
+        lo, hi = bins[band], bins[band + 1]
+        rows.append(
+            {
+                "group": group,
+                "band_px": f"{lo:g}+" if math.isinf(hi) else f"{lo:g}-{hi:g}",
+                "n": n,
+                "found": round(found / n, 4),
+                "right_class": round(right / n, 4),
+            }
+        )
+    return rows

@@ -31,8 +31,15 @@ import numpy as np
 import yaml
 from scipy.optimize import nnls
 
-from eval.detection_metrics import ImageBoxes, class_metrics, confusion_counts, match_boxes, mean_ap
-from poi.names import RESCUE_CLASSES
+from eval.detection_metrics import (
+    ImageBoxes,
+    class_metrics,
+    confusion_counts,
+    match_boxes,
+    mean_ap,
+    recall_by_size,
+)
+from poi.names import HAZMAT_LABELS, RESCUE_CLASSES
 
 EVAL_SEED = 1000  # default seed of evaluation scenes; 'poibench dataset' defaults to seed 0
 MIN_FIT_SAMPLES = 30
@@ -161,6 +168,9 @@ def evaluation_report(results: list[ImageBoxes], conf: float) -> dict:
             }
             for c, p in zip(RESCUE_CLASSES, per, strict=True)
         },
+        "by_size": recall_by_size(
+            results, ["hazmat label" if c in HAZMAT_LABELS else "other type" for c in RESCUE_CLASSES], conf
+        ),
         "confusion": confusion_counts(results, len(RESCUE_CLASSES), conf).tolist(),
     }
 
@@ -219,6 +229,11 @@ def format_evaluation(report: dict) -> str:
         lines.append(
             f"{c:26s} {m['n']:5d} {f(m['AP50'])} {f(m['AP50_95']):>7s} {f(m['recall'])} {f(m['precision'])}"
         )
+    if report.get("by_size"):
+        lines.append("by box size (shorter side, px): found by any class / with the right class")
+        lines.append(f"{'group':14s} {'band':>8s} {'n':>5s} {'found':>6s} {'right':>6s}")
+        for r in report["by_size"]:
+            lines.append(f"{r['group']:14s} {r['band_px']:>8s} {r['n']:5d} {f(r['found'])} {f(r['right_class'])}")
     return "\n".join(lines)
 
 

@@ -83,7 +83,23 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
         spec = dict(cfg.detector_spec()) if hasattr(cfg, "detector_spec") else dict(cfg.detector)
         spec["name"] = "onnx"
         spec["model"] = str(model)
-        dets.append(build_detector(spec))
+        onnx = build_detector(spec)
+        wanted = {o.type for o in sim.truth_objects()}
+        if cfg.thermal.enabled:
+            wanted.discard("heat-source")  # the thermal detector reports those
+        unknown = sorted(wanted - onnx.known_types)
+        if choice == "default" and wanted and not wanted & onnx.known_types:
+            # the shipped model is the rescue maze's; this world holds nothing it knows
+            notes.append(
+                f"the default detector ({model.name}) knows none of this scenario's types "
+                f"({', '.join(sorted(wanted))}): using the oracle detector"
+            )
+            oracle = oracle_for(sim)
+            dets.append(oracle)
+        else:
+            if unknown:
+                notes.append(f"the detector ({model.name}) cannot report this scenario's {', '.join(unknown)}")
+            dets.append(onnx)
     if cfg.thermal.enabled:
         dets.append(build_detector({"name": "thermal"}))
     return dets, oracle

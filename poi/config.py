@@ -92,7 +92,7 @@ class CenterSigmaConfig:
 class LocalizeConfig:
     """Depth reading and deprojection (seed 1 section 2.2, seed 2 section 2.1.3)."""
 
-    mode: Literal["t265", "slam"] = "t265"
+    mode: Literal["t265", "slam"] = "slam"
     depth_scale: float = _num(1.0, lo=0.0, lo_open=True)
     inner_fraction: float = _num(0.5, lo=0.0, hi=1.0, lo_open=True)
     sigma_d_px: float = _num(0.08, lo=0.0)

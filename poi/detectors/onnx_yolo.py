@@ -46,7 +46,7 @@ from poi.detectors.base import (
     register,
 )
 from poi.detectors.qr import attach_qr_text
-from poi.names import CLASS_INDEX, CLASSES, class_domain
+from poi.names import CLASS_INDEX, CLASSES, class_domain, class_to_identity
 from poi.types import Detection, Frame
 
 PAD_VALUE = 114  # Ultralytics' letterbox grey
@@ -277,6 +277,11 @@ class OnnxYoloDetector:
             raise DetectorConfigError(f"detector 'onnx': threads must be >= 1, got {self.threads}")
         if self.layout not in LAYOUTS:
             raise DetectorConfigError(f"detector 'onnx': layout must be one of {LAYOUTS}, got {self.layout!r}")
+
+    @property
+    def known_types(self) -> frozenset[str]:
+        """The object types (poi.names.TYPES) this model can report."""
+        return frozenset(class_to_identity(CLASSES[int(m)])[0] for m in self._class_to_ours if m >= 0)
 
     def _read_names(self, path: Path, metadata: Mapping[str, str]) -> list[str]:
         if self.names is not None:

@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 
 from eval.cli import main
-from eval.detection_metrics import ImageBoxes, average_precision, class_metrics, confusion_counts, mean_ap
+from eval.detection_metrics import (
+    ImageBoxes,
+    average_precision,
+    class_metrics,
+    confusion_counts,
+    mean_ap,
+    recall_by_size,
+)
 from eval.detector_quality import CenterSamples, calibration_doc, center_samples, fit_variance
 from poi.covariance import load_calibration
 from poi.names import RESCUE_CLASSES
@@ -75,6 +82,28 @@ def test_confusion_counts_misses_and_false_detections():
     assert M[2, C] == 1  # the class-2 object's only detection is below the threshold: missed
     assert M[C, 4] == 1  # a detection where nothing is
     assert M.sum() == 4
+
+
+def test_recall_by_size_separates_seeing_from_naming():
+    # three true boxes: 10 px (missed), 30 px (found, wrong class), 100 px (found, right);
+    # a low-confidence detection of the 10 px one does not count
+    im = _im(
+        [[0, 0, 10, 10], [20, 0, 50, 30], [100, 0, 200, 100]],
+        [0, 1, 20],
+        [[0, 0, 10, 10], [20, 0, 50, 30], [100, 0, 200, 100]],
+        [0, 3, 20],
+        [0.1, 0.9, 0.9],
+    )
+    groups = ["hazmat label"] * 16 + ["other type"] * 8
+    rows = {
+        (r["group"], r["band_px"]): (r["n"], r["found"], r["right_class"])
+        for r in recall_by_size([im], groups, 0.5)
+    }
+    assert rows == {
+        ("hazmat label", "0-20"): (1, 0.0, 0.0),
+        ("hazmat label", "20-40"): (1, 1.0, 0.0),
+        ("other type", "80+"): (1, 1.0, 1.0),
+    }
 
 
 def test_variance_fit_recovers_a_known_model():
@@ -157,7 +186,10 @@ def test_evaluate_detector_command(hand_dataset, tmp_path, capsys):
     assert rep["mAP50"] == pytest.approx(0.5)
     assert rep["mAP50_95"] == pytest.approx(0.5)
     assert (out / "confusion.png").stat().st_size > 5000
-    assert "oxidizer" in capsys.readouterr().out
+    assert {r["group"] for r in rep["by_size"]} <= {"hazmat label", "other type"}
+    assert sum(r["n"] for r in rep["by_size"]) == sum(c["n"] for c in rep["classes"].values())
+    printed = capsys.readouterr().out
+    assert "oxidizer" in printed and "by box size" in printed
 
 
 def test_calibrate_command(hand_dataset, tmp_path):

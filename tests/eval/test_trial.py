@@ -129,3 +129,31 @@ def test_turtlebot_goal_trial_writes_the_map_error(tmp_path, capsys):
     assert [r.type for r in truth.rows][:3] == ["pillar-blue", "pillar-blue", "ball"]
     assert (out / "map.png").stat().st_size > 0
     assert yaml.safe_load((out / "config.yaml").read_text())["rules"] == "turtlebot"
+
+
+def test_a_rescue_model_in_the_arena_falls_back_to_the_oracle_with_a_note(tmp_path, monkeypatch, capsys):
+    """The shipped model knows the rescue maze's classes only: in the goal arena the default
+    detector is the oracle, said so; a model given by hand runs, with a note on what it lacks."""
+    import importlib.util
+
+    import numpy as np
+
+    import eval.trial
+    from poi.names import RESCUE_CLASSES
+
+    helpers = Path(__file__).parents[1] / "poi" / "onnx_models.py"
+    spec = importlib.util.spec_from_file_location("onnx_models", helpers)
+    onnx_models = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(onnx_models)
+    out = onnx_models.yolov8_output([[1, 1, 1, 1]], np.zeros((1, len(RESCUE_CLASSES))), 4)
+    model = onnx_models.make_constant_model(
+        tmp_path / "rescue.onnx", out, metadata={"names": str(dict(enumerate(RESCUE_CLASSES)))}
+    )
+    monkeypatch.setattr(eval.trial, "DEFAULT_MODEL", model)
+    args = ["run", "turtlebot-goal", "--max-frames", "5", "--quiet", "--no-video"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err
+    assert "knows none of this scenario's types" in err and "using the oracle detector" in err
+    assert main([*args, "--detector", str(model), "--out", str(tmp_path / "b")]) == 0
+    err = capsys.readouterr().err
+    assert "cannot report this scenario's ball, pillar-blue, pillar-green, pillar-red" in err

@@ -50,7 +50,7 @@ def test_static_object_seen_five_times_is_confirmed_once_at_the_right_place():
     for i in range(5):
         res = pipe.process(make_frame(i))
         assert res.skipped_reason is None and len(res.observations) == 1
-        assert set(res.timing_ms) == {"detect", "qr", "localize", "track"}
+        assert set(res.timing_ms) == {"detect", "qr", "localize", "slam", "track"}
         confirmed += [(i, s.report_id) for s in res.newly_confirmed]
     assert confirmed == [(2, 0)]  # n_min = 3 detections
     (snap,) = pipe.confirmed()
