@@ -112,6 +112,11 @@ class LocalizeConfig:
             "heat-source": 0.12,
         }
     )
+    # Per type, how far behind the surface the depth hits its reference point lies (m): the
+    # radius of a round object (the goal arena's pillars and ball), whose centre is reported.
+    surface_to_center_m: dict[str, float] = field(
+        default_factory=lambda: {"pillar-blue": 0.025, "pillar-red": 0.025, "pillar-green": 0.025, "ball": 0.105}
+    )
 
 
 @dataclass(kw_only=True)
@@ -380,6 +385,12 @@ def _cross_check(obj: Any, prefix: str) -> None:
             if g <= 0:
                 raise ConfigError(f"{prefix}gates.{t}: expected a value > 0, got {g!r}")
     elif isinstance(obj, LocalizeConfig):
+        for t, r in obj.surface_to_center_m.items():
+            if t not in TYPES:
+                known = ", ".join(TYPES)
+                raise ConfigError(f"{prefix}surface_to_center_m.{t}: unknown type; expected one of {known}")
+            if not 0.0 <= r < 1.0:
+                raise ConfigError(f"{prefix}surface_to_center_m.{t}: expected metres in [0, 1), got {r!r}")
         if obj.max_depth_m <= obj.min_depth_m:
             raise ConfigError(
                 f"{prefix}max_depth_m: expected a value > min_depth_m ({obj.min_depth_m:g}), "

@@ -148,6 +148,10 @@ def localize(
     u, v = cx - BOX_CORNER_TO_CENTER_PX, cy - BOX_CORNER_TO_CENTER_PX
     w, h = detection.size_wh
     p_c = deproject_pixel_to_point(intr, u, v, d)
+    to_center = cfg.localize.surface_to_center_m.get(detection.type, 0.0)
+    if to_center > 0.0:
+        # a round object: the depth is its front surface, the report names its centre
+        p_c = p_c * (1.0 + to_center / float(np.linalg.norm(p_c)))
 
     # Sigma_1 = diag(sigma_u^2, sigma_v^2, sigma_d^2)
     sigma_u, sigma_v = center_sigmas_px(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from poi.config import apply_overrides, load_config
+from poi.config import ConfigError, apply_overrides, load_config
 from poi.detectors.base import make_detection
 from poi.geometry import R_BODY_OPTICAL, make_transform, rot_z
 from poi.localize import (
@@ -133,6 +133,21 @@ def test_localize_places_the_box_centre_in_the_map():
     # map covariance: optical z (depth) -> tracker x -> map y after the 90 degree turn
     assert obs.R[1, 1] == pytest.approx(sigma_z**2 + 0.05**2, rel=1e-9)
     assert np.allclose(obs.R, obs.R.T)
+
+
+def test_a_round_object_is_placed_at_its_centre_behind_the_surface_seen():
+    """The depth hits a ball's front; its report names its centre, one radius further along
+    the ray: for a ball of radius 0.105 m seen 2 m off the axis by 0.2 m (p_c = (0.2, 0, 2)),
+    p = p_c (1 + 0.105 / |p_c|)."""
+    cfg = load_config()
+    T_tc = make_transform(R_BODY_OPTICAL, [0.0, 0.0, 0.045])
+    ball = localize(det((360.0, 230.0, 380.0, 250.0), class_name="ball"), frame(), cfg, T_tc)
+    scale = 1.0 + 0.105 / np.hypot(0.2, 2.0)
+    assert ball.position_cam.tolist() == pytest.approx([0.2 * scale, 0.0, 2.0 * scale], abs=1e-12)
+    flat = localize(det((360.0, 230.0, 380.0, 250.0), class_name="exit-sign"), frame(), cfg, T_tc)
+    assert flat.position_cam.tolist() == pytest.approx([0.2, 0.0, 2.0], abs=1e-12)  # flat: no offset
+    with pytest.raises(ConfigError, match="surface_to_center_m.cube: unknown type"):
+        apply_overrides(cfg, ["localize.surface_to_center_m={cube: 0.1}"])
 
 
 def test_localize_depth_scale_and_none_cases():
