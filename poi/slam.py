@@ -275,7 +275,7 @@ class UkfSlam:
         closer than ``associate_m``. Returns {observation index: pool index}."""
         pairs: dict[int, int] = {}
         eps = self.params.associate_m
-        for cls in set(classes):
+        for cls in sorted(set(classes)):  # a fixed order, whatever the hash seed
             obs_idx = [i for i, c in enumerate(classes) if c == cls]
             pool_idx = [j for j, e in enumerate(pool) if e.class_name == cls]
             if not obs_idx or not pool_idx:
