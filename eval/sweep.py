@@ -446,6 +446,14 @@ def aggregate(df, keys: list[str]):
     return pd.DataFrame(out)
 
 
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def plot_sweep(out: Path, agg, keys: list[str]) -> None:
     """score.png (one parameter: fraction with its 95% interval) or heatmap.png (two)."""
     if not len(agg) or not keys or len(keys) > 2:
@@ -461,8 +469,11 @@ def plot_sweep(out: Path, agg, keys: list[str]) -> None:
         y = agg["fraction_mean"].to_numpy(float)
         lo = y - agg["fraction_ci95_low"].to_numpy(float)
         hi = agg["fraction_ci95_high"].to_numpy(float) - y
+        numeric = all(_is_number(v) for v in x)
         fig, ax = plt.subplots(figsize=(6, 4))
-        ax.errorbar(range(len(x)), y, yerr=[np.nan_to_num(lo), np.nan_to_num(hi)], fmt="o-", capsize=4)
+        # a line joins numeric settings only; categories (t265, slam) stand apart
+        fmt = "o-" if numeric else "o"
+        ax.errorbar(range(len(x)), y, yerr=[np.nan_to_num(lo), np.nan_to_num(hi)], fmt=fmt, capsize=4)
         ax.set_xticks(range(len(x)), x)
         ax.set_xlabel(keys[0])
         ax.set_ylabel("score / max (mean, 95% interval)")
