@@ -22,6 +22,7 @@ import numpy as np
 
 from eval.map_plot import ARENA_RGB
 from poi.annotate import DEFAULT_COLOR_RGB, TYPE_COLORS_RGB
+from poi.geometry import planar_pose
 from poi.names import display_name
 
 INSET_W, INSET_H = 160, 120
@@ -64,7 +65,8 @@ def pose_2d(T: np.ndarray | None) -> list[float] | None:
     """[x, y, yaw] of a map-frame pose (yaw of its x axis), or None."""
     if T is None or not np.all(np.isfinite(T)):
         return None
-    return [round(float(T[0, 3]), 3), round(float(T[1, 3]), 3), round(float(np.arctan2(T[1, 0], T[0, 0])), 4)]
+    x, y, yaw = planar_pose(T)
+    return [round(float(x), 3), round(float(y), 3), round(float(yaw), 4)]
 
 
 def confirmed_rows(snaps) -> list[dict]:

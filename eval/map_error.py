@@ -44,7 +44,16 @@ import numpy as np
 
 from eval.poi_file import PoiFile, PoiRow
 from eval.rules import MapErrorRules
-from eval.scorer import EPS_M, STATUS_FALSE, STATUS_IGNORED, STATUS_MISSED, ScoreProblem, optimal_pairs
+from eval.scorer import (
+    EPS_M,
+    STATUS_FALSE,
+    STATUS_IGNORED,
+    STATUS_MISSED,
+    ScoreProblem,
+    int_or_none,
+    optimal_pairs,
+    reader_problems,
+)
 
 STATUS_PAIRED = "paired"
 
@@ -127,15 +136,16 @@ class MapErrorResult:
         return map_error_headline(self)
 
 
-def _fmt_m(v: float | None) -> str:
+def format_m(v: float | None) -> str:
+    """A distance as ``0.120 m``, or ``-`` when there is none."""
     return "-" if v is None else f"{v:.3f} m"
 
 
 def map_error_headline(r: MapErrorResult) -> str:
     """``map error mean 0.120 m, max 0.300 m; goal centre 0.050 m; 1 missed, 0 false``."""
-    goal = "" if r.goal is None else f"; goal centre {_fmt_m(r.goal.error_m)}"
+    goal = "" if r.goal is None else f"; goal centre {format_m(r.goal.error_m)}"
     return (
-        f"map error mean {_fmt_m(r.mean_error_m)}, max {_fmt_m(r.max_error_m)}{goal}; "
+        f"map error mean {format_m(r.mean_error_m)}, max {format_m(r.max_error_m)}{goal}; "
         f"{r.misses} missed, {r.false_reports} false"
     )
 
@@ -171,7 +181,7 @@ def score_map_error(reports: PoiFile, truth: PoiFile, rules: MapErrorRules) -> M
         ignored = prob.type is not None and not rules.is_scored(prob.type)
         out[prob.line] = MapErrorReport(
             line=prob.line,
-            id=_int_or_none(prob.id),
+            id=int_or_none(prob.id),
             type=prob.type,
             x=None,
             y=None,
@@ -242,7 +252,7 @@ def score_map_error(reports: PoiFile, truth: PoiFile, rules: MapErrorRules) -> M
         misses=sum(o.status == STATUS_MISSED for o in objects),
         false_reports=sum(r.status == STATUS_FALSE for r in rows),
         ignored_reports=sum(r.status == STATUS_IGNORED for r in rows),
-        problems=_problems(reports, truth),
+        problems=reader_problems(reports, truth),
     )
 
 
@@ -287,30 +297,4 @@ def _report(
         distance_m=distance_m,
         status=status,
         reason=reason,
-    )
-
-
-def _int_or_none(text: str) -> int | None:
-    try:
-        return int(text)
-    except ValueError:
-        return None
-
-
-def _problems(reports: PoiFile, truth: PoiFile) -> list[ScoreProblem]:
-    """Reader problems of both files, as the points scorer lists them."""
-    return (
-        [ScoreProblem(source="report", line=p.line, message=p.message, severity="error") for p in reports.problems]
-        + [
-            ScoreProblem(source="report", line=p.line, message=p.message, severity="warning")
-            for p in reports.warnings
-        ]
-        + [
-            ScoreProblem(source="truth", line=p.line, message=f"not scored: {p.message}", severity="error")
-            for p in truth.problems
-        ]
-        + [
-            ScoreProblem(source="truth", line=p.line, message=p.message, severity="warning")
-            for p in truth.warnings
-        ]
     )

@@ -479,17 +479,7 @@ def _legend_handles(
         h("wall", color=_rgb(WALL_RGB), linewidth=4 * pt_per_px),
     ]
     if arena:
-        kinds = [
-            h(
-                ARENA_LABELS.get(t, t),
-                marker="o",
-                linestyle="",
-                markersize=ms,
-                markerfacecolor=_rgb(ARENA_RGB[t]),
-                markeredgecolor=_rgb(ARENA_RGB[t]),
-            )
-            for t in arena
-        ]
+        kinds = [_swatch(h, ARENA_LABELS.get(t, t), ARENA_RGB[t], ms) for t in arena]
     else:
         kinds = _competition_handles(h, ms)
     tail = [
@@ -542,31 +532,16 @@ def _legend_handles(
 
 def _competition_handles(h: Any, ms: float) -> list[Line2D]:
     return [
-        h(
-            "victim (baby doll)",
-            marker="o",
-            linestyle="",
-            markersize=ms,
-            markerfacecolor=_rgb(VICTIM_RGB),
-            markeredgecolor=_rgb(VICTIM_RGB),
-        ),
-        h(
-            "QR code",
-            marker="o",
-            linestyle="",
-            markersize=ms,
-            markerfacecolor=_rgb(QR_RGB),
-            markeredgecolor=_rgb(QR_RGB),
-        ),
-        h(
-            "hazard / other object",
-            marker="D",
-            linestyle="",
-            markersize=ms * 0.8,
-            markerfacecolor=_rgb(HAZARD_RGB),
-            markeredgecolor=_rgb(HAZARD_RGB),
-        ),
+        _swatch(h, "victim (baby doll)", VICTIM_RGB, ms),
+        _swatch(h, "QR code", QR_RGB, ms),
+        _swatch(h, "hazard / other object", HAZARD_RGB, ms * 0.8, marker="D"),
     ]
+
+
+def _swatch(h: Any, label: str, rgb: tuple[int, int, int], ms: float, marker: str = "o") -> Line2D:
+    """A legend entry: a marker filled and edged in ``rgb``."""
+    c = _rgb(rgb)
+    return h(label, marker=marker, linestyle="", markersize=ms, markerfacecolor=c, markeredgecolor=c)
 
 
 def _rgb(rgb: tuple[int, int, int]) -> tuple[float, float, float]:

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import asdict
 from typing import Any
 
-from eval.map_error import MapErrorResult
+from eval.map_error import MapErrorResult, format_m
 from eval.scorer import ScoreResult
 
 _NUMERIC = ("line", "id", "x", "y", "z", "object", "found_by", "dist_m", "points")
@@ -201,14 +201,7 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
         ],
         rows,
     )
-    if result.problems:
-        out += ["", "Problems"]
-        out += [
-            f"{p.source} line {p.line} {p.severity}: {p.message}"
-            if p.line
-            else f"{p.source} {p.severity}: {p.message}"
-            for p in result.problems
-        ]
+    out += _problem_lines(result.problems)
     return "\n".join(out) + "\n"
 
 
@@ -217,8 +210,8 @@ def format_map_error_tables(result: MapErrorResult) -> str:
     rules = result.rules
     n_obj = sum(t.objects for t in result.per_type.values())
     out: list[str] = [
-        f"Map error: mean {_fmt_m(result.mean_error_m)}, max {_fmt_m(result.max_error_m)}"
-        + ("" if result.goal is None else f"; goal centre error {_fmt_m(result.goal.error_m)}")
+        f"Map error: mean {format_m(result.mean_error_m)}, max {format_m(result.max_error_m)}"
+        + ("" if result.goal is None else f"; goal centre error {format_m(result.goal.error_m)}")
         + f" (rules {rules.name}{f': {rules.source}' if rules.source else ''})",
         f"paired {result.paired} of {n_obj} objects (2D, at most {rules.max_pair_distance_m:g} m apart), "
         f"misses {result.misses}, false reports {result.false_reports}"
@@ -294,22 +287,19 @@ def format_map_error_tables(result: MapErrorResult) -> str:
         out += ["", f"Goal ({rules.goal_type} pair)"]
         truth = "-" if g.truth_center is None else f"({g.truth_center[0]:.3f}, {g.truth_center[1]:.3f})"
         rep = "-" if g.reported_center is None else f"({g.reported_center[0]:.3f}, {g.reported_center[1]:.3f})"
-        out.append(f"truth centre {truth}, reported centre {rep}, error {_fmt_m(g.error_m)}")
+        out.append(f"truth centre {truth}, reported centre {rep}, error {format_m(g.error_m)}")
         if g.reason:
             out.append(f"no goal error: {g.reason}")
-    if result.problems:
-        out += ["", "Problems"]
-        out += [
-            f"{p.source} line {p.line} {p.severity}: {p.message}"
-            if p.line
-            else f"{p.source} {p.severity}: {p.message}"
-            for p in result.problems
-        ]
+    out += _problem_lines(result.problems)
     return "\n".join(out) + "\n"
 
 
-def _fmt_m(value: float | None) -> str:
-    return "-" if value is None else f"{value:.3f} m"
+def _problem_lines(problems: list) -> list[str]:
+    """The "Problems" section (nothing when there are none)."""
+    if not problems:
+        return []
+    where = [f"{p.source} line {p.line}" if p.line else p.source for p in problems]
+    return ["", "Problems"] + [f"{w} {p.severity}: {p.message}" for w, p in zip(where, problems, strict=True)]
 
 
 def _round(value: float | None, decimals: int = 4) -> float | None:

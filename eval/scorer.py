@@ -257,7 +257,7 @@ def score(reports: PoiFile, truth: PoiFile, rules: AnyRules) -> ScoreResult | Ma
             reason = f"unreadable row: {prob.message}"
         report_scores[prob.line] = ReportScore(
             line=prob.line,
-            id=_int_or_none(prob.id),
+            id=int_or_none(prob.id),
             type=prob.type,
             text="",
             x=None,
@@ -375,11 +375,32 @@ def _report(
     )
 
 
-def _int_or_none(text: str) -> int | None:
+def int_or_none(text: str) -> int | None:
+    """The id of an unreadable row, when it is an integer."""
     try:
         return int(text)
     except ValueError:
         return None
+
+
+def reader_problems(reports: PoiFile, truth: PoiFile) -> list[ScoreProblem]:
+    """The readers' problems and warnings of both files, as a score lists them (a truth row
+    that cannot be read is not scored)."""
+    return (
+        [ScoreProblem(source="report", line=p.line, message=p.message, severity="error") for p in reports.problems]
+        + [
+            ScoreProblem(source="report", line=p.line, message=p.message, severity="warning")
+            for p in reports.warnings
+        ]
+        + [
+            ScoreProblem(source="truth", line=p.line, message=f"not scored: {p.message}", severity="error")
+            for p in truth.problems
+        ]
+        + [
+            ScoreProblem(source="truth", line=p.line, message=p.message, severity="warning")
+            for p in truth.warnings
+        ]
+    )
 
 
 def _totals(
@@ -415,21 +436,7 @@ def _totals(
             t.found += 1
     for t in per_type.values():
         t.points = t.points_won - t.points_lost
-    problems = (
-        [ScoreProblem(source="report", line=p.line, message=p.message, severity="error") for p in reports.problems]
-        + [
-            ScoreProblem(source="report", line=p.line, message=p.message, severity="warning")
-            for p in reports.warnings
-        ]
-        + [
-            ScoreProblem(source="truth", line=p.line, message=f"not scored: {p.message}", severity="error")
-            for p in truth.problems
-        ]
-        + [
-            ScoreProblem(source="truth", line=p.line, message=p.message, severity="warning")
-            for p in truth.warnings
-        ]
-    )
+    problems = reader_problems(reports, truth)
     # Points lost to unreadable rows of unknown type are 0 by the rules, so the sum
     # of the per-type totals is the total.
     total = sum(r.points for r in rows)

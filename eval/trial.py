@@ -30,7 +30,7 @@ from eval.score_report import live_summary, to_json_dict
 from eval.scorer import ScoreResult, score
 from eval.truth import truth_rows, write_truth_csv
 from eval.video import H264Writer
-from poi.geometry import matrix_to_quat_wxyz
+from poi.geometry import matrix_to_quat_wxyz, planar_pose, wrap_angle
 from sim.scenario import Scenario
 
 DEFAULT_MODEL = Path(__file__).resolve().parent.parent / "poi" / "models" / "default.onnx"
@@ -107,9 +107,8 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
 
 def planar_pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """Distance on the floor (m) and absolute heading difference (degrees) of two poses."""
-    dist = float(np.linalg.norm(T_est[:2, 3] - T_true[:2, 3]))
-    yaw = np.arctan2(T_est[1, 0], T_est[0, 0]) - np.arctan2(T_true[1, 0], T_true[0, 0])
-    return dist, abs(float(np.degrees((yaw + np.pi) % (2 * np.pi) - np.pi)))
+    est, true = planar_pose(T_est), planar_pose(T_true)
+    return float(np.linalg.norm(est[:2] - true[:2])), abs(float(np.degrees(wrap_angle(est[2] - true[2]))))
 
 
 def pose_error_summary(errors: list[tuple[float, float]]) -> dict[str, float]:

@@ -27,6 +27,16 @@ def rot_z(a: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def wrap_angle(a):
+    """Angle(s) wrapped to [-pi, pi)."""
+    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def planar_pose(T: np.ndarray) -> np.ndarray:
+    """(x, y, yaw) of a 4x4 pose: its position on the floor and the heading of its x axis."""
+    return np.array([T[0, 3], T[1, 3], np.arctan2(T[1, 0], T[0, 0])], dtype=float)
+
+
 def make_transform(R: np.ndarray, t) -> np.ndarray:
     """4x4 homogeneous matrix from rotation R (3x3) and translation t (3,)."""
     T = np.eye(4)

@@ -51,6 +51,7 @@ import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
 
 from poi.config import SlamConfig
+from poi.geometry import wrap_angle
 
 ROBOT_DIM = 3  # x, y, theta
 # The map frame is the robot's start pose (DESIGN.md), so the first pose is known; a tiny
@@ -100,11 +101,6 @@ class ObserveResult:
     associated: list[tuple[int, int]] = field(default_factory=list)
     to_candidates: list[int] = field(default_factory=list)
     promoted: list[int] = field(default_factory=list)
-
-
-def wrap_angle(a):
-    """Angle(s) wrapped to [-pi, pi)."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def rot2(theta: float) -> np.ndarray:
@@ -178,10 +174,13 @@ class UkfSlam:
         try:
             return self._points.sigma_points(self.x, self.P)
         except np.linalg.LinAlgError:
-            # rounding left P marginally indefinite: clip its eigenvalues and retry
-            w, V = np.linalg.eigh(self.P)
-            self.P = _symmetric((V * np.maximum(w, START_POSE_SIGMA**2)) @ V.T)
+            self._clip_covariance()
             return self._points.sigma_points(self.x, self.P)
+
+    def _clip_covariance(self) -> None:
+        """Rounding left P marginally indefinite: clip its eigenvalues (the caller retries)."""
+        w, V = np.linalg.eigh(self.P)
+        self.P = _symmetric((V * np.maximum(w, START_POSE_SIGMA**2)) @ V.T)
 
     # --- prediction (2.2.3) --------------------------------------------------------------
     def process_noise(self, delta: np.ndarray) -> np.ndarray:
@@ -258,8 +257,7 @@ class UkfSlam:
         try:
             U_rr = np.linalg.cholesky(A_rr).T
         except np.linalg.LinAlgError:
-            wv, V = np.linalg.eigh(self.P)
-            self.P = _symmetric((V * np.maximum(wv, START_POSE_SIGMA**2)) @ V.T)
+            self._clip_covariance()
             return self._robot_rows(scale)
         U_rl = np.linalg.solve(U_rr.T, A_rl)
         return np.hstack([U_rr, U_rl])

@@ -21,36 +21,22 @@ wheel odometry, drift included):
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from poi.config import SlamConfig
-from poi.slam import LandmarkObservation, ObserveResult, UkfSlam, odometry_increment, rot2, wrap_angle
+from poi.geometry import planar_pose, rot_z, wrap_angle
+from poi.slam import LandmarkObservation, UkfSlam, odometry_increment
 from poi.types import Observation
-
-
-def planar_pose(T: np.ndarray) -> np.ndarray:
-    """(x, y, theta) of a 4x4 pose: its position on the floor and the heading of its x axis."""
-    return np.array([T[0, 3], T[1, 3], math.atan2(T[1, 0], T[0, 0])])
-
-
-def rot_z3(theta: float) -> np.ndarray:
-    R = np.eye(3)
-    R[:2, :2] = rot2(theta)
-    return R
 
 
 @dataclass(kw_only=True)
 class SlamStep:
-    """One frame's correction: the corrected pose, the corrected observations (same order)
-    and what the filter did with the landmark observations."""
+    """One frame's correction: the corrected pose and the corrected observations (same order)."""
 
     pose: np.ndarray
     observations: list[Observation]
-    landmark_indices: list[int]
-    result: ObserveResult
 
 
 class SlamLocalizer:
@@ -70,11 +56,10 @@ class SlamLocalizer:
             self.slam.predict(odometry_increment(self._last_odometry, odom))
         self._last_odometry = odom
 
-        Rz_T = rot_z3(odom[2]).T
+        Rz_T = rot_z(odom[2]).T
         t = T_odom[:3, 3]
-        used: list[int] = []
         lms: list[LandmarkObservation] = []
-        for i, obs in enumerate(observations):
+        for obs in observations:
             if obs.detection.type not in self.landmark_types:
                 continue
             if float(np.linalg.norm(obs.position_cam)) > self.cfg.max_range_m:
@@ -82,12 +67,11 @@ class SlamLocalizer:
             p_l = Rz_T @ (obs.position_map - t)
             R_l = Rz_T @ obs.R @ Rz_T.T
             lms.append(LandmarkObservation(class_name=obs.detection.class_name, xy=p_l[:2], R=R_l[:2, :2]))
-            used.append(i)
-        result = self.slam.observe(lms, t_s)
+        self.slam.observe(lms, t_s)
 
         x, y, theta = self.slam.pose
         dtheta = float(wrap_angle(theta - odom[2]))
-        Rd = rot_z3(dtheta)
+        Rd = rot_z(dtheta)
         T = np.array(T_odom, dtype=float)
         T[:3, :3] = Rd @ T_odom[:3, :3]
         T[:2, 3] = (x, y)
@@ -101,7 +85,7 @@ class SlamLocalizer:
             J[0, 2], J[1, 2] = -p_rel[1], p_rel[0]  # d(Rz(theta) v)/d theta = (-v_y, v_x)
             R = Rd @ obs.R @ Rd.T + J @ P_pose @ J.T
             corrected.append(dataclasses.replace(obs, position_map=p, R=R))
-        return SlamStep(pose=T, observations=corrected, landmark_indices=used, result=result)
+        return SlamStep(pose=T, observations=corrected)
 
     @property
     def n_landmarks(self) -> int:

@@ -33,20 +33,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from poi.geometry import make_transform, rot_z
+from poi.geometry import make_transform, planar_pose, rot_z, wrap_angle
 from sim.scenario import WheelOdometrySpec
 from sim.sensors.t265 import PoseTrack
 
 MIN_TRANS_M = 1e-9  # below this a step is a turn in place (its direction is undefined)
-
-
-def planar_pose(T: np.ndarray) -> tuple[float, float, float]:
-    """(x, y, yaw) of a pose: position and the heading of its x axis in the floor plane."""
-    return float(T[0, 3]), float(T[1, 3]), float(np.arctan2(T[1, 0], T[0, 0]))
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def motion_steps(T_true: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -60,8 +51,8 @@ def motion_steps(T_true: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.n
     d = np.diff(xyt, axis=0)  # (n-1, 3)
     trans = np.hypot(d[:, 0], d[:, 1])
     heading = np.arctan2(d[:, 1], d[:, 0])
-    rot1 = np.where(trans > MIN_TRANS_M, _wrap(heading - xyt[:-1, 2]), 0.0)
-    rot2 = _wrap(d[:, 2] - rot1)
+    rot1 = np.where(trans > MIN_TRANS_M, wrap_angle(heading - xyt[:-1, 2]), 0.0)
+    rot2 = wrap_angle(d[:, 2] - rot1)
     z = np.zeros(1)
     return np.r_[z, rot1], np.r_[z, trans], np.r_[z, rot2]
 

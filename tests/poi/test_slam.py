@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from poi.config import SlamConfig
+from poi.geometry import wrap_angle
 from poi.slam import (
     LandmarkObservation,
     SlamError,
@@ -16,7 +17,6 @@ from poi.slam import (
     odometry_increment,
     rot2,
     sigma_points,
-    wrap_angle,
 )
 
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from poi.geometry import make_transform, rot_z
+from poi.geometry import make_transform, planar_pose, rot_z
 from sim.scenario import WheelOdometrySpec
-from sim.sensors.wheel_odometry import planar_pose, simulate_wheel_odometry
+from sim.sensors.wheel_odometry import simulate_wheel_odometry
 
 EXACT = dict(
     wheel_radius_error=0.0,
