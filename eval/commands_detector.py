@@ -6,7 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from eval.dataset import HAZMAT_PER_SCENARIO
 from eval.detector_quality import EVAL_SEED
+from poi.config import DetectorConfig
+
+OPERATING_CONF = DetectorConfig().conf
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,6 +20,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--seed", type=int, default=0, help="seed of every scenario and view (default 0)")
     d.add_argument("--per-scenario", type=int, default=40, help="images per scenario (default 40)")
     d.add_argument("--val-every", type=int, default=5, help="every Nth scenario is validation (default 5)")
+    d.add_argument(
+        "--hazmat",
+        type=int,
+        default=HAZMAT_PER_SCENARIO,
+        help=f"hazmat placards per scenario (default {HAZMAT_PER_SCENARIO}; 16: every label in every scenario)",
+    )
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=cmd_dataset)
 
@@ -31,18 +41,39 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--workers", type=int, default=2)
     t.set_defaults(func=cmd_train)
 
+    lt = sub.add_parser(
+        "train-labels", help="train the hazmat label classifier (second stage) and export ONNX (extra 'train')"
+    )
+    lt.add_argument(
+        "--data", required=True, nargs="+", help="dataset folders from 'poibench dataset' (best with --hazmat 16)"
+    )
+    lt.add_argument("--out", required=True, help="run folder: last.pt, history, label_model.onnx (resumes)")
+    lt.add_argument("--epochs", type=int, default=16)
+    lt.add_argument("--samples", type=int, default=32000, help="crops per epoch (default 32000)")
+    lt.add_argument("--seed", type=int, default=0)
+    lt.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    lt.set_defaults(func=cmd_train_labels)
+
     for name, helptext in (
         ("evaluate-detector", "mAP50, mAP50-95, per-class AP and recall, confusion matrix image"),
         ("calibrate", "fit the centre-error model and the misclassification table (seed 1, 2.1.4-2.1.5)"),
     ):
         e = sub.add_parser(name, help=helptext)
         e.add_argument("--model", required=True, help="an ONNX detector")
+        e.add_argument(
+            "--label-model", help="a hazmat label classifier (poibench train-labels) to name the placards"
+        )
         e.add_argument("--data", help="a 'poibench dataset' folder to use (its val split) instead of fresh scenes")
         e.add_argument("--images", type=int, default=400, help="fresh evaluation images (default 400)")
         e.add_argument(
             "--seed", type=int, default=EVAL_SEED, help=f"seed of the fresh scenes (default {EVAL_SEED})"
         )
-        e.add_argument("--conf", type=float, default=0.25, help="operating confidence (default 0.25)")
+        e.add_argument(
+            "--conf",
+            type=float,
+            default=OPERATING_CONF,
+            help=f"operating confidence (default {OPERATING_CONF}, the pipeline's detector.conf)",
+        )
         e.add_argument("--quiet", action="store_true", help="no progress bars")
         if name == "evaluate-detector":
             e.add_argument("--out", required=True, help="folder for evaluation.json and confusion.png")
@@ -60,7 +91,11 @@ def cmd_dataset(args) -> int:
     from eval.dataset import DatasetSpec, write_dataset
 
     spec = DatasetSpec(
-        images=args.images, seed=args.seed, images_per_scenario=args.per_scenario, val_every=args.val_every
+        images=args.images,
+        seed=args.seed,
+        images_per_scenario=args.per_scenario,
+        val_every=args.val_every,
+        counts={**DatasetSpec.default_counts(), "hazmat": args.hazmat},
     )
     with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:
         summary = write_dataset(spec, args.out, progress=bar.update)
@@ -95,20 +130,38 @@ def cmd_train(args) -> int:
     return 0
 
 
+def cmd_train_labels(args) -> int:
+    from eval.train_labels import LabelTrainSpec, train_labels
+
+    out = train_labels(
+        LabelTrainSpec(
+            data=args.data,
+            out=args.out,
+            epochs=args.epochs,
+            samples_per_epoch=args.samples,
+            seed=args.seed,
+            threads=args.threads,
+        )
+    )
+    print(f"label model: {out}")
+    print("to use it with the default detector: cp it to poi/models/default_labels.onnx")
+    return 0
+
+
 def _labelled_images(args, work: Path):
     """The val split of --data, or fresh scenes rendered from --seed into ``work``."""
     from tqdm import tqdm
 
     from eval.dataset import DatasetSpec, write_dataset
-    from eval.detector_quality import DetectorQualityError, load_split, model_training_seed
+    from eval.detector_quality import DetectorQualityError, load_split, model_training_seeds
 
     if args.data:
         return load_split(args.data, "val")
-    trained = model_training_seed(args.model)
-    if trained is not None and trained == args.seed:
-        raise DetectorQualityError(
-            f"{args.model} was trained on scenes from seed {args.seed}; evaluate on another --seed"
-        )
+    for model in (args.model, args.label_model):
+        if model is not None and args.seed in model_training_seeds(model):
+            raise DetectorQualityError(
+                f"{model} was trained on scenes from seed {args.seed}; evaluate on another --seed"
+            )
     spec = DatasetSpec(images=args.images, seed=args.seed, val_every=1)
     with tqdm(total=spec.images, desc="scenes", unit="img", disable=args.quiet, file=sys.stderr) as bar:
         write_dataset(spec, work, progress=bar.update)
@@ -121,7 +174,7 @@ def _detect(args, images, conf):
     from eval.detector_quality import detect_all
 
     with tqdm(total=len(images), desc="detect", unit="img", disable=args.quiet, file=sys.stderr) as bar:
-        return detect_all(args.model, images, conf, progress=bar.update)
+        return detect_all(args.model, images, conf, progress=bar.update, label_model=args.label_model)
 
 
 def cmd_evaluate(args) -> int:
@@ -131,6 +184,8 @@ def cmd_evaluate(args) -> int:
     images = _labelled_images(args, out / "scenes")
     report = evaluation_report(_detect(args, images, AP_CONF), args.conf)
     report["model"] = str(args.model)
+    if args.label_model:
+        report["label_model"] = str(args.label_model)
     report["data"] = str(args.data or out / "scenes")
     write_evaluation(out, report)
     print(format_evaluation(report))
@@ -144,7 +199,7 @@ def cmd_calibrate(args) -> int:
     out = Path(args.out)
     images = _labelled_images(args, out.parent / f"{out.stem}_scenes")
     samples, mis = center_samples(_detect(args, images, args.conf))
-    counts = write_calibration(out, samples, mis, args.model)
+    counts = write_calibration(out, samples, mis, args.model, args.label_model)
     fitted = [c for c, n in counts.items() if n >= 30]
     print(
         f"{out}: centre-error fits for default and {len(fitted)} classes from {len(samples.w)} detections; "

@@ -67,10 +67,12 @@ class DatasetSpec:
     rmrc_fraction: float = 0.25  # scenarios on the smaller RMRC lane preset
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
     jpeg_quality: int = 95
-    # every type once, more hazmat placards (16 labels to cover) and fewer QR codes
-    counts: dict[str, int] = field(
-        default_factory=lambda: {**DEFAULT_COUNTS, "hazmat": HAZMAT_PER_SCENARIO, "qr": 3}
-    )
+    counts: dict[str, int] = field(default_factory=lambda: DatasetSpec.default_counts())
+
+    @staticmethod
+    def default_counts() -> dict[str, int]:
+        """Objects per scenario: every type once, more placards and fewer QR codes."""
+        return {**DEFAULT_COUNTS, "hazmat": HAZMAT_PER_SCENARIO, "qr": 3}
 
     def __post_init__(self) -> None:
         if self.images < 1:
@@ -82,6 +84,9 @@ class DatasetSpec:
             raise DatasetError(f"distance_m must be 0 < min < max, got {self.distance_m}")
         if not 0 <= self.max_angle_deg < 90:
             raise DatasetError(f"max_angle_deg must be in [0, 90), got {self.max_angle_deg}")
+        bad = {k: v for k, v in self.counts.items() if not isinstance(v, int) or v < 0}
+        if bad:
+            raise DatasetError(f"object counts must be whole numbers >= 0, got {bad}")
 
     @property
     def n_scenarios(self) -> int:

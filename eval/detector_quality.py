@@ -49,6 +49,7 @@ MIN_FIT_SAMPLES = 30
 MIN_CENTER_VARIANCE_PX2 = 1.0 / 12.0
 CONFUSION_ALPHA = 0.5
 SEED_METADATA_KEY = "poibench_dataset_seed"
+SEEDS_METADATA_KEY = "poibench_dataset_seeds"  # a label classifier's, comma-separated
 AP_CONF = 0.001  # detections kept for AP (the whole precision-recall curve)
 
 
@@ -81,6 +82,18 @@ def model_training_seed(model: str | Path) -> int | None:
     return int(value) if value is not None and value.lstrip("-").isdigit() else None
 
 
+def model_training_seeds(model: str | Path) -> set[int]:
+    """Every dataset seed a model was trained on: the detector's (:func:`model_training_seed`)
+    or a label classifier's comma-separated list (``poibench_dataset_seeds``)."""
+    import onnxruntime as ort
+
+    seed = model_training_seed(model)
+    meta = ort.InferenceSession(str(model), providers=["CPUExecutionProvider"]).get_modelmeta()
+    listed = meta.custom_metadata_map.get(SEEDS_METADATA_KEY, "")
+    seeds = {int(v) for v in listed.split(",") if v.strip().lstrip("-").isdigit()}
+    return seeds | ({seed} if seed is not None else set())
+
+
 def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
     """Images (paths) and labels of one split of a YOLO dataset folder; the images are read
     once, by :func:`detect_all`."""
@@ -111,12 +124,22 @@ def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
     return out
 
 
-def detect_all(model: str | Path, images: list[LabelledImage], conf: float, progress=None) -> list[ImageBoxes]:
-    """Run the ONNX detector on every image; detections and labels as ImageBoxes."""
+def detect_all(
+    model: str | Path,
+    images: list[LabelledImage],
+    conf: float,
+    progress=None,
+    label_model: str | Path | None = None,
+) -> list[ImageBoxes]:
+    """Run the ONNX detector (with its hazmat label classifier, when given) on every image;
+    detections and labels as ImageBoxes."""
     from poi.detectors import build_detector
     from poi.types import Frame, Intrinsics
 
-    det = build_detector({"name": "onnx", "model": str(model), "conf": conf})
+    spec = {"name": "onnx", "model": str(model), "conf": conf}
+    if label_model is not None:
+        spec["label_model"] = str(label_model)
+    det = build_detector(spec)
     out = []
     for k, im in enumerate(images):
         bgr = cv2.imread(str(im.path))
@@ -353,12 +376,15 @@ def plot_center_fits(path: Path, samples: CenterSamples, doc: dict) -> None:
     plt.close(fig)
 
 
-def write_calibration(path: Path, samples: CenterSamples, mis: np.ndarray, model: str) -> dict:
+def write_calibration(
+    path: Path, samples: CenterSamples, mis: np.ndarray, model: str, label_model: str | None = None
+) -> dict:
     doc, counts = calibration_doc(samples, mis)
     if not doc["center_variance_px2"]:
         raise DetectorQualityError("no detection paired with a labelled box: nothing to calibrate from")
+    name = Path(model).name + (f" with {Path(label_model).name}" if label_model else "")
     header = (
-        f"# poibench calibration of {Path(model).name}: centre-error variance per class (seed 1, 2.1.4)\n"
+        f"# poibench calibration of {name}: centre-error variance per class (seed 1, 2.1.4)\n"
         f"# from {len(samples.w)} paired detections, and Pr(actual | detected, misclassified) (2.1.5).\n"
         f"# Pairs per class: {json.dumps(counts)}\n"
     )

@@ -33,7 +33,10 @@ from eval.video import H264Writer
 from poi.geometry import matrix_to_quat_wxyz, planar_pose, wrap_angle
 from sim.scenario import Scenario
 
-DEFAULT_MODEL = Path(__file__).resolve().parent.parent / "poi" / "models" / "default.onnx"
+MODELS_DIR = Path(__file__).resolve().parent.parent / "poi" / "models"
+DEFAULT_MODEL = MODELS_DIR / "default.onnx"
+DEFAULT_LABEL_MODEL = MODELS_DIR / "default_labels.onnx"  # names the placards DEFAULT_MODEL finds
+DEFAULT_CALIBRATION = MODELS_DIR / "default_calibration.yaml"  # poibench calibrate of the two
 # The competition file carries a date and a start time; a simulated mission starts at a
 # fixed instant so the same seed and config give the same file, byte for byte.
 MISSION_START = datetime(2026, 7, 1, 9, 0, 0)
@@ -58,7 +61,10 @@ class TrialResult:
 
 def detector_label(choice: str) -> str:
     if choice == "default":
-        return f"onnx:{DEFAULT_MODEL.name}" if DEFAULT_MODEL.exists() else "oracle"
+        if not DEFAULT_MODEL.exists():
+            return "oracle"
+        labels = f"+{DEFAULT_LABEL_MODEL.name}" if DEFAULT_LABEL_MODEL.exists() else ""
+        return f"onnx:{DEFAULT_MODEL.name}{labels}"
     return choice
 
 
@@ -167,7 +173,12 @@ def run_trial(
             f"mount.T_tracker_camera.quaternion_wxyz=[{q[0]:.9f}, {q[1]:.9f}, {q[2]:.9f}, {q[3]:.9f}]",
         ]
         cfg = apply_overrides(cfg, mount_sets + list(pipeline_sets))
+        if detector == "default" and cfg.detector.label_model is None and DEFAULT_LABEL_MODEL.exists():
+            cfg = apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"])
         detectors, oracle = make_detectors(detector, cfg, sim, notes)
+        if detector == "default" and oracle is None and cfg.calibration is None and DEFAULT_CALIBRATION.exists():
+            # the shipped model's own error model (seed 1, 2.1.4-2.1.5), unless the config names one
+            cfg = apply_overrides(cfg, [f"calibration={DEFAULT_CALIBRATION}"])
         pipe = Pipeline(cfg, detectors)
         rows = truth_rows(sim)
         write_truth_csv(out / "truth.csv", rows, sc.name)

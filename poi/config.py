@@ -74,9 +74,10 @@ class DetectorConfig:
 
     name: str = "onnx"
     model: str | None = None
-    conf: float = _num(0.25, lo=0.0, hi=1.0)
+    conf: float = _num(0.4, lo=0.0, hi=1.0)
     nms_iou: float = _num(0.45, lo=0.0, hi=1.0)
     imgsz: int | None = _num(None, lo=1)
+    label_model: str | None = None
     options: dict[str, Any] = field(default_factory=dict)
 
 
@@ -225,13 +226,16 @@ class PipelineConfig:
     calibration: str | None = None
 
     def detector_spec(self) -> dict[str, Any]:
-        """The detector spec: name, model, conf, nms_iou, imgsz (unset ones left out), options."""
+        """The detector spec: name, model, conf, nms_iou, imgsz, label_model (unset ones left out),
+        options."""
         d = self.detector
         spec: dict[str, Any] = {"name": d.name, "conf": d.conf, "nms_iou": d.nms_iou}
         if d.model is not None:
             spec["model"] = d.model
         if d.imgsz is not None:
             spec["imgsz"] = d.imgsz
+        if d.label_model is not None:
+            spec["label_model"] = d.label_model
         spec.update(d.options)
         return spec
 

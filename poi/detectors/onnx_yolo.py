@@ -45,13 +45,19 @@ from poi.detectors.base import (
     make_detection,
     register,
 )
+from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
 from poi.detectors.qr import attach_qr_text
-from poi.names import CLASS_INDEX, CLASSES, class_domain, class_to_identity
+from poi.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS, class_domain, class_to_identity
 from poi.types import Detection, Frame
 
 PAD_VALUE = 114  # Ultralytics' letterbox grey
 DEFAULT_IMGSZ_PX = 640
 LAYOUTS = ("auto", "yolov5", "yolov8")
+HAZMAT_INDICES = np.array([CLASS_INDEX[c] for c in HAZMAT_LABELS], dtype=np.int64)  # (16,) into CLASSES
+IS_HAZMAT = np.isin(np.arange(len(CLASSES)), HAZMAT_INDICES)  # (len(CLASSES),)
+# What the label classifier decides between: the placards, and QR codes, which white placards
+# with black symbols (poison, corrosive, inhalation hazard) resemble at a detector's input size.
+LABELLED = IS_HAZMAT | (np.arange(len(CLASSES)) == CLASS_INDEX["qr"])  # (len(CLASSES),)
 
 
 class OnnxModelError(DetectorConfigError):
@@ -212,9 +218,15 @@ class OnnxYoloDetector:
     name in CLASSES (or None to ignore that class); ``layout`` 'auto', 'yolov5'
     or 'yolov8'; ``threads`` onnxruntime intra-op threads; ``read_qr`` decode
     the text of every 'qr' detection here (:func:`poi.detectors.qr.attach_qr_text`;
-    off by default because poi.pipeline does it after all detectors).
+    off by default because poi.pipeline does it after all detectors);
+    ``label_model`` a hazmat label classifier (:mod:`poi.detectors.hazmat_labels`)
+    that names every placard the model finds from its full-resolution crop: the
+    model's 16 hazmat classes and 'qr' then compete as one in NMS, a placard's
+    confidence is s q_label (s the model's score, q the classifier's), and a
+    'qr' box the classifier sees as a placard becomes one
+    (:meth:`_name_placards`).
     ``last_timing_ms`` holds the last frame's preprocess / inference /
-    postprocess / qr times in milliseconds.
+    postprocess / labels / qr times in milliseconds.
     """
 
     model: str | Path
@@ -227,6 +239,7 @@ class OnnxYoloDetector:
     layout: str = "auto"
     threads: int = 2
     read_qr: bool = False
+    label_model: str | Path | None = None
     name: str = field(default="onnx", init=False)
     last_timing_ms: dict[str, float] = field(default_factory=dict, init=False)
     model_names: list[str] = field(default_factory=list, init=False)
@@ -237,6 +250,7 @@ class OnnxYoloDetector:
     _layout: str = field(default="", init=False, repr=False)
     _class_to_ours: np.ndarray = field(default=None, init=False, repr=False)  # type: ignore[assignment]
     _domain: np.ndarray = field(default=None, init=False, repr=False)  # type: ignore[assignment]
+    _labeler: HazmatLabelClassifier | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         self._check_settings()
@@ -265,6 +279,12 @@ class OnnxYoloDetector:
         self.input_hw = self._read_input(session, path, metadata)
         outputs = session.get_outputs()
         self._layout = resolve_layout(outputs[0].shape, len(self.model_names), self.layout, metadata)
+        if self.label_model is not None:
+            if not np.any(IS_HAZMAT[self._class_to_ours[self._class_to_ours >= 0]]):
+                raise DetectorConfigError(
+                    f"detector 'onnx': label_model names hazmat placards, but {path.name} reports none"
+                )
+            self._labeler = HazmatLabelClassifier(model=self.label_model, threads=self.threads)
 
     def _check_settings(self) -> None:
         if not 0.0 <= float(self.conf) <= 1.0:
@@ -357,20 +377,24 @@ class OnnxYoloDetector:
         t1 = time.perf_counter()
         out = self._session.run(None, {self._input_name: x})[0]
         t2 = time.perf_counter()
-        dets = self._postprocess(np.asarray(out, dtype=np.float32), r, left, top, w, h)
+        self.last_timing_ms = {"labels": 0.0}
+        dets = self._postprocess(np.asarray(out, dtype=np.float32), r, left, top, rgb)
         t3 = time.perf_counter()
         if self.read_qr:
             dets = attach_qr_text(rgb, dets)
         t4 = time.perf_counter()
+        labels_ms = self.last_timing_ms["labels"]
         self.last_timing_ms = {
             "preprocess": (t1 - t0) * 1e3,
             "inference": (t2 - t1) * 1e3,
-            "postprocess": (t3 - t2) * 1e3,
+            "postprocess": (t3 - t2) * 1e3 - labels_ms,
+            "labels": labels_ms,
             "qr": (t4 - t3) * 1e3,
         }
         return dets
 
-    def _postprocess(self, out: np.ndarray, r: float, left: int, top: int, w: int, h: int) -> list[Detection]:
+    def _postprocess(self, out: np.ndarray, r: float, left: int, top: int, rgb: np.ndarray) -> list[Detection]:
+        h, w = rgb.shape[:2]
         C = len(self.model_names)
         resolve_layout(out.shape, C, self._layout, {})  # the run's shape must match the declared one
         cxcywh, scores = decode_output(out, C, self._layout)  # (N, 4), (N, C)
@@ -400,28 +424,81 @@ class OnnxYoloDetector:
         idx_pool = np.flatnonzero(nonempty)
         if idx_pool.size == 0:
             return []
-        # Class-wise NMS (classes in CLASSES, so two model names for one class compete).
+        # Class-wise NMS (classes in CLASSES, so two model names for one class compete; with a
+        # label classifier the 16 hazmat labels and qr are one class, named after NMS).
+        group = ours.copy()
+        if self._labeler is not None:
+            group[LABELLED[ours]] = HAZMAT_INDICES[0]
         xywh = np.column_stack([xyxy[:, :2], xyxy[:, 2:] - xyxy[:, :2]])  # (M, 4)
         kept = cv2.dnn.NMSBoxesBatched(
             xywh[idx_pool].astype(np.float64).tolist(),
             top_score[idx_pool].astype(np.float64).tolist(),
-            ours[idx_pool].astype(np.int32).tolist(),
+            group[idx_pool].astype(np.int32).tolist(),
             -1.0,  # scores are already filtered (>= conf); OpenCV's own test is strict (>)
             float(self.nms_iou),
         )
         order = idx_pool[np.asarray(kept, dtype=np.int64).reshape(-1)]
-        order = order[np.argsort(-top_score[order], kind="stable")][: int(self.max_det)]
-        probs = self._class_probs(scores[order], ours[order])  # (K, len(CLASSES))
+        order = order[np.argsort(-top_score[order], kind="stable")]
+        classes, conf = ours[order], top_score[order].astype(np.float64)  # (K,), (K,)
+        probs = self._class_probs(scores[order], classes)  # (K, len(CLASSES))
+        if self._labeler is not None:
+            t0 = time.perf_counter()
+            classes, conf, probs = self._name_placards(rgb, xyxy[order], classes, conf, probs)
+            self.last_timing_ms["labels"] = (time.perf_counter() - t0) * 1e3
+            named = np.flatnonzero(conf >= self.conf)
+            named = named[np.argsort(-conf[named], kind="stable")]
+            order, classes, conf, probs = order[named], classes[named], conf[named], probs[named]
+        n = int(self.max_det)
         return [
             make_detection(
-                CLASSES[int(ours[i])],
+                CLASSES[int(classes[row])],
                 tuple(xyxy[i]),
-                float(top_score[i]),
+                float(conf[row]),
                 source="onnx",
                 class_probs=probs[row],
             )
-            for row, i in enumerate(order)
+            for row, i in enumerate(order[:n])
         ]
+
+    def _name_placards(
+        self, rgb: np.ndarray, boxes: np.ndarray, classes: np.ndarray, conf: np.ndarray, probs: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Relabel the placards among K detections with the label classifier.
+
+        For a placard with the model's score s and classifier output q (16 labels,
+        then background): label j* = argmax_j q_j, confidence s q_j*, Pr(label j) =
+        s q_j, and the rest, 1 - s (1 - q_background), spread over the other classes
+        as the model's scores had it (uniformly over its domain when they were all
+        zero). A 'qr' box is treated so when q_j* > q_background (the classifier's
+        background includes QR codes); otherwise it stays as the model had it.
+        """
+        cand = np.flatnonzero(LABELLED[classes])  # (M,)
+        if cand.size == 0:
+            return classes, conf, probs
+        q = self._labeler.classify(rgb, boxes[cand])  # (M, 17)
+        n_lab = len(LABEL_CLASSES) - 1
+        best = np.argmax(q[:, :n_lab], axis=1)  # (M,)
+        placard = IS_HAZMAT[classes[cand]] | (q[np.arange(cand.size), best] > q[:, n_lab])  # (M,)
+        hz, q, best = cand[placard], q[placard], best[placard]  # (H,), (H, 17), (H,)
+        if hz.size == 0:
+            return classes, conf, probs
+        s = conf[hz]  # (H,)
+        classes, conf, probs = classes.copy(), conf.copy(), probs.copy()
+        classes[hz] = HAZMAT_INDICES[best]
+        conf[hz] = s * q[np.arange(hz.size), best]
+        others = self._domain & ~IS_HAZMAT  # (len(CLASSES),)
+        rest = probs[hz] * others  # (H, len(CLASSES)), the non-placard mass as the model spread it
+        target = 1.0 - s * (1.0 - q[:, n_lab])  # (H,)
+        total = rest.sum(axis=1)
+        uniform = others / max(int(others.sum()), 1)
+        rest = np.where(
+            (total > 0)[:, None],
+            rest * (target / np.where(total > 0, total, 1.0))[:, None],
+            uniform * target[:, None],
+        )
+        rest[:, HAZMAT_INDICES] = s[:, None] * q[:, :n_lab]
+        probs[hz] = rest
+        return classes, conf, probs
 
     def _class_probs(self, model_scores: np.ndarray, top: np.ndarray) -> np.ndarray:
         """Class probabilities over CLASSES for K detections (seed 1, section 2.1.5).

@@ -78,3 +78,41 @@ def make_constant_model(
     onnx.checker.check_model(model)
     onnx.save(model, str(path))
     return path
+
+
+def make_colour_label_model(
+    path: Path,
+    weights: np.ndarray,
+    *,
+    size: int = 64,
+    names: Sequence[str] | None = None,
+    metadata: dict[str, str] | None = None,
+) -> Path:
+    """A hazmat label classifier whose probabilities are softmax(mean_rgb @ weights) of the crop.
+
+    ``weights`` (3, K): mean_rgb is each crop's channel means in [0, 1], so a crop of one pure
+    colour gets a hand-computable output. ``names`` default: the 17 label classes.
+    """
+    from poi.detectors.hazmat_labels import LABEL_CLASSES
+
+    names = list(LABEL_CLASSES if names is None else names)
+    K = weights.shape[1]
+    image = helper.make_tensor_value_info("images", TensorProto.FLOAT, ["n", 3, size, size])
+    result = helper.make_tensor_value_info("probs", TensorProto.FLOAT, ["n", K])
+    nodes = [
+        helper.make_node("ReduceMean", ["images"], ["mean"], axes=[2, 3], keepdims=0),  # (n, 3)
+        helper.make_node("MatMul", ["mean", "W"], ["logits"]),  # (n, K)
+        helper.make_node("Softmax", ["logits"], ["probs"], axis=1),
+    ]
+    inits = [numpy_helper.from_array(weights.astype(np.float32), "W")]
+    graph = helper.make_graph(nodes, "colour_labels", [image], [result], initializer=inits)
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)])
+    model.ir_version = IR_VERSION
+    meta = {"names": str(dict(enumerate(names))), "imgsz": str(size), "task": "hazmat-labels"}
+    meta.update(metadata or {})
+    for key, value in meta.items():
+        entry = model.metadata_props.add()
+        entry.key, entry.value = key, value
+    onnx.checker.check_model(model)
+    onnx.save(model, str(path))
+    return path
