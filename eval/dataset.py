@@ -14,7 +14,10 @@ occlude objects partially; an object is labelled when at least
 ``min_visible_fraction`` of it shows and its box is at least ``min_box_px``.
 
 Layout (what Ultralytics reads): ``images/{train,val}/*.jpg``,
-``labels/{train,val}/*.txt`` (``class cx cy w h``, normalised), ``data.yaml``
+``labels/{train,val}/*.txt`` (``class cx cy w h``, normalised),
+``ignore/{train,val}/*.txt`` (the same, for objects in view that show less than
+``min_visible_fraction`` of themselves: not labelled, and detections of them
+are left out of the evaluation, as KITTI's DontCare regions), ``data.yaml``
 (class names in ``poi.names.RESCUE_CLASSES`` order: the 24 rescue classes; a
 dataset renders rescue mazes only), plus ``manifest.csv`` (one row
 per image: scenario, view, target), ``dataset.yaml`` (the spec, to refuse
@@ -233,13 +236,17 @@ def blur(rgb: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, str]:
 
 
 def yolo_labels(
-    truth, objects_by_id, spec: DatasetSpec, width: int, height: int
+    truth, objects_by_id, spec: DatasetSpec, width: int, height: int, ignored: bool = False
 ) -> list[tuple[int, float, float, float, float]]:
-    """(class, cx, cy, w, h) normalised, for the objects that show enough."""
+    """(class, cx, cy, w, h) normalised, for the objects that show enough; with ``ignored``, for
+    those big enough in pixels that show less than ``min_visible_fraction`` of themselves (a door
+    filling the frame from close by): evaluation neither wants nor penalises detections of them."""
     out = []
     for v in truth.visible:
         x1, y1, x2, y2 = v.box_xyxy
-        if v.visible_fraction < spec.min_visible_fraction or min(x2 - x1, y2 - y1) < spec.min_box_px:
+        if min(x2 - x1, y2 - y1) < spec.min_box_px:
+            continue
+        if (v.visible_fraction < spec.min_visible_fraction) != ignored:
             continue
         cls = RESCUE_CLASS_INDEX[object_class(objects_by_id[v.id])]
         out.append((cls, (x1 + x2) / 2 / width, (y1 + y2) / 2 / height, (x2 - x1) / width, (y2 - y1) / height))
@@ -260,6 +267,10 @@ def _build(spec: DatasetSpec, j: int):
     raise DatasetError(
         f"scenario {j}: the objects did not fit {SCENARIO_TRIES} drawn mazes; use bigger maze_cells"
     )
+
+
+def _label_lines(labels: list[tuple[int, float, float, float, float]]) -> str:
+    return "".join(f"{c} {x:.6f} {y:.6f} {w:.6f} {h:.6f}\n" for c, x, y, w, h in labels)
 
 
 def _image_name(j: int, i: int) -> str:
@@ -339,9 +350,11 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                     cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
                     [cv2.IMWRITE_JPEG_QUALITY, spec.jpeg_quality],
                 )
-                (out / "labels" / split / f"{name}.txt").write_text(
-                    "".join(f"{c} {x:.6f} {y:.6f} {w:.6f} {h:.6f}\n" for c, x, y, w, h in labels), encoding="utf-8"
-                )
+                (out / "labels" / split / f"{name}.txt").write_text(_label_lines(labels), encoding="utf-8")
+                ignore = yolo_labels(truth, by_id, spec, rgb.shape[1], rgb.shape[0], ignored=True)
+                if ignore:
+                    (out / "ignore" / split).mkdir(parents=True, exist_ok=True)
+                    (out / "ignore" / split / f"{name}.txt").write_text(_label_lines(ignore), encoding="utf-8")
                 rows.append(
                     {
                         "image": f"images/{split}/{name}.jpg",

@@ -33,6 +33,36 @@ class ImageBoxes:
     det_scores: np.ndarray  # (D,)
 
 
+def drop_ignored(im: ImageBoxes, ignore_boxes: np.ndarray, ignore_classes: np.ndarray) -> ImageBoxes:
+    """``im`` without the detections of ignored objects (KITTI's DontCare).
+
+    A detection is left out when it overlaps an ignored box of its class with IoU >= 0.5
+    and no labelled box of its class with IoU >= 0.5: it found an object that is there
+    but too hidden to be labelled, so it is neither a hit nor a false detection.
+
+    >>> im = ImageBoxes(gt_boxes=np.array([[0, 0, 10, 10.0]]), gt_classes=np.array([0]),
+    ...     det_boxes=np.array([[0, 0, 10, 10.0], [50, 0, 70, 20], [50, 0, 70, 20]]),
+    ...     det_classes=np.array([0, 1, 2]), det_scores=np.array([0.9, 0.8, 0.7]))
+    >>> drop_ignored(im, np.array([[51, 0, 70, 20.0]]), np.array([1])).det_classes.tolist()
+    [0, 2]
+    """
+    if len(ignore_boxes) == 0 or len(im.det_boxes) == 0:
+        return im
+    same_ign = im.det_classes[:, None] == ignore_classes[None, :]  # (D, I)
+    on_ignored = np.any((iou_matrix(im.det_boxes, ignore_boxes) >= 0.5) & same_ign, axis=1)  # (D,)
+    if len(im.gt_boxes):
+        same_gt = im.det_classes[:, None] == im.gt_classes[None, :]  # (D, G)
+        on_ignored &= ~np.any((iou_matrix(im.det_boxes, im.gt_boxes) >= 0.5) & same_gt, axis=1)
+    keep = ~on_ignored
+    return ImageBoxes(
+        gt_boxes=im.gt_boxes,
+        gt_classes=im.gt_classes,
+        det_boxes=im.det_boxes[keep],
+        det_classes=im.det_classes[keep],
+        det_scores=im.det_scores[keep],
+    )
+
+
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(len(a), len(b)) intersection over union of xyxy boxes.
 

@@ -23,7 +23,7 @@ training never used, and compare with the labels:
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -35,6 +35,7 @@ from eval.detection_metrics import (
     ImageBoxes,
     class_metrics,
     confusion_counts,
+    drop_ignored,
     match_boxes,
     mean_ap,
     recall_by_size,
@@ -62,10 +63,16 @@ class LabelledImage:
     path: Path
     boxes_norm: np.ndarray  # (G, 4) xyxy as fractions of the image width and height
     classes: np.ndarray  # (G,)
+    ignore_norm: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))  # (I, 4) objects too hidden
+    ignore_classes: np.ndarray = field(default_factory=lambda: np.zeros(0, int))  # (I,) to label
 
     def boxes_px(self, width: int, height: int) -> np.ndarray:
         """(G, 4) xyxy pixels of an image ``width`` x ``height``."""
         return self.boxes_norm * np.array([width, height, width, height], dtype=float)
+
+    def ignore_px(self, width: int, height: int) -> np.ndarray:
+        """(I, 4) xyxy pixels of the ignored objects."""
+        return self.ignore_norm * np.array([width, height, width, height], dtype=float)
 
 
 def model_training_seed(model: str | Path) -> int | None:
@@ -103,25 +110,38 @@ def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
         raise DetectorQualityError(f"{img_dir}: no such folder; give a folder written by 'poibench dataset'")
     out = []
     for img in sorted(img_dir.glob("*.jpg")):
-        lab = root / "labels" / split / f"{img.stem}.txt"
-        rows = []
-        if lab.exists():
-            for n, line in enumerate(lab.read_text(encoding="utf-8").splitlines(), 1):
-                parts = line.split()
-                if not parts:
-                    continue
-                try:
-                    c, x, y, bw, bh = int(parts[0]), *map(float, parts[1:5])
-                except (ValueError, IndexError):
-                    raise DetectorQualityError(f"{lab}:{n}: expected 'class cx cy w h'") from None
-                if not 0 <= c < len(RESCUE_CLASSES):
-                    raise DetectorQualityError(f"{lab}:{n}: class {c} is not in 0..{len(RESCUE_CLASSES) - 1}")
-                rows.append((c, x - bw / 2, y - bh / 2, x + bw / 2, y + bh / 2))
-        arr = np.array(rows, dtype=float).reshape(-1, 5)
-        out.append(LabelledImage(path=img, boxes_norm=arr[:, 1:], classes=arr[:, 0].astype(int)))
+        labels = _read_label_file(root / "labels" / split / f"{img.stem}.txt")
+        ignore = _read_label_file(root / "ignore" / split / f"{img.stem}.txt")
+        out.append(
+            LabelledImage(
+                path=img,
+                boxes_norm=labels[:, 1:],
+                classes=labels[:, 0].astype(int),
+                ignore_norm=ignore[:, 1:],
+                ignore_classes=ignore[:, 0].astype(int),
+            )
+        )
     if not out:
         raise DetectorQualityError(f"{img_dir}: no images")
     return out
+
+
+def _read_label_file(lab: Path) -> np.ndarray:
+    """(N, 5) rows class, x1, y1, x2, y2 (normalised) of a YOLO label file; none if it is missing."""
+    rows = []
+    if lab.exists():
+        for n, line in enumerate(lab.read_text(encoding="utf-8").splitlines(), 1):
+            parts = line.split()
+            if not parts:
+                continue
+            try:
+                c, x, y, bw, bh = int(parts[0]), *map(float, parts[1:5])
+            except (ValueError, IndexError):
+                raise DetectorQualityError(f"{lab}:{n}: expected 'class cx cy w h'") from None
+            if not 0 <= c < len(RESCUE_CLASSES):
+                raise DetectorQualityError(f"{lab}:{n}: class {c} is not in 0..{len(RESCUE_CLASSES) - 1}")
+            rows.append((c, x - bw / 2, y - bh / 2, x + bw / 2, y + bh / 2))
+    return np.array(rows, dtype=float).reshape(-1, 5)
 
 
 def detect_all(
@@ -152,15 +172,14 @@ def detect_all(
         # the datasets are rescue mazes labelled with RESCUE_CLASSES; a model that also knows
         # the arena's classes has nothing to find of them here
         dets = [d for d in dets if d.class_name in RESCUE_CLASSES]
-        out.append(
-            ImageBoxes(
-                gt_boxes=im.boxes_px(w, h),
-                gt_classes=im.classes,
-                det_boxes=np.array([d.box_xyxy for d in dets], float).reshape(-1, 4),
-                det_classes=np.array([RESCUE_CLASSES.index(d.class_name) for d in dets], int),
-                det_scores=np.array([d.confidence for d in dets], float),
-            )
+        boxes = ImageBoxes(
+            gt_boxes=im.boxes_px(w, h),
+            gt_classes=im.classes,
+            det_boxes=np.array([d.box_xyxy for d in dets], float).reshape(-1, 4),
+            det_classes=np.array([RESCUE_CLASSES.index(d.class_name) for d in dets], int),
+            det_scores=np.array([d.confidence for d in dets], float),
         )
+        out.append(drop_ignored(boxes, im.ignore_px(w, h), im.ignore_classes))
         if progress:
             progress(1)
     return out

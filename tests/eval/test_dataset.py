@@ -122,6 +122,9 @@ def test_labels_follow_visibility_and_size_rules():
     labels = yolo_labels(truth, objs, DatasetSpec(images=1), 640, 480)
     # only the placard: the door box is 3 px wide (< 4), then only 10% visible (< 30%)
     assert labels == [(RESCUE_CLASSES.index("oxidizer"), 132 / 640, 72 / 480, 64 / 640, 64 / 480)]
+    # the 10%-visible door is big enough to be an ignored object; the 3 px one is not
+    ignored = yolo_labels(truth, objs, DatasetSpec(images=1), 640, 480, ignored=True)
+    assert ignored == [(RESCUE_CLASSES.index("door"), 25 / 640, 25 / 480, 50 / 640, 50 / 480)]
 
 
 def test_sight_line_crossing():

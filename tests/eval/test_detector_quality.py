@@ -17,7 +17,14 @@ from eval.detection_metrics import (
     mean_ap,
     recall_by_size,
 )
-from eval.detector_quality import CenterSamples, calibration_doc, center_samples, fit_variance
+from eval.detector_quality import (
+    CenterSamples,
+    calibration_doc,
+    center_samples,
+    detect_all,
+    fit_variance,
+    load_split,
+)
 from poi.covariance import load_calibration
 from poi.names import RESCUE_CLASSES
 
@@ -225,3 +232,25 @@ def test_evaluate_refuses_a_missing_dataset(tmp_path, capsys):
     )
     assert code == 2
     assert "no such folder" in capsys.readouterr().err
+
+
+def test_detections_of_ignored_objects_are_neither_hits_nor_false(hand_dataset, tmp_path):
+    root, model = hand_dataset
+    # mark the oxidizer of image a as too hidden to label: its detection drops out, so the
+    # oxidizer keeps AP 1 (found in b) instead of counting a's detection as a false one
+    ox = RESCUE_CLASSES.index("oxidizer")
+    lab = root / "labels/val/a.txt"
+    line = lab.read_text()
+    lab.write_text("")
+    (root / "ignore/val").mkdir(parents=True)
+    (root / "ignore/val/a.txt").write_text(line)
+    images = load_split(root, "val")
+    assert images[0].ignore_classes.tolist() == [ox] and images[1].ignore_classes.size == 0
+    kept = detect_all(model, images, 0.25)
+    assert len(kept[0].det_boxes) == 0 and len(kept[1].det_boxes) == 1
+    out = tmp_path / "ev"
+    assert (
+        main(["evaluate-detector", "--model", str(model), "--data", str(root), "--out", str(out), "--quiet"]) == 0
+    )
+    rep = json.loads((out / "evaluation.json").read_text())
+    assert rep["classes"]["oxidizer"]["AP50"] == 1.0 and rep["classes"]["oxidizer"]["n"] == 1
