@@ -75,8 +75,7 @@ class LabelledImage:
         return self.ignore_norm * np.array([width, height, width, height], dtype=float)
 
 
-def model_training_seed(model: str | Path) -> int | None:
-    """The dataset seed ``poibench train`` wrote into the model's metadata, if any."""
+def _model_metadata(model: str | Path) -> dict[str, str]:
     import onnxruntime as ort
 
     try:
@@ -85,20 +84,24 @@ def model_training_seed(model: str | Path) -> int | None:
         raise DetectorQualityError(
             f"{model}: not a loadable ONNX model ({str(e).splitlines()[0][:150]})"
         ) from None
-    value = meta.custom_metadata_map.get(SEED_METADATA_KEY)
+    return dict(meta.custom_metadata_map)
+
+
+def _seed_of(value: str | None) -> int | None:
     return int(value) if value is not None and value.lstrip("-").isdigit() else None
 
 
-def model_training_seeds(model: str | Path) -> set[int]:
-    """Every dataset seed a model was trained on: the detector's (:func:`model_training_seed`)
-    or a label classifier's comma-separated list (``poibench_dataset_seeds``)."""
-    import onnxruntime as ort
+def model_training_seed(model: str | Path) -> int | None:
+    """The dataset seed ``poibench train`` wrote into the model's metadata, if any."""
+    return _seed_of(_model_metadata(model).get(SEED_METADATA_KEY))
 
-    seed = model_training_seed(model)
-    meta = ort.InferenceSession(str(model), providers=["CPUExecutionProvider"]).get_modelmeta()
-    listed = meta.custom_metadata_map.get(SEEDS_METADATA_KEY, "")
-    seeds = {int(v) for v in listed.split(",") if v.strip().lstrip("-").isdigit()}
-    return seeds | ({seed} if seed is not None else set())
+
+def model_training_seeds(model: str | Path) -> set[int]:
+    """Every dataset seed a model was trained on: the detector's (``poibench_dataset_seed``)
+    or a label classifier's comma-separated list (``poibench_dataset_seeds``)."""
+    meta = _model_metadata(model)
+    listed = [_seed_of(v.strip()) for v in meta.get(SEEDS_METADATA_KEY, "").split(",")]
+    return {s for s in [*listed, _seed_of(meta.get(SEED_METADATA_KEY))] if s is not None}
 
 
 def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:

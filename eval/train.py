@@ -120,6 +120,16 @@ def train(spec: TrainSpec) -> Path:
     return onnx_path
 
 
+def dataset_seed(root: str | Path) -> int | None:
+    """The seed a 'poibench dataset' folder was rendered from (its dataset.yaml), if it says."""
+    meta = Path(root) / "dataset.yaml"
+    if not meta.exists():
+        return None
+    doc = yaml.safe_load(meta.read_text(encoding="utf-8")) or {}
+    spec = doc.get("spec")
+    return int(spec["seed"]) if isinstance(spec, dict) and "seed" in spec else None
+
+
 def _stamp_dataset_seed(src: Path, dst: Path, data: Path) -> None:
     """Copy the exported model, adding the training dataset's seed to its metadata so that
     evaluate-detector can refuse scenes the model was trained on."""
@@ -127,15 +137,11 @@ def _stamp_dataset_seed(src: Path, dst: Path, data: Path) -> None:
 
     from eval.detector_quality import SEED_METADATA_KEY
 
-    meta = (
-        yaml.safe_load((data.parent / "dataset.yaml").read_text(encoding="utf-8"))
-        if (data.parent / "dataset.yaml").exists()
-        else None
-    )
+    seed = dataset_seed(data.parent)
     model = onnx.load(str(src))
-    if meta and "spec" in meta:
+    if seed is not None:
         kept = [p for p in model.metadata_props if p.key != SEED_METADATA_KEY]
         del model.metadata_props[:]
         model.metadata_props.extend(kept)
-        model.metadata_props.add(key=SEED_METADATA_KEY, value=str(meta["spec"]["seed"]))
+        model.metadata_props.add(key=SEED_METADATA_KEY, value=str(seed))
     onnx.save(model, str(dst))

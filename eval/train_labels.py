@@ -32,11 +32,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from eval.detector_quality import SEEDS_METADATA_KEY
 from eval.label_data import CropSet, balanced_draw, collect_crops, sample_crop
-from eval.train import TrainError
+from eval.train import TrainError, dataset_seed
 from poi.detectors.hazmat_labels import DEFAULT_CROP_MARGIN, LABEL_CLASSES, TASK, crops_to_input
 
 ONNX_NAME = "label_model.onnx"
@@ -94,17 +93,6 @@ def build_model(widths: Sequence[int], imgsz: int, n_classes: int):
     features = nn.Sequential(*layers)
     head = nn.Sequential(nn.Flatten(), nn.Dropout(0.2), nn.Linear(c_in * side * side, n_classes))
     return nn.Sequential(features, head)
-
-
-def _dataset_seeds(data: Sequence[str]) -> list[int]:
-    seeds = []
-    for root in data:
-        meta = Path(root) / "dataset.yaml"
-        if meta.exists():
-            doc = yaml.safe_load(meta.read_text(encoding="utf-8")) or {}
-            if isinstance(doc.get("spec"), dict) and "seed" in doc["spec"]:
-                seeds.append(int(doc["spec"]["seed"]))
-    return seeds
 
 
 def _batch(crops: CropSet, idx: np.ndarray, size: int, margin: float, rng: np.random.Generator | None):
@@ -309,7 +297,7 @@ def _export(model, spec: LabelTrainSpec, path: Path) -> None:
         "names": str(dict(enumerate(LABEL_CLASSES))),
         "imgsz": str(spec.imgsz),
         "crop_margin": str(spec.margin),
-        SEEDS_METADATA_KEY: ",".join(str(s) for s in _dataset_seeds(spec.data)),
+        SEEDS_METADATA_KEY: ",".join(str(s) for s in map(dataset_seed, spec.data) if s is not None),
     }
     for k, v in meta.items():
         m.metadata_props.add(key=k, value=v)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -58,6 +59,24 @@ def register(name: str) -> Callable[[type], type]:
         return cls
 
     return wrap
+
+
+def open_onnx_session(path: Path, threads: int, error: type[Exception], what: str = "model") -> Any:
+    """An onnxruntime CPU session for ``path`` (``threads`` intra-op threads, quiet logging);
+    a missing or unloadable file raises ``error`` with one line naming it."""
+    import onnxruntime as ort
+
+    if not path.is_file():
+        raise error(f"{what} file not found: {path}")
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = int(threads)
+    opts.inter_op_num_threads = 1
+    opts.log_severity_level = 3
+    try:
+        return ort.InferenceSession(str(path), sess_options=opts, providers=["CPUExecutionProvider"])
+    except Exception as exc:  # onnxruntime raises its own Fail / InvalidProtobuf types
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise error(f"{path}: not a loadable ONNX model ({first[:200]})") from exc
 
 
 def build_detector(spec: dict[str, Any]) -> Detector:

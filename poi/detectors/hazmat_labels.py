@@ -37,7 +37,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from poi.detectors.base import DetectorConfigError
+from poi.detectors.base import DetectorConfigError, open_onnx_session
 from poi.names import HAZMAT_LABELS
 
 BACKGROUND = "background"
@@ -100,22 +100,10 @@ class HazmatLabelClassifier:
     _input: str = field(default="", init=False, repr=False)
 
     def __post_init__(self) -> None:
-        import onnxruntime as ort
-
         from poi.detectors.onnx_yolo import parse_names_metadata
 
         path = Path(self.model)
-        if not path.is_file():
-            raise LabelModelError(f"label model file not found: {path}")
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = int(self.threads)
-        opts.inter_op_num_threads = 1
-        opts.log_severity_level = 3
-        try:
-            session = ort.InferenceSession(str(path), sess_options=opts, providers=["CPUExecutionProvider"])
-        except Exception as exc:  # onnxruntime raises its own Fail / InvalidProtobuf types
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise LabelModelError(f"{path}: not a loadable ONNX model ({first[:200]})") from exc
+        session = open_onnx_session(path, self.threads, LabelModelError, what="label model")
         meta = dict(session.get_modelmeta().custom_metadata_map)
         if "names" not in meta:
             raise LabelModelError(

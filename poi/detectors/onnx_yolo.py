@@ -43,6 +43,7 @@ from poi.detectors.base import (
     DetectorConfigError,
     canonical_class,
     make_detection,
+    open_onnx_session,
     register,
 )
 from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
@@ -254,20 +255,8 @@ class OnnxYoloDetector:
 
     def __post_init__(self) -> None:
         self._check_settings()
-        import onnxruntime as ort
-
         path = Path(self.model)
-        if not path.is_file():
-            raise OnnxModelError(f"model file not found: {path}")
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = int(self.threads)
-        opts.inter_op_num_threads = 1
-        opts.log_severity_level = 3
-        try:
-            session = ort.InferenceSession(str(path), sess_options=opts, providers=["CPUExecutionProvider"])
-        except Exception as exc:  # onnxruntime raises its own Fail / InvalidProtobuf types
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise OnnxModelError(f"{path}: not a loadable ONNX model ({first[:200]})") from exc
+        session = open_onnx_session(path, self.threads, OnnxModelError)
         self._session = session
         metadata = dict(session.get_modelmeta().custom_metadata_map)
         self.model_names = self._read_names(path, metadata)
