@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -39,6 +40,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--device", default="cpu", help="cpu or a CUDA device index (default cpu)")
     t.add_argument("--workers", type=int, default=2)
+    t.add_argument(
+        "--threads", type=int, default=os.cpu_count() or 1, help="torch CPU threads (default: every core)"
+    )
     t.set_defaults(func=cmd_train)
 
     lt = sub.add_parser(
@@ -123,6 +127,7 @@ def cmd_train(args) -> int:
             seed=args.seed,
             device=args.device,
             workers=args.workers,
+            threads=args.threads,
         )
     )
     print(f"model: {out}")

@@ -150,6 +150,8 @@ def test_train_checks_its_inputs_before_needing_ultralytics(tiny, tmp_path):
         data_yaml(bad)
     with pytest.raises(TrainError, match="multiple of 32"):
         TrainSpec(data=str(out), out=str(tmp_path / "run"), imgsz=300)
+    with pytest.raises(TrainError, match="--threads must be at least 1"):
+        TrainSpec(data=str(out), out=str(tmp_path / "run"), threads=0)
 
 
 # The class names of every dataset written before the arena types were added, spelled out:
