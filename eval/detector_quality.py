@@ -220,18 +220,30 @@ def evaluation_report(results: list[ImageBoxes], conf: float) -> dict:
     }
 
 
-def plot_confusion(path: Path, counts: np.ndarray) -> None:
-    """Row-normalised confusion matrix (true class rows, detected class columns) as a PNG."""
+def plot_confusion(
+    path: Path,
+    counts: np.ndarray,
+    labels: list[str] | None = None,
+    *,
+    xlabel: str = "detected",
+    ylabel: str = "true (background row: false detections)",
+    title: str | None = None,
+    figsize: tuple[float, float] = (11, 10),
+    tick_fontsize: float = 7,
+) -> None:
+    """Row-normalised confusion matrix (true class rows, detected class columns) as a PNG,
+    each non-empty cell labelled with its count. ``labels`` name the rows and columns (default:
+    the rescue classes and ``background``, as ``confusion_counts`` orders them)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    labels = [*RESCUE_CLASSES, "background"]
+    labels = [*RESCUE_CLASSES, "background"] if labels is None else list(labels)
     M = np.asarray(counts, float)
     rows = M.sum(axis=1, keepdims=True)
     norm = np.divide(M, rows, out=np.zeros_like(M), where=rows > 0)
-    fig, ax = plt.subplots(figsize=(11, 10))
+    fig, ax = plt.subplots(figsize=figsize)
     im = ax.imshow(norm, cmap="Blues", vmin=0, vmax=1)
     for i in range(M.shape[0]):
         for j in range(M.shape[1]):
@@ -245,10 +257,12 @@ def plot_confusion(path: Path, counts: np.ndarray) -> None:
                     fontsize=6,
                     color="white" if norm[i, j] > 0.5 else "black",
                 )
-    ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=7)
-    ax.set_yticks(range(len(labels)), labels, fontsize=7)
-    ax.set_xlabel("detected")
-    ax.set_ylabel("true (background row: false detections)")
+    ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=tick_fontsize)
+    ax.set_yticks(range(len(labels)), labels, fontsize=tick_fontsize)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
     fig.colorbar(im, ax=ax, fraction=0.04, label="fraction of the true class")
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from eval.detector_quality import SEEDS_METADATA_KEY
+from eval.detector_quality import SEEDS_METADATA_KEY, plot_confusion
 from eval.label_data import CropSet, balanced_draw, collect_crops, sample_crop
 from eval.train import TrainError, dataset_seed
 from poi.detectors.hazmat_labels import DEFAULT_CROP_MARGIN, LABEL_CLASSES, TASK, crops_to_input
@@ -199,7 +199,16 @@ def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Pa
         _write_history(out / "history.csv", history)
 
     conf = _evaluate(model, val_set, spec)
-    _plot_confusion(conf, out / "confusion.png")
+    plot_confusion(
+        out / "confusion.png",
+        conf,
+        list(LABEL_CLASSES),
+        xlabel="predicted",
+        ylabel="true",
+        title=f"label classifier, validation crops: accuracy {np.trace(conf) / max(conf.sum(), 1):.3f}",
+        figsize=(9, 8),
+        tick_fontsize=8,
+    )
     _plot_history(history, out / "history.png")
     _export(model, spec, onnx_path)
     return onnx_path
@@ -216,37 +225,6 @@ def _write_history(path: Path, history: list[dict]) -> None:
         w = csv.DictWriter(f, fieldnames=list(history[0]))
         w.writeheader()
         w.writerows(history)
-
-
-def _plot_confusion(conf: np.ndarray, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    norm = conf / np.maximum(conf.sum(axis=1, keepdims=True), 1)
-    fig, ax = plt.subplots(figsize=(9, 8))
-    ax.imshow(norm, cmap="Blues", vmin=0, vmax=1)
-    ax.set_xticks(range(len(LABEL_CLASSES)), LABEL_CLASSES, rotation=90, fontsize=8)
-    ax.set_yticks(range(len(LABEL_CLASSES)), LABEL_CLASSES, fontsize=8)
-    for i in range(len(LABEL_CLASSES)):
-        for j in range(len(LABEL_CLASSES)):
-            if conf[i, j]:
-                ax.text(
-                    j,
-                    i,
-                    str(conf[i, j]),
-                    ha="center",
-                    va="center",
-                    fontsize=6,
-                    color="white" if norm[i, j] > 0.5 else "black",
-                )
-    ax.set_xlabel("predicted")
-    ax.set_ylabel("true")
-    ax.set_title(f"label classifier, validation crops: accuracy {np.trace(conf) / max(conf.sum(), 1):.3f}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _plot_history(history: list[dict], path: Path) -> None:
