@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from collections import Counter
 from pathlib import Path
 
 from eval.detector.dataset import HAZMAT_PER_SCENARIO
@@ -57,6 +58,46 @@ def register(sub: argparse._SubParsersAction) -> None:
     lt.add_argument("--seed", type=int, default=0)
     lt.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
     lt.set_defaults(func=cmd_train_labels)
+
+    ph = sub.add_parser(
+        "evaluate-photos",
+        help="a detector on folders of labelled photos (real or rendered): recall, false detections, overlay",
+    )
+    ph.add_argument(
+        "--images",
+        required=True,
+        nargs="+",
+        metavar="DIR",
+        help="YOLO folders (images/, labels/; or a 'poibench dataset' folder); two or more: side by side",
+    )
+    ph.add_argument("--out", required=True, help="folder for summary.json, per_class.csv, report.md and plots")
+    ph.add_argument(
+        "--model",
+        help="an ONNX detector, python:MODULE:CLASS or an entry point name (default: the shipped model)",
+    )
+    ph.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a keyword argument of a Python detector (VALUE read as YAML); repeatable",
+    )
+    ph.add_argument(
+        "--label-model",
+        help="hazmat label classifier; 'none' for the detector alone (default: the shipped one with the "
+        "shipped detector, none otherwise)",
+    )
+    ph.add_argument(
+        "--conf",
+        type=float,
+        default=OPERATING_CONF,
+        help=f"operating confidence (default {OPERATING_CONF}, the pipeline's detector.conf)",
+    )
+    ph.add_argument("--limit", type=int, help="at most this many images a folder, drawn with --seed")
+    ph.add_argument("--seed", type=int, default=0, help="seed of --limit's and the overlay's draws (default 0)")
+    ph.add_argument("--overlay", type=int, default=12, help="images a folder on overlay.png (default 12; 0: none)")
+    ph.add_argument("--quiet", action="store_true", help="no progress bars")
+    ph.set_defaults(func=cmd_evaluate_photos)
 
     for name, helptext in (
         ("evaluate-detector", "mAP50, mAP50-95, per-class AP and recall, confusion matrix image"),
@@ -260,4 +301,69 @@ def cmd_calibrate(args) -> int:
         f"{int(mis.sum())} misclassified"
     )
     print(f"plot: {out.with_suffix('.png')}; use it with --set calibration={out}")
+    return 0
+
+
+def cmd_evaluate_photos(args) -> int:
+    """``poibench evaluate-photos``: eval.detector.photos on each --images folder, side by side."""
+    import time
+
+    from eval.detector.photos import FALSE_DETECTION, folder_report, load_folder, write_outputs
+    from eval.detector.quality import DetectorQualityError
+    from eval.trial.run import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
+
+    if args.limit is not None and args.limit < 1:
+        raise DetectorQualityError(f"--limit must be at least 1, got {args.limit}")
+    if not 0.0 <= args.conf <= 1.0:
+        raise DetectorQualityError(f"--conf must be in [0, 1], got {args.conf}")
+    shipped = args.model is None
+    if shipped:
+        args.model = str(DEFAULT_MODEL)
+    if args.label_model is None and shipped and DEFAULT_LABEL_MODEL.exists():
+        args.label_model = str(DEFAULT_LABEL_MODEL)
+    elif args.label_model is not None and args.label_model.lower() == "none":
+        args.label_model = None
+    for m in (args.model, args.label_model):
+        if m is not None and m.endswith(".onnx") and not Path(m).exists():
+            raise DetectorQualityError(f"{m}: no such model file")
+    _options(args)
+    names: Counter[str] = Counter()
+    folders = []
+    for k, d in enumerate(args.images):
+        folder = load_folder(d, args.limit, args.seed)
+        names[folder.name] += 1
+        if names[folder.name] > 1:
+            folder.name = f"{folder.name}-{k + 1}"
+        folders.append(folder)
+    results = []
+    cpu = []
+    for folder in folders:
+        t0 = time.process_time()
+        results.append(_detect(args, folder.images, args.conf))
+        cpu.append(time.process_time() - t0)
+    summary = {
+        "model": str(args.model),
+        "label_model": args.label_model,
+        "conf": args.conf,
+        "iou_min": 0.5,
+        "seed": args.seed,
+        "false_detection": FALSE_DETECTION,
+        "folders": [
+            {
+                "name": f.name,
+                "path": str(f.root),
+                "total_images": f.total_images,
+                "without_labels": f.without_labels,
+                "detect_cpu_s": round(c, 1),
+                **folder_report(r, args.conf),
+            }
+            for f, r, c in zip(folders, results, cpu, strict=True)
+        ],
+    }
+    out = Path(args.out)
+    print(write_outputs(out, summary, folders, results, args.overlay, args.seed))
+    for f in summary["folders"]:
+        if f["without_labels"]:
+            print(f"{f['name']}: {f['without_labels']} images have no labels file; taken as showing no object")
+    print(f"summary.json, per_class.csv, report.md, recall_by_size.png and overlay.png in {out}")
     return 0

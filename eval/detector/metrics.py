@@ -192,6 +192,38 @@ def match_boxes(gt_boxes: np.ndarray, det_boxes: np.ndarray, iou_min: float = 0.
     return sorted(pairs)
 
 
+def match_classes_first(
+    gt_boxes: np.ndarray,
+    gt_classes: np.ndarray,
+    det_boxes: np.ndarray,
+    det_classes: np.ndarray,
+    iou_min: float = 0.5,
+) -> list[tuple[int, int]]:
+    """One-to-one (gt, det) pairs with IoU >= ``iou_min``: first each class's detections with
+    its true boxes (:func:`match_boxes` per class), then the rest class-agnostically. A true box
+    with a right-class detection on it is never paired with a better-overlapping wrong one, so
+    that detection does not end up a false detection and the box a misnamed one.
+
+    >>> box = np.array([[0, 0, 10, 10.0]])
+    >>> match_classes_first(box, np.array([3]), np.array([[0, 0, 10, 10], [0, 0, 10, 9.0]]),
+    ...     np.array([5, 3]))  # the wrong class fits better
+    [(0, 1)]
+    >>> match_classes_first(box, np.array([3]), box, np.array([5]))
+    [(0, 0)]
+    """
+    gt_classes = np.asarray(gt_classes)
+    det_classes = np.asarray(det_classes)
+    pairs: list[tuple[int, int]] = []
+    for c in np.intersect1d(gt_classes, det_classes):
+        gi, di = np.flatnonzero(gt_classes == c), np.flatnonzero(det_classes == c)
+        pairs += [(int(gi[g]), int(di[d])) for g, d in match_boxes(gt_boxes[gi], det_boxes[di], iou_min)]
+    gi = np.setdiff1d(np.arange(len(gt_boxes)), [g for g, _ in pairs])
+    di = np.setdiff1d(np.arange(len(det_boxes)), [d for _, d in pairs])
+    if len(gi) and len(di):
+        pairs += [(int(gi[g]), int(di[d])) for g, d in match_boxes(gt_boxes[gi], det_boxes[di], iou_min)]
+    return sorted(pairs)
+
+
 def confusion_counts(images: list[ImageBoxes], n_classes: int, conf: float, iou_min: float = 0.5) -> np.ndarray:
     """(C + 1, C + 1) counts, rows the true class, columns the detected class; index C is
     background (a missed object in the last column, a false detection in the last row)."""
@@ -222,11 +254,13 @@ def recall_by_size(
     conf: float,
     bins: tuple[float, ...] = SIZE_BINS_PX,
     iou_min: float = 0.5,
+    classes_first: bool = False,
 ) -> list[dict]:
     """Per group of classes and band of box size (the shorter side of the true box, pixels):
     how many true boxes, the fraction found by a detection of any class (class-agnostic
     match at ``iou_min``, confidence >= ``conf``) and the fraction found with the right
     class. Tells whether a detector fails to see objects or to name them, and from how far.
+    With ``classes_first`` the pairs are :func:`match_classes_first`'s (right-class pairs first).
 
     >>> im = ImageBoxes(gt_boxes=np.array([[0, 0, 10, 10], [0, 0, 50, 50]], float),
     ...     gt_classes=np.array([0, 1]), det_boxes=np.array([[0, 0, 50, 50]], float),
@@ -239,7 +273,10 @@ def recall_by_size(
     for im in images:
         keep = im.det_scores >= conf
         dcls = im.det_classes[keep]
-        matched = dict(match_boxes(im.gt_boxes, im.det_boxes[keep], iou_min))
+        if classes_first:
+            matched = dict(match_classes_first(im.gt_boxes, im.gt_classes, im.det_boxes[keep], dcls, iou_min))
+        else:
+            matched = dict(match_boxes(im.gt_boxes, im.det_boxes[keep], iou_min))
         for g, box in enumerate(im.gt_boxes):
             side = min(box[2] - box[0], box[3] - box[1])
             band = int(np.searchsorted(bins, side, side="right")) - 1
