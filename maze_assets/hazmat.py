@@ -1,22 +1,33 @@
-"""Hazmat placards drawn with OpenCV: the 16 labels of docs/RULES.md as US DOT placards.
+"""Hazmat placards drawn to 49 CFR 172 Subpart F: the 16 labels of docs/RULES.md.
 
-Follows docs/FACTS.md "Hazmat placards" ([CFR49-172]_): a square-on-point diamond with a
-thin black border line inset from its edge, colour fields (plain, split halves or
-vertical stripes), a symbol in the top corner, text across the middle where the
-real placard has it, and the class number in the bottom corner. The corners
-outside the diamond are the white of the paper the placard is printed on.
+Follows docs/FACTS.md "Hazmat placards" ([CFR49-172]_): a square-on-point diamond with
+a solid inner border line inset from its edge, the colour fields of each placard, its
+symbol in the top corner, its words in large bold capitals across the middle and its
+class number in the bottom corner. The colour of symbol, words, number and inner border
+is the one each section fixes (table ``INK`` below, checked pixel by pixel in
+tests/maze_assets/test_placards_cfr.py). Outside the diamond is the paper it is printed on.
 
-Everything is drawn at ``SUPERSAMPLE`` times the requested size and reduced with
-area averaging, so edges are smooth and the result is a pure function of
-``(label, size_px)``.
+Sizes are fractions of the texture's side, which is the diamond's diagonal: a placard
+of side 273 mm ([CFR49-172]_ 172.519(c)) is 386 mm across, so the 41 mm minimum height
+of words and class number is 0.106 of the texture and the 64 mm division numeral of
+explosives 1.4-1.6 is 0.166. Words are set in a bold sans (DejaVu Sans Bold, shipped
+with matplotlib), condensed sideways where a long word must fit the diamond, as
+printed placards are.
+
+A :class:`PlacardStyle` picks the variant seen in arenas (with or without words,
+explosive divisions 1.1-1.6 with their compatibility letter, alternate words, the
+organic-peroxide flame black or white) and a :class:`PrintLook` the print (paper white,
+ink density, fading, wear and creases). :func:`placard_style` draws both from a seed;
+without a style the canonical design is drawn with a clean print.
+
+Everything is drawn at ``SUPERSAMPLE`` times the requested size and reduced with area
+averaging, so edges are smooth and the result is a pure function of its arguments.
 
 >>> img = draw_hazmat("oxidizer", 64)
 >>> img.shape, img.dtype.name
 ((64, 64, 3), 'uint8')
 >>> tuple(int(v) for v in img[0, 0])  # paper corner
 (246, 246, 244)
->>> tuple(int(v) for v in img[44, 32])  # yellow field below the symbol
-(255, 206, 0)
 
 References
 ----------
@@ -28,10 +39,15 @@ Full entries in docs/SOURCES.md.
 
 from __future__ import annotations
 
+import functools
+import os
 from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 
 import cv2
+import matplotlib
 import numpy as np
+from PIL import Image, ImageDraw, ImageFont
 
 from poi.core.names import HAZMAT_LABELS
 
@@ -47,13 +63,184 @@ GREEN = (0, 150, 80)
 YELLOW = (255, 206, 0)
 BLUE = (0, 95, 175)
 
-FONT = cv2.FONT_HERSHEY_DUPLEX
-
 Color = tuple[int, int, int]
+
+FONT_PATH = os.path.join(matplotlib.get_data_path(), "fonts", "ttf", "DejaVuSans-Bold.ttf")
+PARTS = ("symbol", "text", "number", "border")
 
 
 class UnknownHazmatLabelError(ValueError):
     """A label that is not one of poi.core.names.HAZMAT_LABELS."""
+
+
+# --- the regulation's colours: symbol, words, class number, inner border --------------
+@dataclass(frozen=True)
+class Ink:
+    """Colours a placard's section fixes for its symbol, words, class number and border."""
+
+    symbol: Color
+    text: Color
+    number: Color
+    border: Color
+
+
+_B, _W = BLACK, WHITE
+INK: dict[str, Ink] = {
+    "explosive": Ink(_B, _B, _B, _B),  # 172.522-172.525
+    "blasting-agent": Ink(_B, _B, _B, _B),  # 172.524
+    "flammable-gas": Ink(_W, _W, _W, _W),  # 172.532
+    "non-flammable-gas": Ink(_W, _W, _W, _W),  # 172.528
+    "oxygen": Ink(_B, _B, _B, _B),  # 172.530
+    "fuel-oil": Ink(_W, _W, _W, _W),  # 172.544
+    "dangerous-when-wet": Ink(_W, _W, _W, _W),  # 172.548
+    "flammable-solid": Ink(_B, _B, _B, _B),  # 172.546
+    "spontaneously-combustible": Ink(_B, _B, _B, _B),  # 172.547
+    "oxidizer": Ink(_B, _B, _B, _B),  # 172.550
+    "organic-peroxide": Ink(_B, _B, _B, _B),  # 172.552: the flame may be white instead
+    "inhalation-hazard": Ink(_W, _B, _B, _B),  # 172.555: white symbol on the black upper diamond
+    "poison": Ink(_B, _B, _B, _B),  # 172.554
+    "radioactive": Ink(_B, _B, _B, _B),  # 172.556
+    "corrosive": Ink(_B, _W, _W, _B),  # 172.558: words and number white on the black part
+    "infectious-substance": Ink(_B, _B, _B, _B),  # 172.432 (a label: black on white)
+}
+
+
+# --- variants and print ------------------------------------------------------------------
+@dataclass(frozen=True)
+class PrintLook:
+    """How a placard came out of the printer and what the arena did to it since.
+
+    ``paper`` is the white of the sheet, ``ink_black`` the darkest ink, ``fade`` the
+    fraction of colour saturation kept, ``wear`` the fraction of the face with scuffed
+    ink, ``creases`` how many fold lines cross it, ``laminated`` whether a glossy film
+    covers it (the scene gives it a specular material); ``seed`` places wear and creases.
+    """
+
+    paper: Color = PAPER
+    ink_black: int = BLACK[0]
+    fade: float = 1.0
+    wear: float = 0.0
+    creases: int = 0
+    laminated: bool = False
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class PlacardStyle:
+    """One variant of a placard as printed for an arena.
+
+    ``words``: the lines of text (empty: the placard without words, which the regulation
+    allows for most classes). ``number``: the class number in the bottom corner.
+    ``division``/``compat``: explosives' division ("1.4") and compatibility letter
+    ("S"). ``flame``: the organic-peroxide flame's colour. ``omit``: parts left out
+    (any of ``PARTS``), used to draw the placard without words.
+    """
+
+    words: tuple[str, ...]
+    number: str
+    division: str = ""
+    compat: str = ""
+    flame: Color = WHITE
+    omit: frozenset[str] = frozenset()
+    look: PrintLook = field(default_factory=PrintLook)
+
+
+_CANONICAL: dict[str, PlacardStyle] = {
+    "explosive": PlacardStyle(("EXPLOSIVES",), "1", division="1.1", compat="D"),
+    "blasting-agent": PlacardStyle(("BLASTING", "AGENTS"), "1", division="1.5", compat="D"),
+    "flammable-gas": PlacardStyle(("FLAMMABLE", "GAS"), "2"),
+    "non-flammable-gas": PlacardStyle(("NON-FLAMMABLE", "GAS"), "2"),
+    "oxygen": PlacardStyle(("OXYGEN",), "2"),
+    "fuel-oil": PlacardStyle(("FUEL OIL",), "3"),
+    "dangerous-when-wet": PlacardStyle(("DANGEROUS", "WHEN WET"), "4"),
+    "flammable-solid": PlacardStyle(("FLAMMABLE", "SOLID"), "4"),
+    "spontaneously-combustible": PlacardStyle(("SPONTANEOUSLY", "COMBUSTIBLE"), "4"),
+    "oxidizer": PlacardStyle(("OXIDIZER",), "5.1"),
+    "organic-peroxide": PlacardStyle(("ORGANIC", "PEROXIDE"), "5.2", flame=BLACK),
+    "inhalation-hazard": PlacardStyle(("INHALATION", "HAZARD"), "6"),
+    "poison": PlacardStyle(("POISON",), "6"),
+    "radioactive": PlacardStyle(("RADIOACTIVE",), "7"),
+    "corrosive": PlacardStyle(("CORROSIVE",), "8"),
+    "infectious-substance": PlacardStyle(("INFECTIOUS", "SUBSTANCE"), "6"),
+}
+
+# Alternates seen on arena placards, beside the canonical words: (words, number) pairs.
+_ALTERNATE_WORDS: dict[str, list[tuple[tuple[str, ...], str]]] = {
+    "poison": [(("TOXIC",), "6")],
+    "inhalation-hazard": [(("POISON", "GAS"), "2"), (("TOXIC", "GAS"), "2")],
+    "flammable-gas": [(("FLAMMABLE",), "2")],
+    "fuel-oil": [(("COMBUSTIBLE",), "3")],
+    "dangerous-when-wet": [(("DANGEROUS", "WHEN", "WET"), "4")],
+    "spontaneously-combustible": [(("SPONTANEOUSLY", "COMBUSTIBLE"), "4")],
+}
+
+# Explosives 1.1-1.6 as printed for arenas: division and a compatibility letter each.
+EXPLOSIVE_DIVISIONS = (
+    ("1.1", "D"),
+    ("1.1", "A"),
+    ("1.2", "E"),
+    ("1.3", "C"),
+    ("1.3", "G"),
+    ("1.4", "S"),
+    ("1.4", "G"),
+    ("1.4", "C"),
+    ("1.6", "N"),
+)
+TEXT_OPTIONAL = frozenset(HAZMAT_LABELS) - {"radioactive", "fuel-oil", "blasting-agent"}
+
+
+def canonical_style(label: str) -> PlacardStyle:
+    """The placard as its section draws it, cleanly printed."""
+    _check_label(label)
+    return _CANONICAL[label]
+
+
+def random_look(rng: np.random.Generator) -> PrintLook:
+    """A print drawn from ranges seen on arena placards (office printers, laminated or not)."""
+    paper_w = int(rng.integers(232, 256))
+    tint = rng.integers(-6, 4, size=3)
+    return PrintLook(
+        paper=tuple(int(np.clip(paper_w + t, 0, 255)) for t in tint),
+        ink_black=int(rng.integers(10, 55)),
+        fade=float(rng.uniform(0.72, 1.0)),
+        wear=float(rng.choice([0.0, 0.0, rng.uniform(0.005, 0.04)])),
+        creases=int(rng.choice([0, 0, 0, 1, 2])),
+        laminated=bool(rng.random() < 0.5),
+        seed=int(rng.integers(2**31)),
+    )
+
+
+def placard_style(label: str, seed: int) -> PlacardStyle:
+    """A variant and print for ``label`` drawn from ``seed`` (same seed, same placard).
+
+    One in five placards of labels whose section allows it has no words; one in three
+    has the alternate words where arenas use them; explosives take a division 1.1-1.6
+    with its letter; the organic-peroxide flame is black three times in four.
+    """
+    _check_label(label)
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 172])
+    style = _CANONICAL[label]
+    alts = _ALTERNATE_WORDS.get(label, [])
+    if alts and rng.random() < 1 / 3:
+        words, number = alts[int(rng.integers(len(alts)))]
+        style = replace(style, words=words, number=number)
+    if label == "explosive":
+        div, letter = EXPLOSIVE_DIVISIONS[int(rng.integers(len(EXPLOSIVE_DIVISIONS)))]
+        style = replace(style, division=div, compat=letter)
+    if label == "organic-peroxide":
+        style = replace(style, flame=BLACK if rng.random() < 0.75 else WHITE)
+    if label in TEXT_OPTIONAL and rng.random() < 0.2:
+        style = replace(style, omit=frozenset({"text"}))
+    return replace(style, look=random_look(rng))
+
+
+# --- drawing primitives -------------------------------------------------------------------
+@functools.lru_cache(maxsize=64)
+def _font(size: int) -> ImageFont.FreeTypeFont:
+    return ImageFont.truetype(FONT_PATH, size)
+
+
+CAP_RATIO = 0.73  # DejaVu Sans Bold: cap height / font size
 
 
 class _Canvas:
@@ -81,24 +268,51 @@ class _Canvas:
     def rect(self, x0: float, y0: float, x1: float, y1: float, color: Color) -> None:
         cv2.rectangle(self.img, self.p(x0, y0), self.p(x1, y1), color, -1)
 
-    def text(self, s: str, cx: float, cy: float, max_w: float, max_h: float, color: Color) -> None:
-        """Centre ``s`` at (cx, cy), as large as fits in max_w x max_h (unit coordinates)."""
-        thick = max(1, int(round(0.012 * self.n * min(1.0, max_h / 0.06))))
-        (w, h), _ = cv2.getTextSize(s, FONT, 1.0, thick)
-        scale = min(max_w * self.n / w, max_h * self.n / h)
-        thick = max(1, int(round(thick * min(1.0, scale))))
-        (w, h), _ = cv2.getTextSize(s, FONT, scale, thick)
-        org = (int(round(cx * self.n - w / 2)), int(round(cy * self.n + h / 2)))
-        cv2.putText(self.img, s, org, FONT, scale, color, thick, cv2.LINE_AA)
+    def text(self, s: str, cx: float, cy: float, cap: float, max_w: float, color: Color) -> float:
+        """Set ``s`` in bold capitals ``cap`` high, centred at (cx, cy); returns its width.
+
+        A line wider than ``max_w`` is first condensed sideways (to 45% at most, as
+        condensed placard faces are), then scaled down as a whole.
+        """
+        size = max(4, int(round(cap * self.n / CAP_RATIO)))
+        font = _font(size)
+        left, top, right, bottom = font.getbbox(s, anchor="ls")
+        mask = Image.new("L", (right - left + 2, bottom - top + 2), 0)
+        ImageDraw.Draw(mask).text((1 - left, 1 - top), s, font=font, fill=255, anchor="ls")
+        m = np.asarray(mask, np.float32) / 255.0
+        baseline = 1 - top  # row of the baseline in ``m``
+        w_px, limit = m.shape[1], max_w * self.n
+        sx = sy = 1.0
+        if w_px > limit:
+            sx = max(0.45, limit / w_px)
+            if w_px * sx > limit:
+                sy = sx = limit / w_px
+        if (sx, sy) != (1.0, 1.0):
+            new = (max(1, int(round(m.shape[1] * sx))), max(1, int(round(m.shape[0] * sy))))
+            m = cv2.resize(m, new, interpolation=cv2.INTER_AREA)
+            baseline *= sy
+        cap_px = cap * self.n * sy
+        x0 = int(round(cx * self.n - m.shape[1] / 2))
+        y0 = int(round(cy * self.n + cap_px / 2 - baseline))
+        self._blend(m, x0, y0, color)
+        return m.shape[1] / self.n
+
+    def _blend(self, m: np.ndarray, x0: int, y0: int, color: Color) -> None:
+        h, w = m.shape
+        ys, xs = slice(max(0, y0), min(self.n, y0 + h)), slice(max(0, x0), min(self.n, x0 + w))
+        a = m[ys.start - y0 : ys.stop - y0, xs.start - x0 : xs.stop - x0, None]
+        region = self.img[ys, xs].astype(np.float32)
+        self.img[ys, xs] = np.round(region * (1 - a) + np.float32(color) * a).astype(np.uint8)
 
 
 # --- geometry of the placard (unit coordinates, y down) ---------------------------------
 EDGE = 0.015  # paper margin around the diamond's corners
-BORDER_INSET = 0.055  # the black line sits this far inside the diamond's corners
-BORDER_W = 0.012
-SYM_CX, SYM_BASE_Y, SYM_H = 0.5, 0.45, 0.28  # symbol box: bottom centre and height
-NUMBER_CY, NUMBER_H = 0.80, 0.105
-TEXT_CY = 0.565
+BORDER_INSET = 0.050  # the inner border line: 12.5 mm in from a 250 mm edge (172.519(c))
+BORDER_W = 0.010
+SYM_CX, SYM_BASE_Y, SYM_H = 0.5, 0.43, 0.27  # symbol box: bottom centre and height
+NUMBER_CY, NUMBER_CAP = 0.81, 0.125
+WORD_CAP = 0.106  # 41 mm on a 273 mm placard (172.519(c))
+MM = 1.0 / (273.0 * np.sqrt(2.0))  # one millimetre of a 273 mm placard, in texture units
 
 
 def _diamond(inset: float) -> np.ndarray:
@@ -106,7 +320,7 @@ def _diamond(inset: float) -> np.ndarray:
     return np.array([(0.5, a), (1 - a, 0.5), (0.5, 1 - a), (a, 0.5)])
 
 
-def _half_width(y: float, inset: float = BORDER_INSET + 0.03) -> float:
+def _half_width(y: float, inset: float = BORDER_INSET + 0.02) -> float:
     """Half the width of the usable diamond at height y (unit coordinates)."""
     return max(0.0, 0.5 - EDGE - inset - abs(y - 0.5))
 
@@ -289,180 +503,220 @@ def _corrosive(s: _Symbol, color: Color, bg: Color) -> None:
 
 
 def _stripes(c: _Canvas) -> None:
-    """Seven red vertical stripes on white (flammable solid)."""
+    """Seven red vertical stripes as wide as the six white spaces between them (172.546)."""
     x0, x1 = EDGE, 1 - EDGE
     w = (x1 - x0) / 13
     for k in range(0, 13, 2):
         c.rect(x0 + k * w, 0.0, x0 + (k + 1) * w, 1.0, RED)
 
 
-def _split(c: _Canvas, top: Color, bottom: Color, y: float = 0.5) -> None:
-    c.rect(0.0, 0.0, 1.0, y, top)
-    c.rect(0.0, y, 1.0, 1.0, bottom)
+def _upper_triangle(c: _Canvas, top: Color, bottom: Color, base_y: float) -> None:
+    """``bottom`` everywhere, ``top`` above the horizontal line ``base_y`` (172.556, 172.558)."""
+    c.rect(0.0, 0.0, 1.0, 1.0, bottom)
+    c.rect(0.0, 0.0, 1.0, base_y, top)
 
 
-def _text_lines(c: _Canvas, lines: list[str], color: Color, cy: float = TEXT_CY) -> None:
-    h = 0.055 if len(lines) == 1 else 0.042
-    gap = 0.012
-    y = cy - (len(lines) - 1) * (h + gap) / 2
-    for s in lines:
-        c.text(s, 0.5, y, 1.6 * _half_width(y + h / 2), h, color)
-        y += h + gap
+def _upper_diamond(c: _Canvas, lower_point_y: float, color: Color) -> None:
+    """A diamond in the top corner whose lower point is at ``lower_point_y`` (172.540, 172.555)."""
+    top = EDGE
+    mid = (top + lower_point_y) / 2
+    half = (lower_point_y - top) / 2
+    c.poly([(0.5, top), (0.5 + half, mid), (0.5, lower_point_y), (0.5 - half, mid)], color)
 
 
-def _number(c: _Canvas, s: str, color: Color) -> None:
-    if "." in s:  # "5.1" is wider: raise it to where the diamond is wider
-        c.text(s, 0.5, NUMBER_CY - 0.03, 0.18, NUMBER_H, color)
-    else:
-        c.text(s, 0.5, NUMBER_CY, 0.12, NUMBER_H, color)
+# Heights of the colour splits above the horizontal centre line, from the sections.
+RADIOACTIVE_SPLIT_Y = 0.5 - 29 * MM  # 172.556: yellow triangle's base 29 +- 5 mm above
+CORROSIVE_SPLIT_Y = 0.5 - 38 * MM  # 172.558: white triangle's base 38 +- 5 mm above
+INHALATION_POINT_Y = 0.5 - 65 * MM  # 172.555: the upper diamond's lower point 65 mm above
 
 
-def _inhalation_field(c: _Canvas) -> None:
-    """White placard whose upper diamond (above the middle) is black."""
-    c.rect(0.0, 0.0, 1.0, 1.0, WHITE)
-    c.poly(_diamond(BORDER_INSET + 0.01)[[0, 1, 3]] * [1, 1] + [0, 0], BLACK)
-    c.rect(0.0, 0.49, 1.0, 1.0, WHITE)
+@dataclass(frozen=True)
+class _Layout:
+    """Where a placard's parts go: symbol box, words' centre line and cap height."""
+
+    sym_base: float = SYM_BASE_Y
+    sym_h: float = SYM_H
+    words_cy: float = 0.575
+    cap: float = WORD_CAP
 
 
-Drawer = Callable[[_Canvas, _Symbol], None]
-
-
-def _explosive(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, ORANGE)
-    _bomb(s, BLACK)
-    _text_lines(c, ["EXPLOSIVES"], BLACK)
-    _text_lines(c, ["1.1"], BLACK, cy=0.66)
-    _number(c, "1", BLACK)
-
-
-def _blasting_agent(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, ORANGE)
-    c.text("1.5", 0.5, 0.33, 0.30, 0.15, BLACK)
-    c.text("D", 0.5, 0.47, 0.08, 0.06, BLACK)
-    _text_lines(c, ["BLASTING", "AGENTS"], BLACK, cy=0.60)
-    _number(c, "1", BLACK)
-
-
-def _flammable_gas(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, RED)
-    _flame(s, WHITE)
-    _text_lines(c, ["FLAMMABLE", "GAS"], WHITE, cy=0.58)
-    _number(c, "2", WHITE)
-
-
-def _non_flammable_gas(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, GREEN)
-    _cylinder(s, WHITE)
-    _text_lines(c, ["NON-FLAMMABLE", "GAS"], WHITE, cy=0.58)
-    _number(c, "2", WHITE)
-
-
-def _oxygen(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, YELLOW)
-    _flame_over_circle(s, BLACK, YELLOW)
-    _text_lines(c, ["OXYGEN"], BLACK)
-    _number(c, "2", BLACK)
-
-
-def _fuel_oil(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, RED)
-    _flame(s, WHITE)
-    c.rect(0.12, 0.52, 0.88, 0.62, WHITE)
-    c.text("FUEL OIL", 0.5, 0.57, 0.66, 0.06, BLACK)
-    _number(c, "3", WHITE)
-
-
-def _dangerous_when_wet(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, BLUE)
-    _flame(s, WHITE)
-    _text_lines(c, ["DANGEROUS", "WHEN", "WET"], WHITE, cy=0.60)
-    _number(c, "4", WHITE)
-
-
-def _flammable_solid(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, WHITE)
-    _stripes(c)
-    _flame(s, BLACK)
-    c.rect(0.16, 0.51, 0.84, 0.65, WHITE)
-    _text_lines(c, ["FLAMMABLE", "SOLID"], BLACK, cy=0.58)
-    c.rect(0.42, 0.72, 0.58, 0.88, WHITE)
-    _number(c, "4", BLACK)
-
-
-def _spontaneously_combustible(c: _Canvas, s: _Symbol) -> None:
-    _split(c, WHITE, RED)
-    _flame(s, BLACK)
-    _text_lines(c, ["SPONTANEOUSLY", "COMBUSTIBLE"], WHITE, cy=0.59)
-    _number(c, "4", WHITE)
-
-
-def _oxidizer(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, YELLOW)
-    _flame_over_circle(s, BLACK, YELLOW)
-    _text_lines(c, ["OXIDIZER"], BLACK)
-    _number(c, "5.1", BLACK)
-
-
-def _organic_peroxide(c: _Canvas, s: _Symbol) -> None:
-    _split(c, RED, YELLOW)
-    _flame(s, WHITE)
-    _text_lines(c, ["ORGANIC", "PEROXIDE"], BLACK, cy=0.59)
-    _number(c, "5.2", BLACK)
-
-
-def _inhalation_hazard(c: _Canvas, s: _Symbol) -> None:
-    _inhalation_field(c)
-    _skull(_Symbol(c, base=0.44, h=0.26), WHITE, BLACK)
-    _text_lines(c, ["INHALATION", "HAZARD"], BLACK, cy=0.59)
-    _number(c, "2", BLACK)
-
-
-def _poison(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, WHITE)
-    _skull(s, BLACK, WHITE)
-    _text_lines(c, ["POISON"], BLACK)
-    _number(c, "6", BLACK)
-
-
-def _radioactive(c: _Canvas, s: _Symbol) -> None:
-    _split(c, YELLOW, WHITE, y=0.52)
-    _trefoil(s, BLACK, YELLOW)
-    _text_lines(c, ["RADIOACTIVE"], BLACK, cy=0.60)
-    _number(c, "7", BLACK)
-
-
-def _corrosive_placard(c: _Canvas, s: _Symbol) -> None:
-    _split(c, WHITE, BLACK, y=0.52)
-    _corrosive(_Symbol(c, base=0.50, h=0.36), BLACK, WHITE)
-    _text_lines(c, ["CORROSIVE"], WHITE, cy=0.60)
-    _number(c, "8", WHITE)
-
-
-def _infectious(c: _Canvas, s: _Symbol) -> None:
-    c.rect(0, 0, 1, 1, WHITE)
-    _biohazard(s, BLACK, WHITE)
-    _text_lines(c, ["INFECTIOUS", "SUBSTANCE"], BLACK, cy=0.59)
-    _number(c, "6", BLACK)
-
-
-_DRAWERS: dict[str, Drawer] = {
-    "explosive": _explosive,
-    "blasting-agent": _blasting_agent,
-    "flammable-gas": _flammable_gas,
-    "non-flammable-gas": _non_flammable_gas,
-    "oxygen": _oxygen,
-    "fuel-oil": _fuel_oil,
-    "dangerous-when-wet": _dangerous_when_wet,
-    "flammable-solid": _flammable_solid,
-    "spontaneously-combustible": _spontaneously_combustible,
-    "oxidizer": _oxidizer,
-    "organic-peroxide": _organic_peroxide,
-    "inhalation-hazard": _inhalation_hazard,
-    "poison": _poison,
-    "radioactive": _radioactive,
-    "corrosive": _corrosive_placard,
-    "infectious-substance": _infectious,
+_FIELD: dict[str, Callable[[_Canvas, PlacardStyle], None]] = {
+    "explosive": lambda c, st: c.rect(0, 0, 1, 1, ORANGE),
+    "blasting-agent": lambda c, st: c.rect(0, 0, 1, 1, ORANGE),
+    "flammable-gas": lambda c, st: c.rect(0, 0, 1, 1, RED),
+    "non-flammable-gas": lambda c, st: c.rect(0, 0, 1, 1, GREEN),
+    "oxygen": lambda c, st: c.rect(0, 0, 1, 1, YELLOW),
+    "fuel-oil": lambda c, st: c.rect(0, 0, 1, 1, RED),
+    "dangerous-when-wet": lambda c, st: c.rect(0, 0, 1, 1, BLUE),
+    "flammable-solid": lambda c, st: (c.rect(0, 0, 1, 1, WHITE), _stripes(c)),
+    "spontaneously-combustible": lambda c, st: _upper_triangle(c, WHITE, RED, 0.5),
+    "oxidizer": lambda c, st: c.rect(0, 0, 1, 1, YELLOW),
+    "organic-peroxide": lambda c, st: _upper_triangle(c, RED, YELLOW, 0.5),
+    "inhalation-hazard": lambda c, st: (c.rect(0, 0, 1, 1, WHITE), _upper_diamond(c, INHALATION_POINT_Y, BLACK)),
+    "poison": lambda c, st: c.rect(0, 0, 1, 1, WHITE),
+    "radioactive": lambda c, st: _upper_triangle(c, YELLOW, WHITE, RADIOACTIVE_SPLIT_Y),
+    "corrosive": lambda c, st: _upper_triangle(c, WHITE, BLACK, CORROSIVE_SPLIT_Y),
+    "infectious-substance": lambda c, st: c.rect(0, 0, 1, 1, WHITE),
 }
+
+
+def _draw_symbol(label: str, c: _Canvas, st: PlacardStyle) -> None:
+    ink = INK[label].symbol
+    bg = tuple(int(v) for v in c.img[int(0.3 * c.n), c.n // 2])
+    s = _Symbol(c)
+    if label in (
+        "flammable-gas",
+        "fuel-oil",
+        "dangerous-when-wet",
+        "flammable-solid",
+        "spontaneously-combustible",
+    ):
+        _flame(s, ink)
+    elif label == "organic-peroxide":
+        _flame(s, st.flame)
+    elif label in ("oxygen", "oxidizer"):
+        _flame_over_circle(s, ink, bg)
+    elif label == "non-flammable-gas":
+        _cylinder(s, ink)
+    elif label == "poison":
+        _skull(s, ink, bg)
+    elif label == "inhalation-hazard":
+        h = (INHALATION_POINT_Y - EDGE) * 0.47
+        _skull(_Symbol(c, base=INHALATION_POINT_Y - 0.05, h=h), ink, BLACK)
+    elif label == "infectious-substance":
+        _biohazard(s, ink, bg)
+    elif label == "radioactive":
+        _trefoil(_Symbol(c, base=RADIOACTIVE_SPLIT_Y + 0.01, h=0.27), ink, YELLOW)
+    elif label == "corrosive":
+        _corrosive(_Symbol(c, base=CORROSIVE_SPLIT_Y - 0.015, h=0.25), ink, WHITE)
+    elif label == "explosive" and st.division in ("1.1", "1.2", "1.3"):
+        _bomb(s, ink)
+
+
+def _words_layout(label: str, st: PlacardStyle) -> tuple[float, float]:
+    """(centre line, cap height) of the words: below the splits and big numerals."""
+    lines = len(st.words)
+    cap = WORD_CAP if lines <= 2 else 0.08
+    cy = {1: 0.555, 2: 0.57, 3: 0.59}.get(lines, 0.6)
+    if label == "radioactive":
+        cy = 0.545
+    if label == "corrosive":
+        cy = 0.565
+    if label == "inhalation-hazard":
+        cy = 0.53 if lines == 2 else 0.50
+    if label in ("explosive", "blasting-agent") and st.division in ("1.4", "1.5", "1.6"):
+        cy, cap = (0.62, 0.075) if lines == 1 else (0.635, 0.07)
+    return cy, cap
+
+
+def _draw_words(label: str, c: _Canvas, st: PlacardStyle) -> None:
+    ink = INK[label].text
+    cy, cap = _words_layout(label, st)
+    gap = 0.25 * cap
+    y = cy - (len(st.words) - 1) * (cap + gap) / 2
+    for line in st.words:
+        c.text(line, 0.5, y, cap, 2 * _half_width(y + cap / 2), ink)
+        y += cap + gap
+    if label == "explosive" and st.division in ("1.1", "1.2", "1.3"):
+        c.text(f"{st.division}{st.compat}", 0.5, cy + cap + 0.03, 0.07, 0.4, ink)
+
+
+def _draw_number(label: str, c: _Canvas, st: PlacardStyle) -> None:
+    ink = INK[label].number
+    if label in ("explosive", "blasting-agent") and st.division in ("1.4", "1.5", "1.6"):
+        # the division numeral large (>= 64 mm, 172.523-172.525), the letter under it
+        c.text(st.division, 0.5, 0.33, 64 * MM * 1.15, 0.42, ink)
+        c.text(st.compat, 0.5, 0.49, 0.06, 0.2, ink)
+    cy = NUMBER_CY
+    while True:  # raise a wide number ("5.1") to where the diamond is wide enough
+        allowed = 2 * _half_width(cy + NUMBER_CAP / 2, BORDER_INSET + 0.01)
+        width = _font_width(st.number, NUMBER_CAP, c.n)
+        if width <= allowed or cy <= 0.74:
+            break
+        cy -= 0.005
+    c.text(st.number, 0.5, cy, NUMBER_CAP, allowed, ink)
+
+
+def _font_width(s: str, cap: float, n: int) -> float:
+    size = max(4, int(round(cap * n / CAP_RATIO)))
+    left, _, right, _ = _font(size).getbbox(s, anchor="ls")
+    return (right - left + 2) / n
+
+
+def _print(img: np.ndarray, look: PrintLook, inside: np.ndarray) -> np.ndarray:
+    """Apply paper white, ink density, fading, wear and creases to a float RGB image."""
+    if replace(look, laminated=False) == PrintLook():
+        return img
+    out = img.copy()
+    grey = out.mean(axis=2, keepdims=True)
+    out = grey + (out - grey) * look.fade  # faded inks lose saturation
+    lo, hi = float(look.ink_black), np.asarray(look.paper, np.float32)
+    out = lo + out / 255.0 * (hi - lo)  # black ink is never black, paper never 255
+    n = img.shape[0]
+    rng = np.random.default_rng([look.seed, 7])
+    if look.wear > 0:  # scuffs: small blobs where the ink is rubbed towards the paper
+        wear = np.zeros((n, n), np.float32)
+        k = max(1, int(look.wear * 4000))
+        for x, y, r in zip(
+            rng.uniform(0, n, k), rng.uniform(0, n, k), rng.uniform(0.002, 0.01, k) * n, strict=True
+        ):
+            cv2.circle(wear, (int(x), int(y)), max(1, int(r)), 1.0, -1, cv2.LINE_AA)
+        wear = cv2.GaussianBlur(wear, (0, 0), max(1.0, n / 400)) * rng.uniform(0.3, 0.7)
+        out = out * (1 - wear[..., None]) + hi * wear[..., None]
+    for _ in range(look.creases):  # a fold: a thin light ridge beside a thin shadow
+        a = rng.uniform(0, np.pi)
+        off = rng.uniform(-0.3, 0.3) * n
+        yy, xx = np.mgrid[0:n, 0:n].astype(np.float32)
+        d = (xx - n / 2) * np.cos(a) + (yy - n / 2) * np.sin(a) - off
+        w = max(0.8, n / 300)
+        shade = 1 + 0.10 * np.exp(-((d - w) ** 2) / (2 * w * w)) - 0.14 * np.exp(-((d + w) ** 2) / (2 * w * w))
+        out = out * shade[..., None]
+    out = np.where(inside[..., None], out, img)  # the paper outside the diamond is set below
+    return np.clip(out, 0, 255)
+
+
+def _check_label(label: str) -> None:
+    if label not in _CANONICAL:
+        raise UnknownHazmatLabelError(
+            f"unknown hazmat label {label!r}; expected one of {', '.join(HAZMAT_LABELS)}"
+        )
+
+
+def draw_hazmat(label: str, size_px: int = 256, style: PlacardStyle | None = None) -> np.ndarray:
+    """RGB uint8 (size_px, size_px, 3) image of the placard for ``label``.
+
+    ``label`` is a canonical label of poi.core.names.HAZMAT_LABELS; anything else raises
+    :class:`UnknownHazmatLabelError` naming it. ``style`` (default: the canonical design,
+    cleanly printed) picks the variant; see :func:`placard_style`.
+    """
+    _check_label(label)
+    if int(size_px) < MIN_SIZE_PX:
+        raise ValueError(f"draw_hazmat: size_px must be >= {MIN_SIZE_PX}, got {size_px}")
+    st = _CANONICAL[label] if style is None else style
+    unknown = set(st.omit) - set(PARTS)
+    if unknown:
+        raise ValueError(f"draw_hazmat: omit has {sorted(unknown)}; expected parts of {PARTS}")
+    n = int(size_px) * SUPERSAMPLE
+    c = _Canvas(n, WHITE)
+    _FIELD[label](c, st)
+    if "symbol" not in st.omit:
+        _draw_symbol(label, c, st)
+    if "text" not in st.omit and st.words:
+        _draw_words(label, c, st)
+    if "number" not in st.omit:
+        _draw_number(label, c, st)
+    if "border" not in st.omit:
+        border = np.round(_diamond(BORDER_INSET) * n).astype(np.int32)
+        cv2.polylines(c.img, [border], True, INK[label].border, max(1, int(BORDER_W * n)), cv2.LINE_AA)
+    mask = np.zeros((n, n), np.uint8)
+    cv2.fillPoly(mask, [np.round(_diamond(0.0) * n).astype(np.int32)], 255, cv2.LINE_AA)
+    size = (int(size_px), int(size_px))
+    face = cv2.resize(c.img.astype(np.float32), size, interpolation=cv2.INTER_AREA)
+    alpha = cv2.resize(mask.astype(np.float32) / 255.0, size, interpolation=cv2.INTER_AREA)[..., None]
+    face = _print(face, st.look, alpha[..., 0] > 0)
+    small = face * alpha + np.asarray(st.look.paper, np.float32) * (1 - alpha)
+    return np.clip(np.round(small), 0, 255).astype(np.uint8)
+
 
 # The colour a viewer sees at the top of the placard, just inside the border (used by tests
 # that check a rendered placard is upright).
@@ -484,30 +738,3 @@ TOP_FIELD_RGB: dict[str, Color] = {
     "corrosive": WHITE,
     "infectious-substance": WHITE,
 }
-
-
-def draw_hazmat(label: str, size_px: int = 256) -> np.ndarray:
-    """RGB uint8 (size_px, size_px, 3) image of the placard for ``label``.
-
-    ``label`` is a canonical label of poi.core.names.HAZMAT_LABELS; anything else raises
-    :class:`UnknownHazmatLabelError` naming it.
-    """
-    if label not in _DRAWERS:
-        raise UnknownHazmatLabelError(
-            f"unknown hazmat label {label!r}; expected one of {', '.join(HAZMAT_LABELS)}"
-        )
-    if int(size_px) < MIN_SIZE_PX:
-        raise ValueError(f"draw_hazmat: size_px must be >= {MIN_SIZE_PX}, got {size_px}")
-    n = int(size_px) * SUPERSAMPLE
-    field = _Canvas(n, WHITE)
-    _DRAWERS[label](field, _Symbol(field))
-    # border line, drawn over the fields
-    border = np.round(_diamond(BORDER_INSET) * n).astype(np.int32)
-    cv2.polylines(field.img, [border], True, BLACK, max(1, int(BORDER_W * n)), cv2.LINE_AA)
-    # paper outside the diamond
-    mask = np.zeros((n, n), np.uint8)
-    cv2.fillPoly(mask, [np.round(_diamond(0.0) * n).astype(np.int32)], 255, cv2.LINE_AA)
-    alpha = (mask.astype(np.float32) / 255.0)[..., None]
-    out = field.img.astype(np.float32) * alpha + np.array(PAPER, np.float32) * (1 - alpha)
-    small = cv2.resize(out, (int(size_px), int(size_px)), interpolation=cv2.INTER_AREA)
-    return np.clip(np.round(small), 0, 255).astype(np.uint8)

@@ -54,7 +54,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from maze_assets.hazmat import draw_hazmat
+from maze_assets.hazmat import draw_hazmat, placard_style
 from maze_assets.mjcf import SceneAssets, fmt
 from maze_assets.objects import PlacedObject
 from maze_assets.qr import draw_qr
@@ -206,7 +206,12 @@ class _Body:
 
 def _flat_texture(obj: PlacedObject, assets: SceneAssets) -> tuple[str, float]:
     """Register (once) the texture and material for a flat item; (material, emission)."""
-    if obj.type == "hazmat":
+    glossy = False
+    if obj.type == "hazmat" and obj.look_seed is not None:
+        style = placard_style(obj.text, obj.look_seed)
+        key, glossy = f"hazmat_{obj.text}_{obj.look_seed}", style.look.laminated
+        draw = lambda: draw_hazmat(obj.text, TEXTURE_PX, style)  # noqa: E731
+    elif obj.type == "hazmat":
         key, draw = f"hazmat_{obj.text}", lambda: draw_hazmat(obj.text, TEXTURE_PX)
     elif obj.type == "qr":
         digest = hashlib.sha1(obj.text.encode("utf-8")).hexdigest()[:12]
@@ -220,7 +225,9 @@ def _flat_texture(obj: PlacedObject, assets: SceneAssets) -> tuple[str, float]:
         assets.texture(tex, draw())
     if not assets.has(mat):
         # an exit sign is a lit box: it glows a little
-        assets.material(mat, texture=tex, specular=0.05, shininess=0.05)
+        # a laminated placard's film gives a highlight where a lamp mirrors in it
+        spec, shine = (0.6, 0.8) if glossy else (0.05, 0.05)
+        assets.material(mat, texture=tex, specular=spec, shininess=shine)
         if obj.type == "exit-sign":
             _set_asset_attr(assets, "material", mat, emission="0.4")
     return mat, 0.0

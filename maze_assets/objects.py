@@ -33,7 +33,9 @@ class PlacedObject:
     centroid of a free-standing object (a pillar's: on its axis at half its height;
     the ball's: its centre). ``size_m`` is the object's characteristic
     size (a placard's side, a door's width, a doll's length). ``temperature_c``
-    is what the thermal camera sees on its surface (None: ambient).
+    is what the thermal camera sees on its surface (None: ambient). ``look_seed``
+    picks a placard's printed variant (maze_assets.hazmat.placard_style; None: the
+    canonical design).
     """
 
     id: int
@@ -45,6 +47,7 @@ class PlacedObject:
     size_m: float = 0.2
     temperature_c: float | None = None
     wall: str | None = None  # name of the wall segment it hangs on or replaces
+    look_seed: int | None = None
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:

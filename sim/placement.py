@@ -217,6 +217,17 @@ def _texts(gen: ObjectsGenerate, n_hazmat: int, n_qr: int, rng) -> tuple[list[st
     return order[:n_hazmat], qrs[:n_qr]
 
 
+def assign_placard_looks(objects: list[PlacedObject], seed: int) -> None:
+    """Give every placard a printed variant from the scenario seed and its id.
+
+    Drawn from its own seed sequence, so the random stream that places objects is
+    untouched (maze_assets.hazmat.placard_style turns the seed into the variant).
+    """
+    for o in objects:
+        if o.type == "hazmat" and o.look_seed is None:
+            o.look_seed = int(np.random.SeedSequence([int(seed), o.id, 172]).generate_state(1)[0] & 0x7FFFFFFF)
+
+
 def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedObject]:
     """All objects of a scenario: the explicit ones, then the generated ones (ids in that order)."""
     objects: list[PlacedObject] = []

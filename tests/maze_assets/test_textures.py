@@ -26,10 +26,8 @@ def test_every_label_draws_a_diamond(label):
     # placard's top colour field (tolerance 12 levels: anti-aliasing is 2+ px away)
     top = img[int(0.11 * 256), 128].astype(int)
     assert np.abs(top - TOP_FIELD_RGB[label]).max() <= 12, (label, top)
-    # the black border line crosses the top-left edge: somewhere along the way from the
-    # centre to the left corner there is a near-black pixel
-    row = img[128, :64].astype(int)
-    assert (row.max(axis=1) < 60).any()
+    # (the inner border's colour, black or white by placard, is checked in
+    # test_placards_cfr.py)
 
 
 def test_hazmat_is_deterministic():
