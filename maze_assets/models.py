@@ -53,6 +53,7 @@ import hashlib
 import xml.etree.ElementTree as ET
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from maze_assets.hazmat import draw_hazmat, placard_style
 from maze_assets.mjcf import SceneAssets, fmt
@@ -163,7 +164,12 @@ class _Body:
 
     def __init__(self, obj: PlacedObject, assets: SceneAssets) -> None:
         self.obj, self.assets = obj, assets
-        self.el = ET.Element("body", name=obj.body_name, pos=fmt(obj.position), euler=fmt([0.0, 0.0, obj.yaw]))
+        if obj.roll == 0.0:
+            turn = {"euler": fmt([0.0, 0.0, obj.yaw])}
+        else:  # yaw about world z, then the roll about the face normal (+x)
+            x, y, z, w = Rotation.from_euler("ZX", [obj.yaw, obj.roll]).as_quat()
+            turn = {"quat": fmt([w, x, y, z])}
+        self.el = ET.Element("body", name=obj.body_name, pos=fmt(obj.position), **turn)
         self._parts: set[str] = set()
 
     def geom(self, part: str, material: str, **attrs) -> ET.Element:

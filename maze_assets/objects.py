@@ -35,7 +35,8 @@ class PlacedObject:
     size (a placard's side, a door's width, a doll's length). ``temperature_c``
     is what the thermal camera sees on its surface (None: ambient). ``look_seed``
     picks a placard's printed variant (maze_assets.hazmat.placard_style; None: the
-    canonical design).
+    canonical design). ``roll`` turns a flat item about its face normal (radians,
+    counter-clockwise as a viewer facing it sees it).
     """
 
     id: int
@@ -48,6 +49,7 @@ class PlacedObject:
     temperature_c: float | None = None
     wall: str | None = None  # name of the wall segment it hangs on or replaces
     look_seed: int | None = None
+    roll: float = 0.0
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:

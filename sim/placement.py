@@ -217,15 +217,27 @@ def _texts(gen: ObjectsGenerate, n_hazmat: int, n_qr: int, rng) -> tuple[list[st
     return order[:n_hazmat], qrs[:n_qr]
 
 
-def assign_placard_looks(objects: list[PlacedObject], seed: int) -> None:
-    """Give every placard a printed variant from the scenario seed and its id.
+UPRIGHT_SHARE = 0.5  # placards hung upright (within a few degrees); the rest at any angle
+UPRIGHT_SD_DEG = 3.0
 
-    Drawn from its own seed sequence, so the random stream that places objects is
-    untouched (maze_assets.hazmat.placard_style turns the seed into the variant).
+
+def assign_placard_looks(objects: list[PlacedObject], seed: int) -> None:
+    """Give every placard a printed variant and an in-plane turn from the scenario seed.
+
+    Half hang upright (sd 3 degrees), half at any angle, as placards are fixed in real
+    arenas. Drawn from a seed sequence of the scenario seed and the object's id, so the
+    random stream that places objects is untouched (maze_assets.hazmat.placard_style
+    turns the look seed into the variant).
     """
     for o in objects:
-        if o.type == "hazmat" and o.look_seed is None:
-            o.look_seed = int(np.random.SeedSequence([int(seed), o.id, 172]).generate_state(1)[0] & 0x7FFFFFFF)
+        if o.type != "hazmat" or o.look_seed is not None:
+            continue
+        o.look_seed = int(np.random.SeedSequence([int(seed), o.id, 172]).generate_state(1)[0] & 0x7FFFFFFF)
+        rng = np.random.default_rng([o.look_seed, 2])
+        if rng.random() < UPRIGHT_SHARE:
+            o.roll = float(np.deg2rad(rng.normal(0.0, UPRIGHT_SD_DEG)))
+        else:
+            o.roll = float(rng.uniform(-np.pi, np.pi))
 
 
 def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedObject]:

@@ -219,6 +219,26 @@ def test_rendered_placard_is_upright(label, top, bottom):
         assert not _hue_close(img[r0 + int(0.12 * side), c], bottom)
 
 
+@pytest.mark.parametrize("roll", [np.pi, np.pi / 2])
+def test_rolled_placard_turns_about_its_face_normal(roll):
+    # organic-peroxide: red top half, yellow bottom half. Turned by pi the red half is at
+    # the bottom; turned by pi/2 counter-clockwise (as the viewer sees it) it is on the left.
+    o = _object(0, "hazmat", text="organic-peroxide", roll=roll)
+    model, data, _ = _scene([o], cam_dist_m=1.0)
+    img = _rgb(model, data, "cam_0")
+    seg = _segmentation(model, data, "cam_0")
+    face = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "poi_0_hazmat_face")
+    rows, cols = np.nonzero(seg[:, :, 0] == face)
+    r0, r1, c0, c1 = rows.min(), rows.max(), cols.min(), cols.max()
+    rc, cc = (r0 + r1) // 2, (c0 + c1) // 2
+    if roll == np.pi:
+        near_red, near_yellow = img[r1 - int(0.12 * (r1 - r0)), cc], img[r0 + int(0.12 * (r1 - r0)), cc]
+    else:
+        near_red, near_yellow = img[rc, c0 + int(0.12 * (c1 - c0))], img[rc, c1 - int(0.12 * (c1 - c0))]
+    assert _hue_close(near_red, RED), near_red
+    assert _hue_close(near_yellow, YELLOW), near_yellow
+
+
 def test_rendered_exit_sign_arrow_points_right():
     o = _object(0, "exit-sign")
     model, data, _ = _scene([o], cam_dist_m=1.0)
