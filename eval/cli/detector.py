@@ -50,14 +50,57 @@ def register(sub: argparse._SubParsersAction) -> None:
         "train-labels", help="train the hazmat label classifier (second stage) and export ONNX (extra 'train')"
     )
     lt.add_argument(
-        "--data", required=True, nargs="+", help="dataset folders from 'poibench dataset' (best with --hazmat 16)"
+        "--data",
+        required=True,
+        nargs="+",
+        help="dataset folders from 'poibench dataset' (best with --hazmat 16) or labelled photo folders "
+        "(images/, labels/; need --holdout)",
     )
     lt.add_argument("--out", required=True, help="run folder: last.pt, history, label_model.onnx (resumes)")
     lt.add_argument("--epochs", type=int, default=16)
     lt.add_argument("--samples", type=int, default=32000, help="crops per epoch (default 32000)")
-    lt.add_argument("--seed", type=int, default=0)
+    lt.add_argument("--seed", type=int, default=0, help="seed of the training and of --holdout's draw (default 0)")
     lt.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    lt.add_argument(
+        "--holdout",
+        type=float,
+        help="fraction of each photo folder's images held back (by image, drawn with --seed) as validation; "
+        "listed in RUN/holdout.json for evaluate-labels --holdout-of",
+    )
     lt.set_defaults(func=cmd_train_labels)
+
+    el = sub.add_parser(
+        "evaluate-labels",
+        help="a hazmat label classifier on the labelled placard boxes of folders: accuracy, per class, confusions",
+    )
+    el.add_argument("--label-model", required=True, help="the classifier (label_model.onnx of train-labels)")
+    el.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        metavar="DIR",
+        help="YOLO folders (images/, labels/; or a 'poibench dataset' folder, all splits); several: side by side",
+    )
+    el.add_argument(
+        "--holdout-of",
+        metavar="RUN",
+        help="a train-labels run folder: its photo folders are scored on their held-back images only",
+    )
+    el.add_argument(
+        "--absent",
+        choices=("keep", "drop", "map"),
+        default="keep",
+        help="the 4 labels the real photo set lacks (oxygen, inhalation-hazard, fuel-oil, blasting-agent): "
+        "keep as themselves, drop their crops, or map them (truth and name) to the real set's class "
+        "oxidizer, poison, flammable-gas, explosive (default keep)",
+    )
+    el.add_argument(
+        "--min-px", type=float, default=8.0, help="boxes with a side under this are left out (default 8)"
+    )
+    el.add_argument("--threads", type=int, default=1, help="onnxruntime threads (default 1)")
+    el.add_argument("--out", required=True, help="folder for summary.json, report.md and confusion_NAME.png")
+    el.add_argument("--quiet", action="store_true", help="no progress bars")
+    el.set_defaults(func=cmd_evaluate_labels)
 
     ph = sub.add_parser(
         "evaluate-photos",
@@ -198,10 +241,73 @@ def cmd_train_labels(args) -> int:
             samples_per_epoch=args.samples,
             seed=args.seed,
             threads=args.threads,
+            holdout=args.holdout,
         )
     )
     print(f"label model: {out}")
     print("to use it with the default detector: cp it to poi/models/default_labels.onnx")
+    return 0
+
+
+def cmd_evaluate_labels(args) -> int:
+    """``poibench evaluate-labels``: eval.detector.label_eval on each --data folder, side by side."""
+    from tqdm import tqdm
+
+    from eval.detector.label_eval import (
+        confusion_summary,
+        fold_confusion,
+        label_confusion,
+        load_folders,
+        write_outputs,
+    )
+    from eval.detector.quality import DetectorQualityError, _model_metadata, model_training_seeds
+    from eval.detector.train import dataset_seed
+    from eval.detector.train_labels import PATH_SEPARATOR, PHOTO_FOLDERS_METADATA_KEY
+    from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
+
+    if args.min_px < 0:
+        raise DetectorQualityError(f"--min-px must be at least 0, got {args.min_px}")
+    if args.threads < 1:
+        raise DetectorQualityError(f"--threads must be at least 1, got {args.threads}")
+    if not Path(args.label_model).is_file():
+        raise DetectorQualityError(f"{args.label_model}: no such model file")
+    classifier = HazmatLabelClassifier(model=args.label_model, threads=args.threads)
+    meta = _model_metadata(args.label_model)
+    trained_on = set(filter(None, meta.get(PHOTO_FOLDERS_METADATA_KEY, "").split(PATH_SEPARATOR)))
+    seeds = model_training_seeds(args.label_model)
+    folders = load_folders(args.data, args.holdout_of)
+    rows = []
+    for folder, cut in folders:
+        if str(folder.root.resolve()) in trained_on and not cut:
+            raise DetectorQualityError(
+                f"{args.label_model} was trained on part of {folder.root}; give --holdout-of its run folder"
+            )
+        seed = dataset_seed(folder.root)
+        if seed is not None and seed in seeds:
+            print(f"note: {args.label_model} was trained on scenes of seed {seed}, as {folder.root} was rendered")
+        with tqdm(total=len(folder.images), desc=folder.name, unit="img", disable=args.quiet) as bar:
+            conf, small = label_confusion(classifier, folder.images, args.min_px, progress=bar.update)
+        rows.append(
+            {
+                "name": folder.name,
+                "path": str(folder.root),
+                "images": len(folder.images),
+                "held_back_only": cut,
+                "small_left_out": small,
+                **confusion_summary(fold_confusion(conf, args.absent)),
+                "confusion_unfolded": conf.tolist(),
+            }
+        )
+    summary = {
+        "label_model": str(args.label_model),
+        "holdout_of": args.holdout_of,
+        "absent": args.absent,
+        "min_px": args.min_px,
+        "labels": list(LABEL_CLASSES),
+        "folders": rows,
+    }
+    print(write_outputs(args.out, summary))
+    print(f"summary.json, report.md and confusion_NAME.png in {args.out}")
     return 0
 
 

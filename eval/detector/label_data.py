@@ -10,19 +10,28 @@ pipeline cuts a detector box from a frame (:func:`poi.detectors.hazmat_labels.cr
 after moving and resizing the box the way a detector's box errs and changing
 the light, noise and resolution the way the sensor does. Torch-free, so the
 core test suite checks it.
+
+A folder of labelled photos (flat ``images/`` and ``labels/``, as
+:func:`eval.detector.photos.load_folder` reads it) has no splits of its own:
+:func:`holdout_split` holds back a seeded fraction of its images, by image,
+and the classifier trains on the rest (:func:`training_images`). The held-back
+names are written beside the run (``holdout.json``) so that ``poibench
+evaluate-labels --holdout-of RUN`` scores exactly them.
 """
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from eval.detector.quality import DetectorQualityError, load_split
+from eval.detector.photos import IMAGE_SUFFIXES, load_folder
+from eval.detector.quality import DetectorQualityError, LabelledImage, load_split
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 from poi.detectors.hazmat_labels import BACKGROUND, DEFAULT_CROP_MARGIN, LABEL_CLASSES, crop_box, padded_region
 
@@ -32,7 +41,9 @@ MIN_BOX_PX = 8  # smaller labelled boxes are skipped: nothing to read
 JITTER_SHIFT = 0.05  # sd of the box centre error, as a fraction of the box size
 JITTER_SCALE = 0.08  # sd of the log box-size error
 BACKGROUND_INDEX = LABEL_CLASSES.index(BACKGROUND)
-_RESCUE_TO_LABEL = np.array(
+HOLDOUT_NAME = "holdout.json"  # in a label classifier's run folder
+HOLDOUT_STREAM = 7  # second key of the holdout draw's generator, apart from the crops' streams
+RESCUE_TO_LABEL = np.array(
     [LABEL_CLASSES.index(c) if c in HAZMAT_LABELS else BACKGROUND_INDEX for c in RESCUE_CLASSES], dtype=np.int64
 )
 
@@ -93,35 +104,147 @@ def collect_crops(
     datasets: Sequence[str | Path], split: str, seed: int = 0, progress: Callable[[int], None] | None = None
 ) -> CropSet:
     """Placard and background samples of one split of every dataset folder."""
+    images = [im for root in datasets for im in load_split(root, split)]
+    return crops_from_images(images, split, seed, progress)
+
+
+def crops_from_images(
+    images: Sequence[LabelledImage], split: str, seed: int = 0, progress: Callable[[int], None] | None = None
+) -> CropSet:
+    """Placard and background samples of ``images`` (every labelled box at least MIN_BOX_PX a side,
+    plus one random background box an image); the random boxes are drawn from a generator of
+    ``seed`` and whether ``split`` is ``train``."""
     rng = np.random.default_rng([seed, 0 if split == "train" else 1])
     patches: list[np.ndarray] = []
     boxes: list[np.ndarray] = []
     labels: list[int] = []
-    for root in datasets:
-        for im in load_split(root, split):
-            bgr = cv2.imread(str(im.path))
-            if bgr is None:
-                raise DetectorQualityError(f"{im.path}: not a readable image")
-            rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
-            h, w = rgb.shape[:2]
-            px = im.boxes_px(w, h)  # (G, 4)
-            lab = _RESCUE_TO_LABEL[im.classes]  # (G,)
-            placards = px[lab != BACKGROUND_INDEX]
-            extra = _random_box(w, h, placards, rng)
-            if extra is not None:
-                px, lab = np.vstack([px, extra[None]]), np.append(lab, BACKGROUND_INDEX)
-            for box, c in zip(px, lab, strict=True):
-                if min(box[2] - box[0], box[3] - box[1]) < MIN_BOX_PX:
-                    continue
-                patch, local = _patch(rgb, box)
-                patches.append(patch)
-                boxes.append(local)
-                labels.append(int(c))
-            if progress:
-                progress(1)
+    for im in images:
+        bgr = cv2.imread(str(im.path))
+        if bgr is None:
+            raise DetectorQualityError(f"{im.path}: not a readable image")
+        rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        h, w = rgb.shape[:2]
+        px = im.boxes_px(w, h)  # (G, 4)
+        lab = RESCUE_TO_LABEL[im.classes]  # (G,)
+        placards = px[lab != BACKGROUND_INDEX]
+        extra = _random_box(w, h, placards, rng)
+        if extra is not None:
+            px, lab = np.vstack([px, extra[None]]), np.append(lab, BACKGROUND_INDEX)
+        for box, c in zip(px, lab, strict=True):
+            if min(box[2] - box[0], box[3] - box[1]) < MIN_BOX_PX:
+                continue
+            patch, local = _patch(rgb, box)
+            patches.append(patch)
+            boxes.append(local)
+            labels.append(int(c))
+        if progress:
+            progress(1)
     return CropSet(
         patches=patches, boxes=np.array(boxes, dtype=np.float64).reshape(-1, 4), labels=np.array(labels, np.int64)
     )
+
+
+def is_photo_folder(root: str | Path) -> bool:
+    """Whether ``root`` is a flat YOLO folder (images directly in ``images/``), not a
+    ``poibench dataset`` folder with ``images/train`` and ``images/val``."""
+    img = Path(root) / "images"
+    return img.is_dir() and any(p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES for p in img.iterdir())
+
+
+def image_key(root: str | Path, image: LabelledImage) -> str:
+    """An image's name in a holdout list: its path relative to the folder's ``images/``."""
+    return Path(image.path).relative_to(Path(root) / "images").as_posix()
+
+
+def holdout_split(
+    images: Sequence[LabelledImage], root: str | Path, fraction: float, seed: int
+) -> tuple[list[LabelledImage], list[LabelledImage]]:
+    """(training, held-back) images of one folder: ``round(fraction * n)`` images held back, drawn
+    without replacement by ``np.random.default_rng([seed, HOLDOUT_STREAM])`` from the images sorted
+    by name, so the split depends only on the names, the fraction and the seed. Split by image:
+    every box of an image is on the same side."""
+    if not 0.0 < fraction < 1.0:
+        raise DetectorQualityError(f"--holdout must be between 0 and 1, got {fraction}")
+    ordered = sorted(images, key=lambda im: image_key(root, im))
+    n_held = round(fraction * len(ordered))
+    if not 0 < n_held < len(ordered):
+        raise DetectorQualityError(
+            f"{root}: --holdout {fraction} of {len(ordered)} images leaves no training or no held-back image"
+        )
+    pick = np.random.default_rng([seed, HOLDOUT_STREAM]).permutation(len(ordered))
+    held = set(pick[:n_held].tolist())
+    train = [im for k, im in enumerate(ordered) if k not in held]
+    return train, [im for k, im in enumerate(ordered) if k in held]
+
+
+@dataclass(kw_only=True)
+class TrainingImages:
+    """The images a label classifier trains and validates on, and the held-back lists."""
+
+    train: list[LabelledImage]
+    val: list[LabelledImage]
+    holdout: dict = field(default_factory=dict)  # the holdout.json document; empty without photo folders
+
+    @property
+    def photo_folders(self) -> list[str]:
+        return list(self.holdout.get("folders", {}))
+
+
+def training_images(data: Sequence[str | Path], holdout: float | None, seed: int) -> TrainingImages:
+    """Training and validation images of every ``--data`` folder: a ``poibench dataset`` folder's
+    train and val splits, a photo folder's images less, and its held-back images
+    (:func:`holdout_split`, which needs ``holdout``)."""
+    train: list[LabelledImage] = []
+    val: list[LabelledImage] = []
+    folders: dict[str, list[str]] = {}
+    for root in data:
+        if not is_photo_folder(root):
+            train += load_split(root, "train")
+            val += load_split(root, "val")
+            continue
+        if holdout is None:
+            raise DetectorQualityError(
+                f"{root} is a folder of photos (no train/val splits): give --holdout FRACTION, e.g. 0.2"
+            )
+        tr, held = holdout_split(load_folder(root).images, root, holdout, seed)
+        train += tr
+        val += held
+        key = str(Path(root).resolve())
+        if key in folders:
+            raise DetectorQualityError(f"{root}: given twice in --data")
+        folders[key] = [image_key(root, im) for im in held]
+    doc = {"fraction": holdout, "seed": seed, "folders": folders} if folders else {}
+    return TrainingImages(train=train, val=val, holdout=doc)
+
+
+def write_holdout(run: str | Path, doc: dict) -> Path:
+    """``RUN/holdout.json``; a rerun (resume) must hold back the same images."""
+    path = Path(run) / HOLDOUT_NAME
+    if path.exists():
+        old = json.loads(path.read_text(encoding="utf-8"))
+        if old != doc:
+            raise DetectorQualityError(
+                f"{path} holds back other images (fraction {old.get('fraction')}, seed {old.get('seed')}); "
+                "use a new --out or the same --data, --holdout and --seed"
+            )
+        return path
+    path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    return path
+
+
+def read_holdout(run: str | Path) -> dict[str, set[str]]:
+    """Held-back image names by resolved folder path, from ``RUN/holdout.json`` (or that file)."""
+    path = Path(run)
+    if path.is_dir():
+        path = path / HOLDOUT_NAME
+    if not path.is_file():
+        raise DetectorQualityError(f"{path}: no such file; --holdout-of takes a train-labels run folder")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        folders = doc["folders"]
+        return {str(k): set(map(str, v)) for k, v in folders.items()}
+    except (ValueError, KeyError, TypeError, AttributeError):
+        raise DetectorQualityError(f"{path}: not a holdout file ('folders': folder -> image names)") from None
 
 
 def sample_crop(

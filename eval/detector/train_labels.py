@@ -19,6 +19,16 @@ same command again resumes from ``last.pt``. At the end it writes
 in its metadata), ``confusion.png`` (validation) and ``history.png``.
 A finished run (``label_model.onnx`` present) is left alone.
 
+A ``--data`` folder of labelled photos (flat ``images/``, ``labels/``) has no
+splits: ``holdout`` of its images (by image, seeded by ``seed``) are held back
+as the validation crops and listed in ``holdout.json``
+(:func:`eval.detector.label_data.holdout_split`); the rest are trained on.
+Labels with no training crop (the real photos have 12 of the 16) are then
+left out of the draw, so the classifier never names them; with rendered
+folders only, a missing label is an error. The photo folders are named in the
+model's metadata (``poibench_photo_folders``) so ``poibench evaluate-labels``
+can refuse to score their images without the holdout list.
+
 Torch is part of the ``train`` extra; the pipeline runs the ONNX file with
 onnxruntime only.
 """
@@ -33,12 +43,22 @@ from pathlib import Path
 
 import numpy as np
 
-from eval.detector.label_data import CropSet, balanced_draw, collect_crops, sample_crop
-from eval.detector.quality import SEEDS_METADATA_KEY, plot_confusion
+from eval.detector.label_data import (
+    CropSet,
+    balanced_draw,
+    crops_from_images,
+    is_photo_folder,
+    sample_crop,
+    training_images,
+    write_holdout,
+)
+from eval.detector.quality import SEEDS_METADATA_KEY, DetectorQualityError, plot_confusion
 from eval.detector.train import TrainError, dataset_seed
 from poi.detectors.hazmat_labels import DEFAULT_CROP_MARGIN, LABEL_CLASSES, TASK, crops_to_input
 
 ONNX_NAME = "label_model.onnx"
+PHOTO_FOLDERS_METADATA_KEY = "poibench_photo_folders"  # resolved paths, separated by PATH_SEPARATOR
+PATH_SEPARATOR = "\n"
 
 
 @dataclass(kw_only=True)
@@ -56,10 +76,19 @@ class LabelTrainSpec:
     threads: int = 2
     margin: float = DEFAULT_CROP_MARGIN
     widths: tuple[int, ...] = field(default=(16, 32, 64, 128))
+    holdout: float | None = None  # fraction of each photo folder's images held back
+    photo_folders: list[str] = field(default_factory=list, init=False)  # set by train_labels
 
     def __post_init__(self) -> None:
         if not self.data:
-            raise TrainError("give at least one --data folder written by 'poibench dataset'")
+            raise TrainError("give at least one --data folder ('poibench dataset' or labelled photos)")
+        if self.holdout is not None and not 0.0 < self.holdout < 1.0:
+            raise TrainError(f"--holdout must be between 0 and 1, got {self.holdout}")
+        photos = [d for d in self.data if is_photo_folder(d)]
+        if photos and self.holdout is None:
+            raise TrainError(
+                f"{photos[0]} is a folder of photos (no train/val splits): give --holdout FRACTION, e.g. 0.2"
+            )
         for name in ("epochs", "batch", "samples_per_epoch", "threads"):
             if getattr(self, name) < 1:
                 raise TrainError(f"--{name.replace('_', '-')} must be at least 1, got {getattr(self, name)}")
@@ -128,15 +157,25 @@ def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Pa
     torch.use_deterministic_algorithms(True)
 
     log("cutting crops from " + ", ".join(str(d) for d in spec.data))
-    train_set = collect_crops(spec.data, "train", spec.seed)
-    val_set = collect_crops(spec.data, "val", spec.seed)
+    try:
+        images = training_images(spec.data, spec.holdout, spec.seed)
+    except DetectorQualityError as e:
+        raise TrainError(str(e)) from None
+    if images.holdout:
+        held = write_holdout(out, images.holdout)
+        spec.photo_folders = images.photo_folders
+        log(f"{len(images.val)} photos held back (validation), listed in {held}")
+    train_set = crops_from_images(images.train, "train", spec.seed)
+    val_set = crops_from_images(images.val, "val", spec.seed)
     log(
         f"{len(train_set)} train and {len(val_set)} validation crops; per class (train): "
         + ", ".join(f"{c} {n}" for c, n in zip(LABEL_CLASSES, train_set.counts(), strict=True))
     )
     missing = [c for c, n in zip(LABEL_CLASSES, train_set.counts(), strict=True) if n == 0]
-    if missing:
+    if missing and not images.holdout:
         raise TrainError(f"no training crops of {missing}; render more images (poibench dataset --hazmat 16)")
+    if missing:
+        log(f"no training crops of {missing}: the classifier will not name them")
 
     model = build_model(spec.widths, spec.imgsz, len(LABEL_CLASSES))
     steps = math.ceil(spec.samples_per_epoch / spec.batch)
@@ -277,6 +316,8 @@ def _export(model, spec: LabelTrainSpec, path: Path) -> None:
         "crop_margin": str(spec.margin),
         SEEDS_METADATA_KEY: ",".join(str(s) for s in map(dataset_seed, spec.data) if s is not None),
     }
+    if spec.photo_folders:
+        meta[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(spec.photo_folders)
     for k, v in meta.items():
         m.metadata_props.add(key=k, value=v)
     onnx.save(m, str(path))

@@ -1,0 +1,266 @@
+"""``poibench evaluate-labels``: a hazmat label classifier on the placard boxes of labelled folders.
+
+Every labelled hazmat box (its ground truth, not a detection) of a folder is
+cut as the pipeline cuts a detector's box (:func:`poi.detectors.hazmat_labels.crop_box`
+through :meth:`~poi.detectors.hazmat_labels.HazmatLabelClassifier.classify`,
+with the model's input size and crop margin) and named by the classifier's
+most probable class of :data:`~poi.detectors.hazmat_labels.LABEL_CLASSES`;
+``background`` counts as a wrong name. Boxes with a side under ``min_px``
+(default :data:`eval.detector.label_data.MIN_BOX_PX`, the training cut-off)
+are left out and counted. A folder is read by :func:`eval.detector.photos.load_folder`:
+flat ``images/`` + ``labels/`` (labelled photos) or a ``poibench dataset``
+folder (all its splits). Several folders are reported side by side, so a
+classifier trained on real crops can be scored on rendered ones and the
+reverse (sim-to-real in both directions).
+
+The real photo set (``hazmat-photos-dev``) labels 12 of the 16 labels, and
+its classes are coarser: its ``oxidizer`` boxes include OXYGEN placards, its
+``poison`` ones INHALATION HAZARD placards, ``flammable-gas`` FUEL OIL and
+``explosive`` 1.5 BLASTING AGENTS (:data:`REAL_SET_FOLD`). The ``absent``
+option says what becomes of the other 4 labels' crops (in a rendered folder)
+and names:
+
+* ``keep``: every label as itself;
+* ``drop``: crops of the 4 labels are left out (a name of one of them stays wrong);
+* ``map``: the 4 labels are folded into the real set's class, for the truth and
+  the name alike, so naming an oxygen placard ``oxidizer`` is right.
+
+Reported per folder: crops, right names, accuracy with its 95% Wilson
+interval, per-class recall with the most frequent wrong name, and the most
+frequent confusions; ``summary.json``, ``report.md`` (the printed Markdown
+table) and one ``confusion_NAME.png`` a folder.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from eval.detector.label_data import BACKGROUND_INDEX, MIN_BOX_PX, RESCUE_TO_LABEL, image_key, read_holdout
+from eval.detector.photos import PhotoFolder, load_folder
+from eval.detector.quality import DetectorQualityError, LabelledImage, plot_confusion
+from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
+
+# The real photo set's coarser classes: a rendered label absent there -> the real class holding it.
+REAL_SET_FOLD: dict[str, str] = {
+    "oxygen": "oxidizer",
+    "inhalation-hazard": "poison",
+    "fuel-oil": "flammable-gas",
+    "blasting-agent": "explosive",
+}
+ABSENT_MODES = ("keep", "drop", "map")
+TOP_CONFUSIONS = 10
+Z95 = 1.959963984540054  # two-sided 95% normal quantile
+
+
+def label_confusion(
+    classifier: HazmatLabelClassifier,
+    images: Sequence[LabelledImage],
+    min_px: float = MIN_BOX_PX,
+    progress: Callable[[int], None] | None = None,
+) -> tuple[np.ndarray, int]:
+    """((17, 17) counts, rows true label, columns the classifier's name; boxes left out as too
+    small) over every labelled hazmat box of ``images``."""
+    n = len(LABEL_CLASSES)
+    conf = np.zeros((n, n), dtype=np.int64)
+    small = 0
+    for im in images:
+        labels = RESCUE_TO_LABEL[im.classes]  # (G,)
+        keep = labels != BACKGROUND_INDEX
+        if keep.any():
+            bgr = cv2.imread(str(im.path))
+            if bgr is None:
+                raise DetectorQualityError(f"{im.path}: not a readable image")
+            rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+            px = im.boxes_px(rgb.shape[1], rgb.shape[0])  # (G, 4)
+            big = np.minimum(px[:, 2] - px[:, 0], px[:, 3] - px[:, 1]) >= min_px
+            small += int(np.sum(keep & ~big))
+            keep &= big
+            if keep.any():
+                pred = classifier.classify(rgb, px[keep]).argmax(axis=1)  # (K,)
+                np.add.at(conf, (labels[keep], pred), 1)
+        if progress:
+            progress(1)
+    return conf, small
+
+
+def fold_confusion(conf: np.ndarray, absent: str) -> np.ndarray:
+    """The (17, 17) counts with the 4 labels the real set lacks handled as ``absent`` says
+    (module docstring): ``drop`` empties their rows, ``map`` moves their rows and columns onto
+    the real set's class."""
+    if absent not in ABSENT_MODES:
+        raise DetectorQualityError(f"--absent must be one of {', '.join(ABSENT_MODES)}, got {absent!r}")
+    out = np.array(conf, dtype=np.int64)
+    if absent == "drop":
+        for label in REAL_SET_FOLD:
+            out[LABEL_CLASSES.index(label)] = 0
+    elif absent == "map":
+        M = np.eye(len(LABEL_CLASSES), dtype=np.int64)  # (17, 17) class -> folded class
+        for label, into in REAL_SET_FOLD.items():
+            i = LABEL_CLASSES.index(label)
+            M[i, i], M[i, LABEL_CLASSES.index(into)] = 0, 1
+        out = M.T @ out @ M
+    return out
+
+
+def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float] | None:
+    """The Wilson score interval of a proportion k / n (E. B. Wilson, "Probable inference, the law
+    of succession, and statistical inference", JASA 22, 1927); None for n = 0."""
+    if n == 0:
+        return None
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def confusion_summary(conf: np.ndarray, top: int = TOP_CONFUSIONS) -> dict:
+    """Crops, right names, accuracy and its interval, per-class recall and the top confusions of
+    (17, 17) counts (rows true, columns named)."""
+    n, right = int(conf.sum()), int(np.trace(conf))
+    ci = wilson(right, n)
+    per_class = {}
+    for i, label in enumerate(LABEL_CLASSES):
+        row = conf[i]
+        if row.sum() == 0:
+            continue
+        wrong = row.copy()
+        wrong[i] = 0
+        j = int(wrong.argmax())
+        per_class[label] = {
+            "crops": int(row.sum()),
+            "right": int(row[i]),
+            "recall": round(float(row[i] / row.sum()), 4),
+            "most_named_wrongly_as": LABEL_CLASSES[j] if wrong[j] else None,
+            "wrongly_named_count": int(wrong[j]),
+        }
+    off = [
+        (int(conf[i, j]), i, j)
+        for i in range(len(LABEL_CLASSES))
+        for j in range(len(LABEL_CLASSES))
+        if i != j and conf[i, j]
+    ]
+    off.sort(key=lambda t: (-t[0], t[1], t[2]))
+    return {
+        "crops": n,
+        "right": right,
+        "accuracy": round(right / n, 4) if n else None,
+        "accuracy_ci95": [round(v, 4) for v in ci] if ci else None,
+        "per_class": per_class,
+        "top_confusions": [
+            {
+                "true": LABEL_CLASSES[i],
+                "named": LABEL_CLASSES[j],
+                "count": c,
+                "share_of_true": round(c / int(conf[i].sum()), 4),
+            }
+            for c, i, j in off[:top]
+        ],
+        "confusion": conf.tolist(),
+    }
+
+
+def restrict_to_holdout(folder: PhotoFolder, held: dict[str, set[str]]) -> bool:
+    """Keep only ``folder``'s held-back images when the holdout lists it; whether it did."""
+    names = held.get(str(folder.root.resolve()))
+    if names is None:
+        return False
+    keys = {image_key(folder.root, im): im for im in folder.images}
+    missing = sorted(names - set(keys))
+    if missing:
+        raise DetectorQualityError(
+            f"{folder.root}: {len(missing)} held-back images are not in the folder (first: {missing[0]})"
+        )
+    folder.images = [keys[k] for k in sorted(names)]
+    return True
+
+
+def load_folders(data: Sequence[str | Path], holdout_of: str | Path | None) -> list[tuple[PhotoFolder, bool]]:
+    """Each ``--data`` folder (unique names) and whether it was cut to the run's held-back images."""
+    held = read_holdout(holdout_of) if holdout_of is not None else {}
+    seen: dict[str, int] = {}
+    out = []
+    for k, d in enumerate(data):
+        folder = load_folder(d)
+        seen[folder.name] = seen.get(folder.name, 0) + 1
+        if seen[folder.name] > 1:
+            folder.name = f"{folder.name}-{k + 1}"
+        out.append((folder, restrict_to_holdout(folder, held)))
+    if held and not any(cut for _, cut in out):
+        raise DetectorQualityError(
+            f"{holdout_of}: holds back images of {', '.join(sorted(held))}, none of which is a --data folder"
+        )
+    return out
+
+
+def _cell(entry: dict | None) -> str:
+    if entry is None:
+        return "-"
+    return f"{100 * entry['recall']:.0f}% ({entry['right']}/{entry['crops']})"
+
+
+def format_markdown(summary: dict) -> str:
+    """The per-class table (recall, right / crops) side by side across folders, then each
+    folder's top confusions."""
+    folders = summary["folders"]
+    head = "| label | " + " | ".join(f["name"] for f in folders) + " |"
+    lines = [
+        f"label classifier {summary['label_model']}; absent labels: {summary['absent']}",
+        "",
+        head,
+        "|" + "---|" * (len(folders) + 1),
+    ]
+    overall = []
+    for f in folders:
+        if f["crops"]:
+            lo, hi = f["accuracy_ci95"]
+            overall.append(
+                f"**{100 * f['accuracy']:.1f}%** ({f['right']}/{f['crops']}; {100 * lo:.0f}-{100 * hi:.0f}%)"
+            )
+        else:
+            overall.append("-")
+    lines.append("| all | " + " | ".join(overall) + " |")
+    for label in LABEL_CLASSES:
+        cells = [f["per_class"].get(label) for f in folders]
+        if any(cells):
+            lines.append(f"| {label} | " + " | ".join(_cell(c) for c in cells) + " |")
+    for f in folders:
+        small = f"{f['small_left_out']} boxes under {summary['min_px']:g} px left out"
+        lines += ["", f"{f['name']} ({f['images']} images, {small}): top confusions"]
+        for c in f["top_confusions"]:
+            lines.append(
+                f"- {c['true']} named {c['named']}: {c['count']} ({100 * c['share_of_true']:.0f}% of {c['true']})"
+            )
+        if not f["top_confusions"]:
+            lines.append("- none")
+    return "\n".join(lines)
+
+
+def write_outputs(out: str | Path, summary: dict) -> str:
+    """summary.json, report.md and confusion_NAME.png a folder in ``out``; returns the Markdown."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    text = format_markdown(summary)
+    (out / "report.md").write_text(text + "\n", encoding="utf-8")
+    for f in summary["folders"]:
+        conf = np.array(f["confusion"])
+        shown = (conf.sum(axis=0) + conf.sum(axis=1)) > 0
+        names = [c for c, s in zip(LABEL_CLASSES, shown, strict=True) if s]
+        acc = f"{f['accuracy']:.3f}" if f["crops"] else "-"
+        plot_confusion(
+            out / f"confusion_{f['name']}.png",
+            conf[np.ix_(shown, shown)],
+            names,
+            xlabel="named",
+            ylabel="true",
+            title=f"{f['name']}: {f['crops']} placard crops, accuracy {acc}",
+            figsize=(9, 8),
+            tick_fontsize=8,
+        )
+    return text
