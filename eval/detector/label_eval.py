@@ -26,9 +26,16 @@ and names:
   the name alike, so naming an oxygen placard ``oxidizer`` is right.
 
 Reported per folder: crops, right names, accuracy with its 95% Wilson
-interval, per-class recall with the most frequent wrong name, and the most
+interval ([Wilson1927]_), per-class recall with the most frequent wrong name, and the most
 frequent confusions; ``summary.json``, ``report.md`` (the printed Markdown
 table) and one ``confusion_NAME.png`` a folder.
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [Wilson1927] E. B. Wilson, "Probable inference, the law of succession, and statistical
+   inference", Journal of the American Statistical Association 22, 1927.
 """
 
 from __future__ import annotations
@@ -109,8 +116,7 @@ def fold_confusion(conf: np.ndarray, absent: str) -> np.ndarray:
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float] | None:
-    """The Wilson score interval of a proportion k / n (E. B. Wilson, "Probable inference, the law
-    of succession, and statistical inference", JASA 22, 1927); None for n = 0."""
+    """The score interval of a proportion k / n ([Wilson1927]_); None for n = 0."""
     if n == 0:
         return None
     p = k / n
@@ -120,7 +126,7 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float] | None:
 
 
 def confusion_summary(conf: np.ndarray, top: int = TOP_CONFUSIONS) -> dict:
-    """Crops, right names, accuracy and its interval, per-class recall and the top confusions of
+    """Crops, right names, accuracy and its interval ([Wilson1927]_), per-class recall and the top confusions of
     (17, 17) counts (rows true, columns named)."""
     n, right = int(conf.sum()), int(np.trace(conf))
     ci = wilson(right, n)
