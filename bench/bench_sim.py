@@ -4,7 +4,10 @@ Prints the render passes (colour and depth share one rasterisation; the
 segmentation pass runs at full size for ground-truth boxes and at twice the
 thermal resolution for the thermal camera), the whole sensor set (noisy colour
 + aligned noisy depth + thermal + pose) per frame, and the same with per-frame
-ground-truth boxes. Run: ``python bench/bench_sim.py``.
+ground-truth boxes, and the cost of each colour-camera effect alone
+(sim/sensors/d435_color.py) on top of exposure and tone. The whole-sensor-set lines read
+consecutive frames, as a trial does (the auto-exposure's lag reads the meters of the frames
+before, cached when they were rendered). Run: ``python bench/bench_sim.py``.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ import argparse
 import os
 import platform
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -22,6 +26,7 @@ import mujoco
 
 # isort: on
 from sim.scenario import apply_settings, load_scenario  # noqa: E402
+from sim.sensors.d435_color import ColourCamera  # noqa: E402
 from sim.simulator import Simulation  # noqa: E402
 from sim.world import CAMERA_NAME  # noqa: E402
 
@@ -35,11 +40,53 @@ def _ms(fn, n):
 
 
 def _stream_ms(sim: Simulation, n: int) -> float:
-    """ms per frame through ``frames()``, over n frames spread along the route as ``_ms`` uses."""
-    step = max(1, (sim.n_frames - 1) // max(n - 1, 1))
+    """ms per frame through ``frames()``, over n consecutive frames mid-route (a trial's stream)."""
+    start = (sim.n_frames - n) // 2 + n  # frames the direct measurement did not render
+    start = min(start, max(sim.n_frames - n, 0))
     t = time.perf_counter()
-    count = sum(1 for _ in sim.frames(0, sim.n_frames, step))
+    count = sum(1 for _ in sim.frames(start, start + n))
     return (time.perf_counter() - t) / count * 1e3
+
+
+def _colour_effects_ms(s: Simulation, k: int, n: int) -> dict[str, float]:
+    """ms per frame of the colour model with exposure and tone only, and with each effect
+    alone on top of that (the effect's cost is the difference), on frame k's render."""
+    spec = s.scenario.sensors.d435.colour
+    raw = s.on_gl_thread(s._render_colour_depth, k)
+    exposure = s.exposure(k, raw.rgb)
+    motion = s.motion_px(k, exposure.exposure_ms, raw.z_m)
+    pool = s._pools[0]
+    off = replace(
+        spec,
+        shot_noise=False,
+        read_noise_e=0.0,
+        motion_blur=False,
+        defocus_sigma_px=0.0,
+        vignetting=0.0,
+        jpeg_quality=0,
+    )
+    i = s.intrinsics
+    jpeg = spec.jpeg_quality or 90  # off by default: its cost when a robot turns it on
+    effects = {
+        "exposure + tone only": off,
+        "+ shot and read noise": replace(off, shot_noise=True, read_noise_e=spec.read_noise_e),
+        f"+ motion blur ({np.hypot(*motion):.1f} px on this frame)": replace(off, motion_blur=True),
+        f"+ defocus (sigma {spec.defocus_sigma_px} px)": replace(off, defocus_sigma_px=spec.defocus_sigma_px),
+        f"+ vignetting ({spec.vignetting})": replace(off, vignetting=spec.vignetting),
+        f"+ JPEG (quality {jpeg})": replace(off, jpeg_quality=jpeg),
+        "all effects (the defaults)": spec,
+    }
+    out = {}
+    for name, sp in effects.items():
+        cam = ColourCamera(sp, i.width, i.height, i.fx, i.fy, i.ppx, i.ppy)
+        rng = np.random.default_rng(0)
+        out[f"colour model: {name}"] = _ms(
+            lambda j=0, cam=cam, rng=rng: cam.render(
+                raw.rgb, exposure, s.colour_lux, rng=rng, pool=pool, motion_px=motion
+            ),
+            n,
+        )
+    return out
 
 
 def main() -> None:
@@ -90,11 +137,12 @@ def main() -> None:
         s.on_gl_thread(ref.close)
         sensors = apply_settings(sc, ["sensors.truth_boxes=false"])
     with Simulation(sensors) as s2:
-        ks2 = np.linspace(0, s2.n_frames - 1, n).astype(int)
+        ks2 = np.arange(n) + (s2.n_frames - n) // 2  # consecutive frames, as a trial reads them
         res["whole sensor set (colour+depth+thermal+pose)"] = _ms(lambda i=0: s2.frame(int(ks2[i % n])), n)
         res["  the same, streamed (frames() renders ahead)"] = _stream_ms(s2, n)
+        res.update(_colour_effects_ms(s2, int(ks2[n // 2]), n))
     with Simulation(sc) as s3:
-        ks3 = np.linspace(0, s3.n_frames - 1, n).astype(int)
+        ks3 = np.arange(n) + (s3.n_frames - n) // 2
         res["sensor set + ground-truth boxes"] = _ms(lambda i=0: s3.frame(int(ks3[i % n])), n)
         res["  the same, streamed"] = _stream_ms(s3, n)
         print(

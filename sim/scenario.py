@@ -282,6 +282,57 @@ class DepthSpec:
 
 
 @dataclass(kw_only=True)
+class ColourSpec:
+    """The D435 colour stream's camera effects (sim/sensors/d435_color.py; docs/FACTS.md
+    "D435 colour camera"). Each is a setting and can be switched off; ``sensors.noise: false``
+    switches off the random ones (noise) and the blurs, compression and white-balance error,
+    leaving exposure and tone.
+
+    Light: ``lux`` is the scene's illuminance (default: the lighting preset's level,
+    ``sim.world.LIGHT_LEVEL_LUX``); a white surface in full light gives
+    ``sensitivity_e_per_lux_ms`` electrons per lux and millisecond of exposure at unit gain.
+    Auto-exposure (``auto_exposure``) meters the mean linear level and sets exposure first
+    (``min_exposure_ms`` .. ``max_exposure_ms``), then analog gain (1 .. ``max_gain``), so the
+    mean lands at ``ae_target`` (encoded, 0..1), with a first-order lag ``ae_time_constant_s``;
+    without it, ``exposure_ms`` and ``gain`` hold. Noise: shot noise (Poisson in electrons)
+    plus ``read_noise_e``, relative to ``full_well_e``. Output: display gamma ``gamma``.
+    Blurs: the camera's own motion during the exposure (``motion_blur``), ``defocus_sigma_px``
+    (Gaussian). ``vignetting``: the fraction of the cos^4 falloff left after the lens'
+    correction (0: none). ``wb_gains``: per-channel (R, G, B) white-balance error.
+    ``jpeg_quality``: JPEG compression of the delivered image (0, the default: off, as the
+    D435 sends its colour frames uncompressed over USB; a robot that sends them on as JPEG
+    sets its quality).
+    """
+
+    auto_exposure: bool = True
+    ae_target: float = number(0.6, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    ae_time_constant_s: float = number(0.15, lo=0.0)
+    exposure_ms: float = number(10.0, lo=0.0, lo_open=True)
+    gain: float = number(1.0, lo=1.0)
+    min_exposure_ms: float = number(0.1, lo=0.0, lo_open=True)
+    max_exposure_ms: float = number(10.0, lo=0.0, lo_open=True)
+    max_gain: float = number(16.0, lo=1.0)
+    lux: float | None = number(None, lo=0.0, lo_open=True)
+    sensitivity_e_per_lux_ms: float = number(0.2, lo=0.0, lo_open=True)
+    full_well_e: float = number(5000.0, lo=1.0)
+    read_noise_e: float = number(3.0, lo=0.0)
+    shot_noise: bool = True
+    gamma: float = number(2.2, lo=1.0, hi=4.0)
+    motion_blur: bool = True
+    defocus_sigma_px: float = number(0.5, lo=0.0, hi=20.0)
+    vignetting: float = number(0.4, lo=0.0, hi=1.0)
+    wb_gains: tuple[float, float, float] = number((1.04, 1.0, 0.95), lo=0.0, lo_open=True)
+    jpeg_quality: int = number(0, lo=0, hi=100)
+
+    def __post_init__(self) -> None:
+        if self.min_exposure_ms > self.max_exposure_ms:
+            raise ValueError(
+                f"min_exposure_ms ({self.min_exposure_ms}) must not exceed "
+                f"max_exposure_ms ({self.max_exposure_ms})"
+            )
+
+
+@dataclass(kw_only=True)
 class D435Spec:
     enabled: bool = True
     width: int = number(640, lo=1, hi=MAX_IMAGE_PX)
@@ -290,7 +341,7 @@ class D435Spec:
     fy: float = number(610.6, lo=0.0, lo_open=True)
     ppx: float = 314.3
     ppy: float = 237.8
-    color_noise_sigma: float = number(2.0, lo=0.0)  # per-pixel Gaussian noise, 8-bit levels
+    colour: ColourSpec = field(default_factory=ColourSpec)
     depth: DepthSpec = field(default_factory=DepthSpec)
 
 

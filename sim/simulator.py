@@ -59,18 +59,28 @@ from sim.maze_gen import generate_maze
 from sim.placement import place_objects
 from sim.render import SceneRenderer
 from sim.route import Route, load_route_csv, rig_pose, route_from_tour
-from sim.scenario import TURTLEBOT_CAMERA_HEIGHT_M, MountSpec, Scenario
+from sim.scenario import TURTLEBOT_CAMERA_HEIGHT_M, ColourSpec, MountSpec, Scenario
+from sim.sensors.d435_color import (
+    ColourCamera,
+    Exposure,
+    ae_history_frames,
+    image_motion_px,
+    lagged_exposure,
+    meter,
+    steady_state_exposure,
+)
 from sim.sensors.d435_depth import simulate_depth
 from sim.sensors.noise_pool import NoisePool
 from sim.sensors.t265 import PoseTrack, simulate_t265
 from sim.sensors.thermal import thermal_image
 from sim.sensors.wheel_odometry import simulate_wheel_odometry
 from sim.tour import plan_tour
-from sim.world import CAMERA_NAME, World, build_world, door_gap_m
+from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, World, build_world, door_gap_m
 
 SENSOR_STREAM = 1
 ARENA_LIGHT_HEIGHT_M = 2.5  # the goal arena's lamps hang from a room's ceiling, not over low walls
 PREFETCH_FRAMES = 2  # frames rendered ahead by Simulation.frames()
+AE_CACHE_FRAMES = 16  # auto-exposure meters kept for the frames that follow
 NOISE_POOL_FRAMES = 3  # frames' worth of pre-drawn noise per pool (sim.sensors.noise_pool)
 # the thermal image integrates THERMAL_SUPERSAMPLE^2 segmentation samples per pixel
 THERMAL_SUPERSAMPLE = 2
@@ -235,6 +245,11 @@ class Simulation:
                 self.T_map_tracker_true, self.times_s, sc.sensors.t265, rng, sc.sensors.noise
             )
         self._temp_of_geom = self._geom_temperatures()
+        col = sc.sensors.d435.colour
+        self.colour_lux = col.lux if col.lux is not None else LIGHT_LEVEL_LUX[sc.lighting]
+        self._camera = ColourCamera(col, d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
+        self._meters: dict[int, float] = {}  # frame index -> auto-exposure meter of its render
+        self._tilt_rad = tilt
         self._renderer: SceneRenderer | None = None
         self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
         self._pools: tuple[NoisePool | None, NoisePool | None] = (
@@ -402,10 +417,8 @@ class Simulation:
     def _noise_pools(self) -> tuple[NoisePool, NoisePool]:
         """(colour, depth) pools of pre-drawn noise from the scenario seed."""
         H, W = self.intrinsics.height, self.intrinsics.width
-        sigma = self.scenario.sensors.d435.color_noise_sigma
         seed = self.scenario.seed
         colour = NoisePool.standard_normal([seed, SENSOR_STREAM, 10**9], NOISE_POOL_FRAMES * H * W * 3)
-        colour = NoisePool(np.round(colour.samples * np.float32(sigma)).astype(np.int16))
         depth = NoisePool.standard_normal([seed, SENSOR_STREAM, 10**9 + 1], NOISE_POOL_FRAMES * H * W)
         return colour, depth
 
@@ -415,22 +428,96 @@ class Simulation:
             raise IndexError(f"frame {k} out of range 0..{self.n_frames - 1}")
         return self._sensor_frame(k, *self._submit_renders(k))
 
-    def view(self, T_map_rig: np.ndarray, k: int) -> tuple[Frame, FrameTruth]:
+    def view(
+        self,
+        T_map_rig: np.ndarray,
+        k: int,
+        *,
+        colour: ColourSpec | None = None,
+        motion_px: tuple[float, float] | None = None,
+    ) -> tuple[Frame, FrameTruth]:
         """A frame from an arbitrary rig pose (datasets), with frame k's sensor noise draws.
 
         The frame's pose is the true tracker pose (no T265 model: there is no
-        trajectory), its timestamp 0.
+        trajectory), its timestamp 0. The colour camera's auto-exposure is settled (no
+        history) and there is no motion blur unless ``motion_px`` gives the image's motion
+        during the exposure; ``colour`` replaces the scenario's colour settings.
         """
         T_map_rig = np.asarray(T_map_rig, dtype=float)
         if T_map_rig.shape != (4, 4) or not np.all(np.isfinite(T_map_rig)):
             raise ValueError("view: T_map_rig must be a finite 4x4 transform")
-        return self._sensor_frame(k, *self._submit_renders(T_map_rig), T_map_rig=T_map_rig)
+        return self._sensor_frame(
+            k, *self._submit_renders(T_map_rig), T_map_rig=T_map_rig, colour=colour, motion_px=motion_px
+        )
+
+    # ------------------------------------------------------------ colour camera
+    def _colour_camera(self, colour: ColourSpec | None) -> tuple[ColourCamera, float]:
+        """The colour model and the scene's illuminance (lux) for ``colour`` (None: the scenario's)."""
+        if colour is None:
+            return self._camera, self.colour_lux
+        i = self.intrinsics
+        lux = colour.lux if colour.lux is not None else LIGHT_LEVEL_LUX[self.scenario.lighting]
+        return ColourCamera(colour, i.width, i.height, i.fx, i.fy, i.ppx, i.ppy), lux
+
+    def _steady_exposure(self, rgb: np.ndarray, spec: ColourSpec, lux: float) -> Exposure:
+        if not spec.auto_exposure:
+            return Exposure(exposure_ms=spec.exposure_ms, gain=spec.gain)
+        return steady_state_exposure(meter(rgb, spec.gamma), spec, lux)
+
+    def _meter(self, j: int, rgb: np.ndarray | None = None) -> float:
+        """Frame j's auto-exposure meter (cached; rendered on the GL thread when not given)."""
+        m = self._meters.get(j)
+        if m is None:
+            if rgb is None:
+                rgb = self.on_gl_thread(self._render_colour_depth, j).rgb
+            m = meter(rgb, self.scenario.sensors.d435.colour.gamma)
+            self._meters[j] = m
+            if len(self._meters) > 4 * AE_CACHE_FRAMES:
+                for old in sorted(self._meters)[:-AE_CACHE_FRAMES]:
+                    self._meters.pop(old, None)
+        return m
+
+    def exposure(self, k: int, rgb: np.ndarray | None = None) -> Exposure:
+        """Frame k's exposure and gain: fixed, or the auto-exposure's lagged response to the
+        meters of frames k, k - 1, ... (sim/sensors/d435_color.py); the same whichever frames
+        were rendered before."""
+        spec = self.scenario.sensors.d435.colour
+        if not spec.auto_exposure:
+            return Exposure(exposure_ms=spec.exposure_ms, gain=spec.gain)
+        dt = 1.0 / self.scenario.sensors.fps
+        n = ae_history_frames(spec.ae_time_constant_s, dt)
+        steady = [
+            steady_state_exposure(self._meter(j, rgb if j == k else None), spec, self.colour_lux)
+            for j in range(k, max(k - n, -1), -1)
+        ]
+        return lagged_exposure(steady, spec, dt)
+
+    def motion_px(self, k: int, exposure_ms: float, z_m: np.ndarray) -> tuple[float, float]:
+        """(du, dv) pixels the image centre moves during frame k's exposure (centred on the
+        frame time), from the true rig poses and the median depth at the image centre."""
+        t, half = float(self.times_s[k]), exposure_ms / 2000.0
+
+        def pose(tt: float) -> np.ndarray:  # T_map_optical at time tt
+            return self.T_map_world @ rig_pose(self.route, tt, self.mast_height_m, self._tilt_rad) @ T_RIG_OPTICAL
+
+        H, W = z_m.shape
+        c = z_m[H // 2 - 8 : H // 2 + 8, W // 2 - 8 : W // 2 + 8]
+        depth = float(np.clip(np.median(c), 0.1, 50.0))
+        i = self.intrinsics
+        return image_motion_px(pose(t - half), pose(t + half), i.fx, i.fy, i.ppx, i.ppy, depth)
 
     def _sensor_frame(
-        self, k: int, colour_depth: Future, segmentation: Future, T_map_rig: np.ndarray | None = None
+        self,
+        k: int,
+        colour_depth: Future,
+        segmentation: Future,
+        T_map_rig: np.ndarray | None = None,
+        colour: ColourSpec | None = None,
+        motion_px: tuple[float, float] | None = None,
     ) -> tuple[Frame, FrameTruth]:
         """The sensor models and ground truth of frame k (or of a view from ``T_map_rig``, with
-        frame k's noise) from its render jobs.
+        frame k's noise) from its render jobs; ``colour`` replaces the scenario's colour camera
+        settings and ``motion_px`` gives a view's motion blur (datasets).
 
         Reads nothing that rendering other frames changes, so it may run on any
         thread while the GL thread renders ahead.
@@ -442,8 +529,12 @@ class Simulation:
         raw = colour_depth.result()
         rgb, z_true, T_map_optical = raw.rgb, raw.z_m, raw.T_map_optical
         colour_pool, depth_pool = self._pools if noise else (None, None)
-        if colour_pool is not None and sens.d435.color_noise_sigma > 0:
-            rgb = np.clip(rgb.astype(np.int16) + colour_pool.take(rng, rgb.shape), 0, 255).astype(np.uint8)
+        camera, lux = self._colour_camera(colour)
+        exposure = self.exposure(k, rgb) if T_map_rig is None else self._steady_exposure(rgb, camera.spec, lux)
+        motion = (0.0, 0.0) if motion_px is None else motion_px
+        if T_map_rig is None and camera.spec.motion_blur:
+            motion = self.motion_px(k, exposure.exposure_ms, z_true)
+        rgb = camera.render(rgb, exposure, lux, rng=rng, pool=colour_pool, motion_px=motion, effects=noise)
         depth = None
         if sens.d435.enabled:
             depth = simulate_depth(z_true, sens.d435.depth, self.intrinsics.fx, rng, noise, depth_pool)

@@ -44,6 +44,13 @@ class World:
     geom_object_id: np.ndarray  # (ngeom,) object id of each geom, -1 for walls/floor
 
 
+# Illuminance of each lighting preset where its lamps light a surface fully, for the colour
+# camera's exposure (sim/sensors/d435_color.py): a render value of 1 (decoded) is a white
+# surface at this level. Judgements (docs/FACTS.md "D435 colour camera"): a brightly lit
+# hall, a room lit by the robot's own lamp, a hall with a few spot lamps.
+LIGHT_LEVEL_LUX: dict[str, float] = {"bright": 1000.0, "dim": 80.0, "uneven": 300.0}
+
+
 def _lights(
     world: ET.Element,
     visual: ET.Element,

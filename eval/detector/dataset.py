@@ -8,8 +8,12 @@ other type. Each image looks at a target chosen to balance the classes (the
 least-labelled class present), from a viewpoint drawn in free space at a
 distance of ``distance_m`` and up to ``max_angle_deg`` off the object's face
 normal, with the target anywhere in the central part of the image, a small
-roll, the scenario's lighting, the D435 sensor noise and, on a fraction of the
-images, motion or focus blur. Walls, other objects and the image border
+roll, the scenario's lighting, and a colour camera drawn per image from the
+wide ranges of ``spec.camera`` (:class:`CameraRandomisation`: light level,
+exposure, noise, motion blur, defocus, vignetting, white balance, JPEG; domain
+randomisation, apart from the trial defaults); with ``camera: None``, the
+scenario's camera and, on ``blur_fraction`` of the images, motion or focus blur.
+Walls, other objects and the image border
 occlude objects partially; an object is labelled when at least
 ``min_visible_fraction`` of it shows and its box is at least ``min_box_px``.
 
@@ -71,6 +75,7 @@ class DatasetSpec:
     rmrc_fraction: float = 0.25  # scenarios on the smaller RMRC lane preset
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
     jpeg_quality: int = 95
+    camera: CameraRandomisation | None = field(default_factory=lambda: CameraRandomisation())
     counts: dict[str, int] = field(default_factory=lambda: DatasetSpec.default_counts())
 
     @staticmethod
@@ -108,6 +113,8 @@ class DatasetSpec:
         d = asdict(self)
         d["distance_m"] = list(self.distance_m)
         d["maze_cells"] = list(self.maze_cells)
+        if d["camera"] is not None:
+            d["camera"] = {k: list(v) for k, v in d["camera"].items()}
         return d
 
 
@@ -222,6 +229,44 @@ def sample_view(sim, target, spec: DatasetSpec, rng: np.random.Generator) -> tup
     return None
 
 
+@dataclass(kw_only=True)
+class CameraRandomisation:
+    """Ranges the colour camera's settings are drawn from, per image, for the dataset (domain
+    randomisation); wider than, and kept apart from, the trial defaults of
+    ``sim.scenario.ColourSpec``. Each value is drawn uniformly (log-uniformly for ``lux``)."""
+
+    lux: tuple[float, float] = (30.0, 3000.0)  # scene illuminance: dark room to bright hall
+    ae_target: tuple[float, float] = (0.4, 0.75)  # brightness the auto-exposure aims at
+    max_exposure_ms: tuple[float, float] = (5.0, 33.0)
+    max_gain: tuple[float, float] = (4.0, 32.0)
+    read_noise_e: tuple[float, float] = (1.0, 12.0)
+    motion_blur_px: tuple[float, float] = (0.0, 20.0)  # length; direction uniform in [0, 180) deg
+    defocus_sigma_px: tuple[float, float] = (0.0, 2.0)
+    vignetting: tuple[float, float] = (0.0, 1.0)
+    wb_gain: tuple[float, float] = (0.8, 1.25)  # red and blue, each, relative to green
+    jpeg_quality: tuple[int, int] = (40, 95)
+
+    def draw(self, base, rng: np.random.Generator) -> tuple[object, tuple[float, float]]:
+        """(a ``ColourSpec`` from ``base`` with drawn settings, the motion blur (du, dv) in px)."""
+        from dataclasses import replace
+
+        u = lambda r: float(rng.uniform(*r))  # noqa: E731
+        length, angle = u(self.motion_blur_px), math.radians(u((0.0, 180.0)))
+        spec = replace(
+            base,
+            lux=float(math.exp(rng.uniform(math.log(self.lux[0]), math.log(self.lux[1])))),
+            ae_target=u(self.ae_target),
+            max_exposure_ms=u(self.max_exposure_ms),
+            max_gain=u(self.max_gain),
+            read_noise_e=u(self.read_noise_e),
+            defocus_sigma_px=u(self.defocus_sigma_px),
+            vignetting=u(self.vignetting),
+            wb_gains=(u(self.wb_gain), 1.0, u(self.wb_gain)),
+            jpeg_quality=int(rng.integers(self.jpeg_quality[0], self.jpeg_quality[1] + 1)),
+        )
+        return spec, (length * math.cos(angle), length * math.sin(angle))
+
+
 def blur(rgb: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, str]:
     """Motion blur (a 3-9 px line at a random angle) or defocus (Gaussian sigma 0.5-1.5 px)."""
     if rng.random() < 0.5:
@@ -334,11 +379,18 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                 if view is None:
                     raise DatasetError(f"scenario {j} (seed {sc.seed}): no free viewpoint for any object")
                 T_map_rig, info = view
-                frame, truth = sim.view(T_map_rig, i)
-                rgb = frame.rgb
                 blur_kind = ""
-                if rng.random() < spec.blur_fraction:
-                    rgb, blur_kind = blur(rgb, rng)
+                if spec.camera is not None:
+                    # the camera's effects drawn per image (domain randomisation), from this image's rng
+                    colour, motion = spec.camera.draw(sc.sensors.d435.colour, rng)
+                    frame, truth = sim.view(T_map_rig, i, colour=colour, motion_px=motion)
+                    rgb = frame.rgb
+                    blur_kind = f"camera:lux{colour.lux:.0f},motion{np.hypot(*motion):.1f},q{colour.jpeg_quality}"
+                else:
+                    frame, truth = sim.view(T_map_rig, i)
+                    rgb = frame.rgb
+                    if rng.random() < spec.blur_fraction:
+                        rgb, blur_kind = blur(rgb, rng)
                 labels = yolo_labels(truth, by_id, spec, rgb.shape[1], rgb.shape[0])
                 for c, *_ in labels:
                     per_class[RESCUE_CLASSES[c]] += 1

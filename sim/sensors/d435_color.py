@@ -1,0 +1,243 @@
+"""The D435 colour stream as a camera makes it: exposure, noise, blur, optics and compression.
+
+The renderer's image is taken as display-encoded (the textures are sRGB-authored), so it is
+decoded to linear light with the display gamma, ``x = (v / 255) ** gamma``; a decoded 1 is a
+white surface lit at the scene's illuminance ``lux``. The sensor collects
+``e = x * lux * K * t`` electrons in an exposure of ``t`` ms (K =
+``sensitivity_e_per_lux_ms``); the signal after analog gain G, relative to the ADC's full
+scale, is ``s = e * G / FW`` (FW = ``full_well_e``). Its variance, shot noise (Poisson: var e
+= e) plus read noise ``sigma_r`` electrons, is linear in the signal::
+
+    var(s) = a * s + b,   a = G / FW,   b = (G * sigma_r / FW) ** 2
+
+Then the signal is clipped to [0, 1] and encoded, ``255 * s ** (1 / gamma)``.
+
+Auto-exposure meters the mean linear level m of the decoded render and picks the exposure
+product P = t * G (ms) that brings the mean signal to the target ``ae_target ** gamma``:
+``P = target * FW / (m * lux * K)``; exposure first (clamped to its range), then gain. Over
+frames it follows a first-order lag of time constant tau on log P: frame k's log P is the
+mean of the steady-state log P of frames k, k - 1, ... weighted by (1 - alpha) ** i,
+alpha = 1 - exp(-dt / tau) (:func:`lagged_exposure`).
+
+Motion blur: the image moves by (du, dv) pixels during the exposure (the camera's own motion,
+:func:`image_motion_px`); the image is convolved with a line of that length and direction
+(one kernel for the whole frame, from the motion of the image centre: exact for a pure
+rotation about the optical centre's small angles, an approximation for translation, which
+moves near things more). Defocus: a Gaussian of ``defocus_sigma_px``. Vignetting: the
+irradiance falls as cos^4 of the off-axis angle theta (the cos^4 law of a thin lens); the lens
+is assumed to correct part of it (a judgement: no public D435 figure),
+``V = 1 - v * (1 - cos^4 theta)`` (:func:`vignette_map`).
+White balance: per-channel gains on the linear signal. Compression: JPEG at a quality.
+
+The D435's colour imager (an OmniVision OV2740, rolling shutter, 1920 x 1080 at most,
+[IntelD400]) is simulated global-shutter: the rolling readout's skew is left out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from poi.core.geometry import invert_transform, transform_points
+from sim.scenario import ColourSpec
+from sim.sensors.noise_pool import NoisePool
+
+AE_MAX_HISTORY = 8  # frames the auto-exposure lag looks back at most
+AE_METER_STEP = 8  # the meter reads every 8th pixel in each direction
+
+
+@dataclass(kw_only=True, frozen=True)
+class Exposure:
+    """Exposure time (ms) and analog gain (>= 1) of one frame."""
+
+    exposure_ms: float
+    gain: float
+
+    @property
+    def product_ms(self) -> float:
+        return self.exposure_ms * self.gain
+
+
+def decode_lut(gamma: float) -> np.ndarray:
+    """(256,) float32: the linear level of each 8-bit encoded value, ``(v / 255) ** gamma``."""
+    return (np.arange(256, dtype=np.float64) / 255.0) ** gamma
+
+
+def meter(rgb: np.ndarray, gamma: float) -> float:
+    """The mean linear level of an encoded image, read on a grid of every ``AE_METER_STEP``-th pixel."""
+    sub = rgb[::AE_METER_STEP, ::AE_METER_STEP]
+    return float(decode_lut(gamma)[sub].mean())
+
+
+def steady_state_exposure(meter_x: float, spec: ColourSpec, lux: float) -> Exposure:
+    """The exposure that brings a mean linear level ``meter_x`` to the target: exposure time
+    first, within [min_exposure_ms, max_exposure_ms], then gain within [1, max_gain].
+
+    >>> s = ColourSpec(ae_target=0.5, gamma=1.0, full_well_e=1000.0, sensitivity_e_per_lux_ms=1.0)
+    >>> steady_state_exposure(0.25, s, lux=100.0)  # P = 0.5 * 1000 / (0.25 * 100 * 1) = 20 ms
+    Exposure(exposure_ms=10.0, gain=2.0)
+    """
+    if meter_x <= 0.0:
+        return Exposure(exposure_ms=spec.max_exposure_ms, gain=spec.max_gain)
+    target = spec.ae_target**spec.gamma
+    # s = m * lux * K * P / FW = target
+    P = target * spec.full_well_e / (meter_x * lux * spec.sensitivity_e_per_lux_ms)
+    t = min(max(P, spec.min_exposure_ms), spec.max_exposure_ms)
+    G = min(max(P / t, 1.0), spec.max_gain)
+    return Exposure(exposure_ms=t, gain=G)
+
+
+def ae_history_frames(tau_s: float, dt_s: float) -> int:
+    """Frames (the current one included) the lag reads: until the weight falls below e^-4."""
+    if tau_s <= 0.0:
+        return 1
+    return min(AE_MAX_HISTORY, 1 + math.ceil(4.0 * tau_s / dt_s))
+
+
+def lagged_exposure(steady: list[Exposure], spec: ColourSpec, dt_s: float) -> Exposure:
+    """First-order lag of the exposure product: ``steady[0]`` is this frame's steady state,
+    ``steady[i]`` the one i frames back; log P = sum_i w_i log P_i / sum_i w_i with
+    w_i = (1 - alpha) ** i, alpha = 1 - exp(-dt / tau). A constant scene gives its steady state.
+    """
+    if spec.ae_time_constant_s <= 0.0 or len(steady) == 1:
+        return steady[0]
+    keep = math.exp(-dt_s / spec.ae_time_constant_s)  # 1 - alpha
+    w = np.array([keep**i for i in range(len(steady))])
+    logP = float(np.dot(w, [math.log(e.product_ms) for e in steady]) / w.sum())
+    P = math.exp(logP)
+    t = min(max(P, spec.min_exposure_ms), spec.max_exposure_ms)
+    return Exposure(exposure_ms=t, gain=min(max(P / t, 1.0), spec.max_gain))
+
+
+def vignette_map(
+    width: int, height: int, fx: float, fy: float, ppx: float, ppy: float, strength: float
+) -> np.ndarray:
+    """(H, W) float32 relative irradiance ``1 - strength * (1 - cos^4 theta)``, theta the angle
+    of the pixel's ray off the optical axis: cos^2 theta = 1 / (1 + ((u - ppx)/fx)^2 + ((v - ppy)/fy)^2)."""
+    u = (np.arange(width, dtype=np.float64) - ppx) / fx
+    v = (np.arange(height, dtype=np.float64) - ppy) / fy
+    tan2 = v[:, None] ** 2 + u[None, :] ** 2
+    cos4 = 1.0 / (1.0 + tan2) ** 2
+    return (1.0 - strength * (1.0 - cos4)).astype(np.float32)
+
+
+def image_motion_px(
+    T_map_optical_start: np.ndarray,
+    T_map_optical_end: np.ndarray,
+    fx: float,
+    fy: float,
+    ppx: float,
+    ppy: float,
+    depth_m: float,
+) -> tuple[float, float]:
+    """(du, dv) pixels the image centre moves from the start to the end of the exposure: the
+    point ``depth_m`` along the centre ray at the end pose, projected at the start pose."""
+    p_map = transform_points(T_map_optical_end, np.array([0.0, 0.0, depth_m]))
+    p0 = transform_points(invert_transform(T_map_optical_start), p_map)
+    if p0[2] <= 1e-6:
+        return 0.0, 0.0
+    u0 = fx * p0[0] / p0[2] + ppx
+    v0 = fy * p0[1] / p0[2] + ppy
+    return float(ppx - u0), float(ppy - v0)
+
+
+def motion_kernel(du: float, dv: float) -> np.ndarray | None:
+    """A normalised line kernel of length hypot(du, dv) along (du, dv), centred (None under 1 px).
+
+    Samples along the segment are splatted bilinearly, so fractional lengths and angles count.
+    """
+    L = math.hypot(du, dv)
+    if L < 1.0:
+        return None
+    r = math.ceil(max(abs(du), abs(dv)) / 2.0) + 1
+    n = 2 * r + 1
+    k = np.zeros((n, n), np.float64)
+    s = np.linspace(-0.5, 0.5, max(2, int(math.ceil(L * 4)) + 1))
+    x, y = r + s * du, r + s * dv
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = x - x0, y - y0
+    np.add.at(k, (y0, x0), (1 - fx) * (1 - fy))
+    np.add.at(k, (y0, x0 + 1), fx * (1 - fy))
+    np.add.at(k, (y0 + 1, x0), (1 - fx) * fy)
+    np.add.at(k, (y0 + 1, x0 + 1), fx * fy)
+    return (k / k.sum()).astype(np.float32)
+
+
+class ColourCamera:
+    """The per-frame colour model for one image size and settings (tables built once)."""
+
+    def __init__(self, spec: ColourSpec, width: int, height: int, fx: float, fy: float, ppx: float, ppy: float):
+        self.spec = spec
+        self.width, self.height = width, height
+        self._decode = decode_lut(spec.gamma).astype(np.float32)
+        self._vignette = None
+        if spec.vignetting > 0:
+            v = vignette_map(width, height, fx, fy, ppx, ppy, spec.vignetting)
+            self._vignette = np.repeat(v[:, :, None], 3, axis=2)
+
+    def render(
+        self,
+        rgb: np.ndarray,
+        exposure: Exposure,
+        lux: float,
+        *,
+        rng: np.random.Generator,
+        pool: NoisePool | None,
+        motion_px: tuple[float, float] = (0.0, 0.0),
+        effects: bool = True,
+    ) -> np.ndarray:
+        """The delivered (H, W, 3) uint8 RGB from the encoded render ``rgb``.
+
+        ``effects`` False keeps exposure and tone only (no noise, blur, vignetting, white-balance
+        error or compression): the clean run. Noise samples come from ``pool`` (read through
+        windows at offsets from ``rng``) or, without one, from ``rng``.
+        """
+        sp = self.spec
+        img = rgb
+        if effects and sp.motion_blur:
+            k = motion_kernel(*motion_px)
+            if k is not None:
+                # only the kernel's non-zero rows and columns: a pan's line is 2 rows high
+                ys, xs = np.nonzero(k)
+                r = k.shape[0] // 2
+                crop = np.ascontiguousarray(k[ys.min() : ys.max() + 1, xs.min() : xs.max() + 1])
+                anchor = (r - int(xs.min()), r - int(ys.min()))
+                img = cv2.filter2D(img, -1, crop, anchor=anchor, borderType=cv2.BORDER_REFLECT)
+        if effects and sp.defocus_sigma_px > 0:
+            img = cv2.GaussianBlur(img, (0, 0), sp.defocus_sigma_px)
+        # linear signal relative to full scale: s = x * lux * K * t * G / FW, per channel x wb
+        scale = lux * sp.sensitivity_e_per_lux_ms * exposure.product_ms / sp.full_well_e
+        wb = np.asarray(sp.wb_gains if effects else (1.0, 1.0, 1.0), np.float32)
+        lut = (self._decode[:, None] * np.float32(scale) * wb[None, :]).reshape(256, 1, 3)
+        s = cv2.LUT(np.ascontiguousarray(img), lut)  # (H, W, 3) float32
+        if effects and self._vignette is not None:
+            cv2.multiply(s, self._vignette, dst=s)
+        noisy = effects and (sp.shot_noise or sp.read_noise_e > 0)
+        if noisy:
+            G = exposure.gain
+            a = np.float32(G / sp.full_well_e) if sp.shot_noise else np.float32(0.0)
+            b = np.float32((G * sp.read_noise_e / sp.full_well_e) ** 2)
+            # var(s) = a s + b
+            sigma = cv2.max(s, 0.0)
+            sigma *= a
+            sigma += b
+            cv2.sqrt(sigma, dst=sigma)
+            n = pool.take(rng, s.shape) if pool is not None else rng.standard_normal(s.shape, dtype=np.float32)
+            sigma *= n
+            s += sigma
+        # encode: 255 * clip(s, 0, 1) ** (1 / gamma), rounded (convertScaleAbs saturates at 255)
+        if noisy:
+            cv2.max(s, 0.0, dst=s)
+        if sp.gamma != 1.0:
+            cv2.pow(s, 1.0 / sp.gamma, dst=s)
+        out = cv2.convertScaleAbs(s, alpha=255.0)
+        if effects and sp.jpeg_quality > 0:
+            bgr = cv2.cvtColor(out, cv2.COLOR_RGB2BGR)
+            ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, sp.jpeg_quality])
+            if not ok:
+                raise RuntimeError("JPEG encoding failed")
+            out = cv2.cvtColor(cv2.imdecode(buf, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+        return out
