@@ -56,7 +56,7 @@ from sim.maze import (
     load_maze,
 )
 from sim.maze_gen import generate_maze
-from sim.placement import place_objects
+from sim.placement import assign_placard_looks, place_objects
 from sim.render import SceneRenderer
 from sim.route import Route, load_route_csv, rig_pose, route_from_tour
 from sim.scenario import TURTLEBOT_CAMERA_HEIGHT_M, ColourSpec, MountSpec, Scenario
@@ -187,6 +187,7 @@ class Simulation:
                 )
             self.objects = place_objects(sc, self.maze, rng)
             start_xy, start_yaw = self.maze.cell_center(*self.maze.start_cell), self.maze.start_heading_rad
+        assign_placard_looks(self.objects, sc.seed)
         d = sc.sensors.d435
         self.intrinsics = Intrinsics(width=d.width, height=d.height, fx=d.fx, fy=d.fy, ppx=d.ppx, ppy=d.ppy)
         th = sc.sensors.thermal
