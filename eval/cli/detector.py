@@ -251,6 +251,7 @@ def cmd_train_labels(args) -> int:
 
 def cmd_evaluate_labels(args) -> int:
     """``poibench evaluate-labels``: eval.detector.label_eval on each --data folder, side by side."""
+    import numpy as np
     from tqdm import tqdm
 
     from eval.detector.label_eval import (
@@ -286,7 +287,8 @@ def cmd_evaluate_labels(args) -> int:
         if seed is not None and seed in seeds:
             print(f"note: {args.label_model} was trained on scenes of seed {seed}, as {folder.root} was rendered")
         with tqdm(total=len(folder.images), desc=folder.name, unit="img", disable=args.quiet) as bar:
-            conf, small = label_confusion(classifier, folder.images, args.min_px, progress=bar.update)
+            conf, conf_labels, small = label_confusion(classifier, folder.images, args.min_px, bar.update)
+        labels_only = fold_confusion(conf_labels, args.absent)
         rows.append(
             {
                 "name": folder.name,
@@ -295,6 +297,7 @@ def cmd_evaluate_labels(args) -> int:
                 "held_back_only": cut,
                 "small_left_out": small,
                 **confusion_summary(fold_confusion(conf, args.absent)),
+                "accuracy_labels_only": round(float(np.trace(labels_only) / max(labels_only.sum(), 1)), 4),
                 "confusion_unfolded": conf.tolist(),
             }
         )

@@ -5,7 +5,10 @@ cut as the pipeline cuts a detector's box (:func:`poi.detectors.hazmat_labels.cr
 through :meth:`~poi.detectors.hazmat_labels.HazmatLabelClassifier.classify`,
 with the model's input size and crop margin) and named by the classifier's
 most probable class of :data:`~poi.detectors.hazmat_labels.LABEL_CLASSES`;
-``background`` counts as a wrong name. Boxes with a side under ``min_px``
+``background`` counts as a wrong name; the accuracy with background not
+allowed (the most probable of the 16 labels) is given beside it, telling a
+classifier that cannot read a placard from one that does not take it for
+one. Boxes with a side under ``min_px``
 (default :data:`eval.detector.label_data.MIN_BOX_PX`, the training cut-off)
 are left out and counted. A folder is read by :func:`eval.detector.photos.load_folder`:
 flat ``images/`` + ``labels/`` (labelled photos) or a ``poibench dataset``
@@ -70,11 +73,13 @@ def label_confusion(
     images: Sequence[LabelledImage],
     min_px: float = MIN_BOX_PX,
     progress: Callable[[int], None] | None = None,
-) -> tuple[np.ndarray, int]:
-    """((17, 17) counts, rows true label, columns the classifier's name; boxes left out as too
-    small) over every labelled hazmat box of ``images``."""
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """((17, 17) counts, rows true label, columns the classifier's name; the same with the most
+    probable label named, background not allowed; boxes left out as too small) over every
+    labelled hazmat box of ``images``."""
     n = len(LABEL_CLASSES)
     conf = np.zeros((n, n), dtype=np.int64)
+    conf_labels = np.zeros((n, n), dtype=np.int64)
     small = 0
     for im in images:
         labels = RESCUE_TO_LABEL[im.classes]  # (G,)
@@ -89,11 +94,12 @@ def label_confusion(
             small += int(np.sum(keep & ~big))
             keep &= big
             if keep.any():
-                pred = classifier.classify(rgb, px[keep]).argmax(axis=1)  # (K,)
-                np.add.at(conf, (labels[keep], pred), 1)
+                q = classifier.classify(rgb, px[keep])  # (K, 17)
+                np.add.at(conf, (labels[keep], q.argmax(axis=1)), 1)
+                np.add.at(conf_labels, (labels[keep], np.delete(q, BACKGROUND_INDEX, axis=1).argmax(axis=1)), 1)
         if progress:
             progress(1)
-    return conf, small
+    return conf, conf_labels, small
 
 
 def fold_confusion(conf: np.ndarray, absent: str) -> np.ndarray:
@@ -231,6 +237,8 @@ def format_markdown(summary: dict) -> str:
         else:
             overall.append("-")
     lines.append("| all | " + " | ".join(overall) + " |")
+    no_bg = [f"{100 * f['accuracy_labels_only']:.1f}%" if f["crops"] else "-" for f in folders]
+    lines.append("| all, background not allowed | " + " | ".join(no_bg) + " |")
     for label in LABEL_CLASSES:
         cells = [f["per_class"].get(label) for f in folders]
         if any(cells):

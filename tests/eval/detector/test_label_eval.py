@@ -55,10 +55,11 @@ def _photo(
 
 
 def _colour_model(path: Path, metadata: dict[str, str] | None = None) -> Path:
-    """Mean red -> explosive, mean green -> oxygen, mean blue -> background (weights 30: a
-    square filling 1/1.44 of its crop gives logits about 21 against 0)."""
+    """Mean red -> explosive, mean green -> oxygen, mean blue -> background, then poison (weights
+    30 and 15: a square filling 1/1.44 of its crop gives logits about 21 and 10 against 0)."""
     W = np.zeros((3, len(LABEL_CLASSES)))
     W[0, L("explosive")] = W[1, L("oxygen")] = W[2, L("background")] = 30.0
+    W[2, L("poison")] = 15.0
     return onnx_models.make_colour_label_model(path, W, metadata=metadata)
 
 
@@ -178,14 +179,15 @@ def test_wilson_interval_by_hand():
 
 
 @pytest.mark.parametrize(
-    ("absent", "crops", "right", "per_class"),
+    ("absent", "crops", "right", "per_class", "labels_only"),
     [
-        ("keep", 4, 2, {"explosive": (1, 1), "oxidizer": (1, 0), "oxygen": (1, 1), "poison": (1, 0)}),
-        ("drop", 3, 1, {"explosive": (1, 1), "oxidizer": (1, 0), "poison": (1, 0)}),
-        ("map", 4, 3, {"explosive": (1, 1), "oxidizer": (2, 2), "poison": (1, 0)}),
+        ("keep", 4, 2, {"explosive": (1, 1), "oxidizer": (1, 0), "oxygen": (1, 1), "poison": (1, 0)}, 0.75),
+        ("drop", 3, 1, {"explosive": (1, 1), "oxidizer": (1, 0), "poison": (1, 0)}, 0.6667),
+        ("map", 4, 3, {"explosive": (1, 1), "oxidizer": (2, 2), "poison": (1, 0)}, 1.0),
     ],
 )
-def test_evaluate_labels_counts_by_hand(tmp_path, photos, absent, crops, right, per_class):
+def test_evaluate_labels_counts_by_hand(tmp_path, photos, absent, crops, right, per_class, labels_only):
+    """The blue poison is named background; with background not allowed, poison (right)."""
     model = _colour_model(tmp_path / "colour.onnx")
     out = tmp_path / "out"
     argv = ["evaluate-labels", "--label-model", str(model), "--data", str(photos), str(photos)]
@@ -196,6 +198,7 @@ def test_evaluate_labels_counts_by_hand(tmp_path, photos, absent, crops, right, 
     assert a["confusion"] == b["confusion"]
     assert (a["crops"], a["right"], a["small_left_out"], a["images"]) == (crops, right, 1, 3)
     assert {k: (v["crops"], v["right"]) for k, v in a["per_class"].items()} == per_class
+    assert a["accuracy_labels_only"] == labels_only
     # the unfolded matrix is the same whatever --absent says
     raw = np.array(a["confusion_unfolded"])
     assert raw[L("oxidizer"), L("oxygen")] == 1 and raw[L("poison"), L("background")] == 1 and raw.sum() == 4
