@@ -113,7 +113,8 @@ class PrintLook:
     ``paper`` is the white of the sheet, ``ink_black`` the darkest ink, ``fade`` the
     fraction of colour saturation kept, ``wear`` the fraction of the face with scuffed
     ink, ``creases`` how many fold lines cross it, ``laminated`` whether a glossy film
-    covers it (the scene gives it a specular material); ``seed`` places wear and creases.
+    covers it (the scene gives it a specular material), ``cut`` whether it was cut out
+    along the diamond (else the square sheet shows); ``seed`` places wear and creases.
     """
 
     paper: Color = PAPER
@@ -122,6 +123,7 @@ class PrintLook:
     wear: float = 0.0
     creases: int = 0
     laminated: bool = False
+    cut: bool = False
     seed: int = 0
 
 
@@ -206,6 +208,7 @@ def random_look(rng: np.random.Generator) -> PrintLook:
         wear=float(rng.choice([0.0, 0.0, rng.uniform(0.005, 0.04)])),
         creases=int(rng.choice([0, 0, 0, 1, 2])),
         laminated=bool(rng.random() < 0.5),
+        cut=bool(rng.random() < 0.6),
         seed=int(rng.integers(2**31)),
     )
 
@@ -645,7 +648,7 @@ def _font_width(s: str, cap: float, n: int) -> float:
 
 def _print(img: np.ndarray, look: PrintLook, inside: np.ndarray) -> np.ndarray:
     """Apply paper white, ink density, fading, wear and creases to a float RGB image."""
-    if replace(look, laminated=False) == PrintLook():
+    if replace(look, laminated=False, cut=False) == PrintLook():
         return img
     out = img.copy()
     grey = out.mean(axis=2, keepdims=True)

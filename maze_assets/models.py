@@ -258,11 +258,36 @@ def _quad_mesh(assets: SceneAssets, w: float, h: float) -> str:
     return name
 
 
+def _diamond_mesh(assets: SceneAssets, w: float) -> str:
+    """The diamond inscribed in a w x w quad (as :func:`_quad_mesh`): a placard cut out.
+
+    Vertices top, right, bottom, left as seen from +x; their texcoords are the midpoints
+    of the texture's edges, where the printed diamond's corners are.
+    """
+    name = f"objmesh_diamond_{round(w * 1e4)}"
+    if assets.has(name):
+        return name
+    x, r = QUAD_OFFSET_M, w / 2
+    V = [(x, 0.0, r), (x, r, 0.0), (x, 0.0, -r), (x, -r, 0.0)]
+    F = [(0, 3, 2), (0, 2, 1)]
+    UV = [(0.5, 0.0), (1.0, 0.5), (0.5, 1.0), (0.0, 0.5)]
+    assets.mesh(name, V, F, UV)
+    _set_asset_attr(assets, "mesh", name, inertia="shell")
+    return name
+
+
 def _flat(b: _Body) -> None:
     obj = b.obj
     w, h = flat_extent_m(obj.type, obj.size_m)
     mat, _ = _flat_texture(obj, b.assets)
     backing = _material(b.assets, "card", (0.95, 0.95, 0.94, 1.0))
+    if obj.type == "hazmat" and obj.look_seed is not None and placard_style(obj.text, obj.look_seed).look.cut:
+        # cut out along the diamond: a square plate turned 45 degrees about the normal
+        side = w / np.sqrt(2.0)
+        q45 = [np.cos(np.pi / 8), np.sin(np.pi / 8), 0.0, 0.0]
+        b.box("backing", backing, (0.0, -side / 2, -side / 2), (BACKING_M, side / 2, side / 2), quat=q45)
+        b.geom("face", mat, type="mesh", mesh=_diamond_mesh(b.assets, w))
+        return
     b.box("backing", backing, (0.0, -w / 2, -h / 2), (BACKING_M, w / 2, h / 2))
     b.geom("face", mat, type="mesh", mesh=_quad_mesh(b.assets, w, h))
 

@@ -239,6 +239,28 @@ def test_rolled_placard_turns_about_its_face_normal(roll):
     assert _hue_close(near_yellow, YELLOW), near_yellow
 
 
+def test_cut_placard_is_a_diamond_and_a_sheet_is_a_square():
+    from maze_assets.hazmat import placard_style
+
+    cut = next(k for k in range(100) if placard_style("poison", k).look.cut)
+    sheet = next(k for k in range(100) if not placard_style("poison", k).look.cut)
+    fill = {}
+    for name, seed in (("cut", cut), ("sheet", sheet)):
+        o = _object(0, "hazmat", text="poison", look_seed=seed)
+        model, data, _ = _scene([o], cam_dist_m=1.0)
+        seg = _segmentation(model, data, "cam_0")
+        ids = {
+            mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"poi_0_hazmat_{p}") for p in ("face", "backing")
+        }
+        mask = np.isin(seg[:, :, 0], list(ids))
+        rows, cols = np.nonzero(mask)
+        box = mask[rows.min() : rows.max() + 1, cols.min() : cols.max() + 1]
+        fill[name] = box.mean()
+    # a diamond fills half its bounding box, a square all of it (edge pixels aside)
+    assert abs(fill["cut"] - 0.5) < 0.05, fill
+    assert fill["sheet"] > 0.95, fill
+
+
 def test_rendered_exit_sign_arrow_points_right():
     o = _object(0, "exit-sign")
     model, data, _ = _scene([o], cam_dist_m=1.0)
