@@ -136,6 +136,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=OPERATING_CONF,
         help=f"operating confidence (default {OPERATING_CONF}, the pipeline's detector.conf)",
     )
+    ph.add_argument(
+        "--absent",
+        default="keep",
+        choices=("keep", "map"),
+        help="map: fold labels a coarser photo set lacks into its class, truth and detections alike "
+        "(oxygen->oxidizer, inhalation-hazard->poison, fuel-oil->flammable-gas, blasting-agent->explosive); "
+        "default keep",
+    )
     ph.add_argument("--limit", type=int, help="at most this many images a folder, drawn with --seed")
     ph.add_argument("--seed", type=int, default=0, help="seed of --limit's and the overlay's draws (default 0)")
     ph.add_argument("--overlay", type=int, default=12, help="images a folder on overlay.png (default 12; 0: none)")
@@ -417,7 +425,7 @@ def cmd_evaluate_photos(args) -> int:
     """``poibench evaluate-photos``: eval.detector.photos on each --images folder, side by side."""
     import time
 
-    from eval.detector.photos import FALSE_DETECTION, folder_report, load_folder, write_outputs
+    from eval.detector.photos import FALSE_DETECTION, fold_classes, folder_report, load_folder, write_outputs
     from eval.detector.quality import DetectorQualityError
     from eval.trial.run import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 
@@ -448,12 +456,13 @@ def cmd_evaluate_photos(args) -> int:
     cpu = []
     for folder in folders:
         t0 = time.process_time()
-        results.append(_detect(args, folder.images, args.conf))
+        results.append(fold_classes(_detect(args, folder.images, args.conf), args.absent))
         cpu.append(time.process_time() - t0)
     summary = {
         "model": str(args.model),
         "label_model": args.label_model,
         "conf": args.conf,
+        "absent": args.absent,
         "iou_min": 0.5,
         "seed": args.seed,
         "false_detection": FALSE_DETECTION,

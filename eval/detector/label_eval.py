@@ -52,17 +52,10 @@ import cv2
 import numpy as np
 
 from eval.detector.label_data import BACKGROUND_INDEX, MIN_BOX_PX, RESCUE_TO_LABEL, image_key, read_holdout
-from eval.detector.photos import PhotoFolder, load_folder
+from eval.detector.photos import REAL_SET_FOLD, PhotoFolder, load_folder
 from eval.detector.quality import DetectorQualityError, LabelledImage, plot_confusion
 from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
 
-# The real photo set's coarser classes: a rendered label absent there -> the real class holding it.
-REAL_SET_FOLD: dict[str, str] = {
-    "oxygen": "oxidizer",
-    "inhalation-hazard": "poison",
-    "fuel-oil": "flammable-gas",
-    "blasting-agent": "explosive",
-}
 ABSENT_MODES = ("keep", "drop", "map")
 TOP_CONFUSIONS = 10
 Z95 = 1.959963984540054  # two-sided 95% normal quantile

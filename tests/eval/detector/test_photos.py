@@ -12,7 +12,7 @@ import pytest
 
 from eval.cli.main import main
 from eval.detector.metrics import ImageBoxes
-from eval.detector.photos import folder_report, load_folder
+from eval.detector.photos import fold_classes, folder_report, load_folder
 from eval.detector.quality import DetectorQualityError
 from poi.core.names import CLASS_INDEX
 
@@ -201,3 +201,22 @@ def test_missing_folder_and_empty_folder_are_one_line_errors(tmp_path):
     _write(tmp_path / "e" / "images" / "x.jpg", _grey())
     with pytest.raises(DetectorQualityError, match=r"e: no labels/ folder"):
         load_folder(tmp_path / "e")
+
+
+def test_absent_map_folds_labels_the_photo_set_lacks():
+    # an INHALATION HAZARD placard the set labels poison, named inhalation-hazard; an OXYGEN
+    # placard labelled oxidizer, named oxygen; a poison named poison; a corrosive named poison
+    im = _im(
+        [[0, 0, 40, 40], [100, 0, 140, 40], [200, 0, 240, 40], [300, 0, 340, 40]],
+        ["poison", "oxidizer", "poison", "corrosive"],
+        [[0, 0, 40, 40], [100, 0, 140, 40], [200, 0, 240, 40], [300, 0, 340, 40]],
+        ["inhalation-hazard", "oxygen", "poison", "poison"],
+        [0.9, 0.9, 0.9, 0.9],
+    )
+    kept = folder_report(fold_classes([im], "keep"), conf=0.4)
+    mapped = folder_report(fold_classes([im], "map"), conf=0.4)
+    assert kept["hazmat"]["right"] == 1  # only the poison named poison
+    assert mapped["hazmat"]["right"] == 3  # inhalation-hazard -> poison, oxygen -> oxidizer
+    assert mapped["hazmat"]["boxes"] == kept["hazmat"]["boxes"] == 4
+    with pytest.raises(DetectorQualityError, match="--absent must be one of keep, map"):
+        fold_classes([im], "drop")
