@@ -19,6 +19,7 @@ import mujoco  # noqa: E402
 import numpy as np
 
 import sim.gl  # noqa: F401  (must precede the mujoco import)
+from maze_assets.clutter import build_clutter, place_clutter  # noqa: E402
 from maze_assets.mjcf import SceneAssets, fmt  # noqa: E402
 from maze_assets.models import build_object, door_frame_extent_m  # noqa: E402
 from maze_assets.objects import PlacedObject  # noqa: E402
@@ -112,6 +113,7 @@ def _lights(
         raise ValueError(f"lighting: expected bright, dim or uneven, got {lighting!r}")
 
 
+CLUTTER_PER_CELL = 0.3  # distractors a maze cell (maze_assets/clutter.py)
 WALL_MATERIALS = 3  # wall sheet looks per scenario, each wall piece takes one
 WALL_KIND_SHARES = (0.5, 0.3, 0.2)  # osb, plywood, painted
 FLOOR_KIND_SHARES = (0.5, 0.3, 0.2)  # plywood, osb, painted
@@ -302,6 +304,8 @@ def build_world_xml(
             conaffinity="0",
         )
     _hall(world, assets, maze, rng)
+    for el in build_clutter(place_clutter(maze, objects, rng, CLUTTER_PER_CELL), assets):
+        world.append(el)
     for obj in objects:
         world.append(build_object(obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m))
 
