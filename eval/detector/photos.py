@@ -48,7 +48,7 @@ import cv2
 import numpy as np
 
 from eval.detector.metrics import ImageBoxes, match_classes_first, recall_by_size
-from eval.detector.quality import DetectorQualityError, LabelledImage, _read_label_file
+from eval.detector.quality import DetectorQualityError, LabelledImage, labelled_image
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png")
@@ -108,19 +108,8 @@ def load_folder(root: str | Path, limit: int | None = None, seed: int = 0, name:
         pairs = [pairs[i] for i in pick]
     images, without = [], 0
     for split, img in pairs:
-        lab = root / "labels" / split / f"{img.stem}.txt"
-        without += not lab.exists()
-        labels = _read_label_file(lab)
-        ignore = _read_label_file(root / "ignore" / split / f"{img.stem}.txt")
-        images.append(
-            LabelledImage(
-                path=img,
-                boxes_norm=labels[:, 1:],
-                classes=labels[:, 0].astype(int),
-                ignore_norm=ignore[:, 1:],
-                ignore_classes=ignore[:, 0].astype(int),
-            )
-        )
+        without += not (root / "labels" / split / f"{img.stem}.txt").exists()
+        images.append(labelled_image(root, split, img))
     return PhotoFolder(
         root=root, name=name or root.name, images=images, without_labels=without, total_images=total
     )

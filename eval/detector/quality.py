@@ -111,6 +111,20 @@ def model_training_seeds(model: str | Path) -> set[int]:
     return {s for s in [*listed, _seed_of(meta.get(SEED_METADATA_KEY))] if s is not None}
 
 
+def labelled_image(root: Path, split: str, img: Path) -> LabelledImage:
+    """``img`` with its boxes from ``root/labels/split`` and ``root/ignore/split`` (same stem;
+    a missing file: no boxes). ``split`` "" reads a flat folder's ``labels/``."""
+    labels = _read_label_file(root / "labels" / split / f"{img.stem}.txt")
+    ignore = _read_label_file(root / "ignore" / split / f"{img.stem}.txt")
+    return LabelledImage(
+        path=img,
+        boxes_norm=labels[:, 1:],
+        classes=labels[:, 0].astype(int),
+        ignore_norm=ignore[:, 1:],
+        ignore_classes=ignore[:, 0].astype(int),
+    )
+
+
 def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
     """Images (paths) and labels of one split of a YOLO dataset folder; the images are read
     once, by :func:`detect_all`."""
@@ -118,19 +132,7 @@ def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
     img_dir = root / "images" / split
     if not img_dir.is_dir():
         raise DetectorQualityError(f"{img_dir}: no such folder; give a folder written by 'poibench dataset'")
-    out = []
-    for img in sorted(img_dir.glob("*.jpg")):
-        labels = _read_label_file(root / "labels" / split / f"{img.stem}.txt")
-        ignore = _read_label_file(root / "ignore" / split / f"{img.stem}.txt")
-        out.append(
-            LabelledImage(
-                path=img,
-                boxes_norm=labels[:, 1:],
-                classes=labels[:, 0].astype(int),
-                ignore_norm=ignore[:, 1:],
-                ignore_classes=ignore[:, 0].astype(int),
-            )
-        )
+    out = [labelled_image(root, split, img) for img in sorted(img_dir.glob("*.jpg"))]
     if not out:
         raise DetectorQualityError(f"{img_dir}: no images")
     return out

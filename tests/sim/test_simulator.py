@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
+from maze_assets.hazmat import placard_style
 from poi.core.geometry import transform_points
 from poi.core.names import RESCUE_TYPES
 from sim.scenario import apply_settings, load_scenario, with_noise
@@ -13,6 +14,10 @@ from sim.simulator import Simulation
 
 FLAT_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign")
 STRIDE = 4  # every 4th frame of the 10 fps route: 2.5 frames a second is plenty to see each object
+
+
+def _cut(o) -> bool:
+    return o.look_seed is not None and placard_style(o.text, o.look_seed).look.cut
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +45,10 @@ def test_deprojected_box_centres_land_on_true_map_positions(clean_default):
         K = frame.intrinsics
         for v in ft.visible:
             x1, y1, x2, y2 = v.box_xyxy
-            if v.type not in FLAT_TYPES or v.visible_fraction < 0.9 or min(x2 - x1, y2 - y1) < 20:
+            # a placard cut out along its diamond reads at most about half visible: the
+            # estimate of its unoccluded area is too large (known, to fix in Simulation)
+            full = 0.45 if v.type == "hazmat" and _cut(placed[v.id]) else 0.9
+            if v.type not in FLAT_TYPES or v.visible_fraction < full or min(x2 - x1, y2 - y1) < 20:
                 continue
             if x1 <= 0 or y1 <= 0 or x2 >= K.width or y2 >= K.height:
                 continue
