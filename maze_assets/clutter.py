@@ -21,6 +21,7 @@ CLUTTER_KINDS = ("crate", "bucket", "pipe", "cable", "box", "debris")
 CLUTTER_SHARES = (0.2, 0.2, 0.2, 0.15, 0.15, 0.1)
 POI_CLEARANCE_M = 0.6  # no distractor this close (in plan) to a point of interest
 ITEM_SPACING_M = 0.4
+MIN_CELL_M = 0.9  # smaller cells (RMRC lanes) get no distractors
 BUCKET_RGBA = ((0.95, 0.45, 0.1, 1), (0.92, 0.92, 0.9, 1), (0.12, 0.12, 0.13, 1), (0.15, 0.35, 0.75, 1))
 PIPE_RGBA = ((0.55, 0.57, 0.6, 1), (0.9, 0.88, 0.85, 1), (0.95, 0.5, 0.15, 1), (0.15, 0.15, 0.16, 1))
 CABLE_RGBA = ((0.08, 0.08, 0.08, 1), (0.95, 0.55, 0.1, 1), (0.9, 0.8, 0.1, 1), (0.2, 0.3, 0.8, 1))
@@ -40,9 +41,15 @@ class ClutterItem:
 def place_clutter(
     maze, objects: list[PlacedObject], rng: np.random.Generator, per_cell: float
 ) -> list[ClutterItem]:
-    """About ``per_cell`` distractors a maze cell, each against a wall face, clear of the POIs."""
+    """About ``per_cell`` distractors a maze cell, each against a wall face, clear of the POIs.
+
+    None in mazes with cells under ``MIN_CELL_M``: a crate 0.2 m off the wall would fill an
+    RMRC lane (0.3 m cells) that the robot has to drive.
+    """
     if per_cell < 0:
         raise ValueError(f"clutter per cell must be >= 0, got {per_cell}")
+    if maze.settings.cell_size_m < MIN_CELL_M:
+        return []
     faces = list(maze.wall_faces())
     n = int(round(per_cell * maze.rows * maze.cols))
     poi_xy = np.array([o.position[:2] for o in objects]).reshape(-1, 2)

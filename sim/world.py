@@ -113,7 +113,6 @@ def _lights(
         raise ValueError(f"lighting: expected bright, dim or uneven, got {lighting!r}")
 
 
-CLUTTER_PER_CELL = 0.3  # distractors a maze cell (maze_assets/clutter.py)
 WALL_MATERIALS = 3  # wall sheet looks per scenario, each wall piece takes one
 WALL_KIND_SHARES = (0.5, 0.3, 0.2)  # osb, plywood, painted
 FLOOR_KIND_SHARES = (0.5, 0.3, 0.2)  # plywood, osb, painted
@@ -199,11 +198,13 @@ def build_world_xml(
     *,
     obstacles: Sequence[Obstacle] = (),
     light_height_m: float | None = None,
+    clutter_per_cell: float = 0.0,
 ) -> tuple[str, dict[str, bytes]]:
     """The MJCF text and its in-memory assets (PNG textures).
 
     ``obstacles`` (the goal arena's cubes, not POIs) are plywood boxes named by their
-    ``name``; ``light_height_m``: see :func:`_lights`.
+    ``name``; ``light_height_m``: see :func:`_lights`; ``clutter_per_cell``: distractors
+    (``clutter_*`` geoms) a maze cell on average.
     """
     root = ET.Element("mujoco", model="poibench")
     ET.SubElement(root, "compiler", angle="radian")
@@ -304,7 +305,7 @@ def build_world_xml(
             conaffinity="0",
         )
     _hall(world, assets, maze, rng)
-    for el in build_clutter(place_clutter(maze, objects, rng, CLUTTER_PER_CELL), assets):
+    for el in build_clutter(place_clutter(maze, objects, rng, clutter_per_cell), assets):
         world.append(el)
     for obj in objects:
         world.append(build_object(obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m))
@@ -324,9 +325,17 @@ def build_world(
     *,
     obstacles: Sequence[Obstacle] = (),
     light_height_m: float | None = None,
+    clutter_per_cell: float = 0.0,
 ) -> World:
     xml, files = build_world_xml(
-        maze, objects, intr, lighting, rng, obstacles=obstacles, light_height_m=light_height_m
+        maze,
+        objects,
+        intr,
+        lighting,
+        rng,
+        obstacles=obstacles,
+        light_height_m=light_height_m,
+        clutter_per_cell=clutter_per_cell,
     )
     model = mujoco.MjModel.from_xml_string(xml, files)
     data = mujoco.MjData(model)
