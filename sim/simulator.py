@@ -640,7 +640,12 @@ class Simulation:
         return out
 
     def _object_geom_corners(self) -> dict[int, list[np.ndarray]]:
-        """World-frame corners (8, 3) of each object geom's bounding box; objects never move."""
+        """World-frame points whose convex hull holds each object geom; objects never move.
+
+        A mesh gives its vertices (its bounding box can be twice its area: a placard cut
+        along its diamond fills half the square around it), any other geom the 8 corners of
+        its bounding box.
+        """
         m, d = self.world.model, self.world.data
         mujoco.mj_kinematics(m, d)
         signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -648,18 +653,23 @@ class Simulation:
         for g, oid in enumerate(self.world.geom_object_id):
             if oid < 0:
                 continue
-            aabb = m.geom_aabb[g]
-            corners_local = aabb[:3] + signs * aabb[3:]
+            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+                mesh = int(m.geom_dataid[g])
+                adr, num = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
+                corners_local = m.mesh_vert[adr : adr + num].astype(float)
+            else:
+                aabb = m.geom_aabb[g]
+                corners_local = aabb[:3] + signs * aabb[3:]
             out.setdefault(int(oid), []).append(corners_local @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g])
         return out
 
     def _unoccluded_pixels(self, oid: int, T_optical_world: np.ndarray) -> int:
         """Pixels the object would cover with nothing in front and no image border.
 
-        The union of each of its geoms' projected bounding boxes (convex hulls),
-        rasterised; counts pixels off the image too, so the visible fraction
-        includes truncation. An estimate for round shapes (their boxes are a little
-        larger than their silhouettes).
+        The union of each of its geoms' projected hulls (mesh vertices or bounding-box
+        corners, :meth:`_object_geom_corners`), rasterised; counts pixels off the image
+        too, so the visible fraction includes truncation. An estimate for round shapes
+        (their boxes are a little larger than their silhouettes).
         """
         intr = self.intrinsics
         polys = []
