@@ -44,6 +44,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument(
         "--threads", type=int, default=os.cpu_count() or 1, help="torch CPU threads (default: every core)"
     )
+    t.add_argument(
+        "--placards",
+        choices=("named", "one"),
+        default="named",
+        help="named: a class per hazmat label (default); one: one class 'hazmat' that finds placards, "
+        "named by the label classifier (train-labels)",
+    )
     t.set_defaults(func=cmd_train)
 
     lt = sub.add_parser(
@@ -231,6 +238,7 @@ def cmd_train(args) -> int:
             device=args.device,
             workers=args.workers,
             threads=args.threads,
+            placards=args.placards,
         )
     )
     print(f"model: {out}")
