@@ -164,10 +164,10 @@ class _Body:
 
     def __init__(self, obj: PlacedObject, assets: SceneAssets) -> None:
         self.obj, self.assets = obj, assets
-        if obj.roll == 0.0:
+        if obj.roll == 0.0 and obj.tilt == 0.0:
             turn = {"euler": fmt([0.0, 0.0, obj.yaw])}
-        else:  # yaw about world z, then the roll about the face normal (+x)
-            x, y, z, w = Rotation.from_euler("ZX", [obj.yaw, obj.roll]).as_quat()
+        else:  # yaw about world z, the tilt lifting the face normal (+x) up, the roll about it
+            x, y, z, w = Rotation.from_euler("ZYX", [obj.yaw, -obj.tilt, obj.roll]).as_quat()
             turn = {"quat": fmt([w, x, y, z])}
         self.el = ET.Element("body", name=obj.body_name, pos=fmt(obj.position), **turn)
         self._parts: set[str] = set()

@@ -36,7 +36,9 @@ class PlacedObject:
     is what the thermal camera sees on its surface (None: ambient). ``look_seed``
     picks a placard's printed variant (maze_assets.hazmat.placard_style; None: the
     canonical design). ``roll`` turns a flat item about its face normal (radians,
-    counter-clockwise as a viewer facing it sees it).
+    counter-clockwise as a viewer facing it sees it). ``tilt`` lifts the face normal
+    from horizontal towards +z (radians; pi/2: lying face up on the floor, its top edge
+    towards ``yaw`` + pi).
     """
 
     id: int
@@ -50,6 +52,7 @@ class PlacedObject:
     wall: str | None = None  # name of the wall segment it hangs on or replaces
     look_seed: int | None = None
     roll: float = 0.0
+    tilt: float = 0.0
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:

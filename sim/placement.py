@@ -240,6 +240,42 @@ def assign_placard_looks(objects: list[PlacedObject], seed: int) -> None:
             o.roll = float(rng.uniform(-np.pi, np.pi))
 
 
+FLOOR_PLACARD_OUT_M = (0.05, 0.2)  # gap between a floor placard and its wall (RRL scale)
+
+
+def lay_placards_on_floor(objects: list[PlacedObject], share: float, seed: int, maze) -> None:
+    """Lay about ``share`` of the wall placards face up on the floor in front of their wall.
+
+    Real arenas have placards on floors and ramps as well as on walls. Each placard is
+    chosen, and its distance out from the wall drawn, from a seed sequence of the scenario
+    seed and its id, so the stream that placed the objects is untouched; its position along
+    the wall and its in-plane turn stay. The reference point is the face's centre, just
+    above the floor. One that would lie against another object stays on its wall.
+    """
+    from maze_assets.models import BACKING_M
+
+    if not 0.0 <= share <= 1.0:
+        raise PlacementError(f"hazmat_on_floor must be in [0, 1], got {share}")
+    if share == 0.0:
+        return
+    s = _scale(maze)
+    for o in objects:
+        if o.type != "hazmat" or o.mount != "wall":
+            continue
+        rng = np.random.default_rng(np.random.SeedSequence([int(seed), o.id, 174]))
+        if rng.random() >= share:
+            continue
+        normal = np.array([np.cos(o.yaw), np.sin(o.yaw)])
+        out = float(rng.uniform(*FLOOR_PLACARD_OUT_M)) * s + 0.5 * o.size_m
+        xy = o.position[:2] + normal * out
+        if any(p is not o and np.hypot(*(p.position[:2] - xy)) < o.size_m + 0.1 * s for p in objects):
+            continue  # it would lie on or against another object: it stays on the wall
+        o.position = np.array([xy[0], xy[1], BACKING_M + 0.001])
+        o.mount = "floor"
+        o.tilt = float(np.pi / 2)
+        o.wall = None
+
+
 def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedObject]:
     """All objects of a scenario: the explicit ones, then the generated ones (ids in that order)."""
     objects: list[PlacedObject] = []

@@ -134,6 +134,9 @@ class ObjectsGenerate:
     wall_height_m: tuple[float, float] = (0.2, 1.5)
     labels: list[str] | None = None  # hazmat labels to draw from (default: all 16)
     qr_texts: list[str] | None = None  # QR contents to use in order (default: "Chart A", ...)
+    # share of the placards laid face up on the floor in front of their wall (sim.placement.
+    # lay_placards_on_floor); the dataset generator lays some there, trials keep them on walls
+    hazmat_on_floor: float = number(0.0, lo=0.0, hi=1.0)
 
     def __post_init__(self) -> None:
         for t, n in self.counts.items():

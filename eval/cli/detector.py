@@ -28,6 +28,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=HAZMAT_PER_SCENARIO,
         help=f"hazmat placards per scenario (default {HAZMAT_PER_SCENARIO}; 16: every label in every scenario)",
     )
+    d.add_argument(
+        "--hazmat-on-floor",
+        type=float,
+        default=0.25,
+        help="share of the placards laid face up on the floor (default 0.25; trials keep theirs on walls)",
+    )
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=cmd_dataset)
 
@@ -43,6 +49,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--workers", type=int, default=2)
     t.add_argument(
         "--threads", type=int, default=os.cpu_count() or 1, help="torch CPU threads (default: every core)"
+    )
+    t.add_argument(
+        "--placards",
+        choices=("named", "one"),
+        default="named",
+        help="named: a class per hazmat label (default); one: one class 'hazmat' that finds placards, "
+        "named by the label classifier (train-labels)",
     )
     t.set_defaults(func=cmd_train)
 
@@ -203,6 +216,7 @@ def cmd_dataset(args) -> int:
         images_per_scenario=args.per_scenario,
         val_every=args.val_every,
         counts={**DatasetSpec.default_counts(), "hazmat": args.hazmat},
+        hazmat_on_floor=args.hazmat_on_floor,
     )
     with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:
         summary = write_dataset(spec, args.out, progress=bar.update)
@@ -231,6 +245,7 @@ def cmd_train(args) -> int:
             device=args.device,
             workers=args.workers,
             threads=args.threads,
+            placards=args.placards,
         )
     )
     print(f"model: {out}")

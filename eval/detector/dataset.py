@@ -73,6 +73,7 @@ class DatasetSpec:
     min_box_px: float = 4.0
     blur_fraction: float = 0.3
     rmrc_fraction: float = 0.25  # scenarios on the smaller RMRC lane preset
+    hazmat_on_floor: float = 0.25  # placards laid on the floor (real photos show many there)
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
     jpeg_quality: int = 95
     camera: CameraRandomisation | None = field(default_factory=lambda: CameraRandomisation())
@@ -93,6 +94,8 @@ class DatasetSpec:
             raise DatasetError(f"distance_m must be 0 < min < max, got {self.distance_m}")
         if not 0 <= self.max_angle_deg < 90:
             raise DatasetError(f"max_angle_deg must be in [0, 90), got {self.max_angle_deg}")
+        if not 0.0 <= self.hazmat_on_floor <= 1.0:
+            raise DatasetError(f"--hazmat-on-floor must be in [0, 1], got {self.hazmat_on_floor}")
         bad = {k: v for k, v in self.counts.items() if not isinstance(v, int) or v < 0}
         if bad:
             raise DatasetError(f"object counts must be whole numbers >= 0, got {bad}")
@@ -136,7 +139,11 @@ def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
         seed=int(rng.integers(2**31)),
         maze=MazeSpec(generate=MazeGenerate(rows=rows, cols=cols, preset=preset)),
         objects=ObjectsSpec(
-            generate=ObjectsGenerate(counts=dict(spec.counts), labels=sorted(set(labels)) if n else None)
+            generate=ObjectsGenerate(
+                counts=dict(spec.counts),
+                labels=sorted(set(labels)) if n else None,
+                hazmat_on_floor=spec.hazmat_on_floor,
+            )
         ),
         lighting=lighting,
     )

@@ -12,6 +12,12 @@ epoch, ``weights/best.pt``, ``results.csv``, plots) and, at the end,
 metadata. Running the same command again resumes an interrupted run from
 ``weights/last.pt``; a finished run (``model.onnx`` present) is left alone.
 
+``placards="one"`` (``--placards one``) trains one class, ``hazmat``, for the 16
+labels: the model finds placards and the label classifier (``poibench train-labels``)
+names them from the full-resolution crop, as the pipeline does anyway. The labels are
+rewritten into ``RUN/data-placards`` (the images are linked, not copied), so each
+placard class no longer has a sixteenth of the examples to learn from.
+
 References
 ----------
 Full entries in docs/SOURCES.md.
@@ -27,7 +33,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from poi.core.loader import safe_load_file
-from poi.core.names import RESCUE_CLASSES
+from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
+
+PLACARD_CLASS = "hazmat"  # the one class for every label with --placards one
+PLACARD_MODES = ("named", "one")
 
 
 class TrainError(ValueError):
@@ -46,11 +55,14 @@ class TrainSpec:
     device: str = "cpu"
     workers: int = 2
     threads: int = field(default_factory=lambda: os.cpu_count() or 1)
+    placards: str = "named"  # 'one': one class for the 16 labels, named by the label classifier
 
     def __post_init__(self) -> None:
         for name in ("epochs", "imgsz", "batch", "threads"):
             if getattr(self, name) < 1:
                 raise TrainError(f"--{name} must be at least 1, got {getattr(self, name)}")
+        if self.placards not in PLACARD_MODES:
+            raise TrainError(f"--placards must be one of {', '.join(PLACARD_MODES)}, got {self.placards!r}")
         if self.imgsz % 32:
             raise TrainError(f"--imgsz must be a multiple of 32 (the model's stride), got {self.imgsz}")
 
@@ -72,6 +84,50 @@ def data_yaml(data: str | Path) -> Path:
             "(the rescue classes, poi.core.names.RESCUE_CLASSES)"
         )
     return p
+
+
+def placard_dataset(data: Path, dst: Path) -> Path:
+    """A copy of dataset ``data`` (its data.yaml) with the 16 hazmat labels as one class.
+
+    Class k < 16 becomes 0 (``hazmat``), class k >= 16 becomes k - 15; ``images/`` are
+    links to the source's folders. Rewritten on every call (cheap), so it follows the
+    source. Returns the new data.yaml.
+    """
+    import yaml
+
+    src = data.parent
+    n = len(HAZMAT_LABELS)
+    names = [PLACARD_CLASS, *RESCUE_CLASSES[n:]]
+    for split in ("train", "val"):
+        images = src / "images" / split
+        if not images.is_dir():
+            raise TrainError(f"{images}: no such folder; give a folder written by 'poibench dataset'")
+        link = dst / "images" / split
+        link.parent.mkdir(parents=True, exist_ok=True)
+        if not link.is_symlink():
+            link.symlink_to(images.resolve(), target_is_directory=True)
+        out = dst / "labels" / split
+        out.mkdir(parents=True, exist_ok=True)
+        for f in sorted((src / "labels" / split).glob("*.txt")):
+            rows = []
+            for lineno, line in enumerate(f.read_text().splitlines(), 1):
+                parts = line.split()
+                if not parts:
+                    continue
+                try:
+                    k = int(parts[0])
+                except ValueError:
+                    raise TrainError(f"{f}:{lineno}: class index {parts[0]!r} is not an integer") from None
+                if not 0 <= k < len(RESCUE_CLASSES):
+                    raise TrainError(f"{f}:{lineno}: class index {k} is not in 0..{len(RESCUE_CLASSES) - 1}")
+                rows.append(" ".join([str(0 if k < n else k - n + 1), *parts[1:]]))
+            (out / f.name).write_text("".join(r + "\n" for r in rows))
+        (out.parent / f"{split}.cache").unlink(missing_ok=True)  # Ultralytics' label cache
+    doc = {"path": str(dst.resolve()), "train": "images/train", "val": "images/val", "nc": len(names)}
+    doc["names"] = dict(enumerate(names))
+    target = dst / "data.yaml"
+    target.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return target
 
 
 def _ultralytics():
@@ -105,6 +161,9 @@ def train(spec: TrainSpec) -> Path:
     data = data_yaml(spec.data)
     ul = _ultralytics()
     out = Path(spec.out).resolve()
+    source = data
+    if spec.placards == "one":
+        data = placard_dataset(data, out / "data-placards")
     onnx_path = out / "model.onnx"
     if onnx_path.exists():
         return onnx_path
@@ -138,7 +197,7 @@ def train(spec: TrainSpec) -> Path:
     if not best.exists():
         raise TrainError(f"{best}: training ended without a best checkpoint")
     exported = Path(ul.YOLO(str(best)).export(format="onnx", imgsz=spec.imgsz, dynamic=False, simplify=False))
-    _stamp_dataset_seed(exported, onnx_path, data)
+    _stamp_dataset_seed(exported, onnx_path, source)
     return onnx_path
 
 

@@ -85,6 +85,9 @@ HAZMAT_LABELS: tuple[str, ...] = (
 )
 
 TYPE_ALIASES: dict[str, str] = {
+    "placard": "hazmat",
+    "hazmat-placard": "hazmat",
+    "hazmat-sign": "hazmat",
     "qrcode": "qr",
     "qr-code": "qr",
     "doll": "baby-doll",

@@ -65,7 +65,14 @@ from typing import Any
 import cv2
 import numpy as np
 
-from poi.core.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS, class_domain, class_to_identity
+from poi.core.names import (
+    CLASS_INDEX,
+    CLASSES,
+    HAZMAT_LABELS,
+    canonical_type,
+    class_domain,
+    class_to_identity,
+)
 from poi.core.types import Detection, Frame
 from poi.detectors.base import (
     DetectorConfigError,
@@ -309,7 +316,8 @@ class OnnxYoloDetector:
     model's 16 hazmat classes and 'qr' then compete as one in NMS, a placard's
     confidence is s q_label (s the model's score, q the classifier's), and a
     'qr' box the classifier sees as a placard becomes one
-    (:meth:`_name_placards`).
+    (:meth:`_name_placards`). A model class 'hazmat' (or 'placard') finds placards
+    without naming them (``poibench train --placards one``); it needs ``label_model``.
     ``last_timing_ms`` holds the last frame's preprocess / inference /
     postprocess / labels / qr times in milliseconds.
     """
@@ -414,6 +422,16 @@ class OnnxYoloDetector:
         for j, model_name in enumerate(model_names):
             target = class_map.get(model_name, model_name)
             if target is None:
+                continue
+            if canonical_type(str(target)) == "hazmat":
+                # a placard the model finds but does not name (class 'hazmat' or 'placard'):
+                # it stands in the placards' group and the label classifier names it
+                if self.label_model is None:
+                    raise DetectorConfigError(
+                        f"detector 'onnx': model class {model_name!r} finds placards without naming their "
+                        "label; give the label classifier that names them (detector.options.label_model)"
+                    )
+                ours[j] = HAZMAT_INDICES[0]
                 continue
             name = canonical_class(str(target))
             if name is None:

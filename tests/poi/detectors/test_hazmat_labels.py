@@ -156,3 +156,19 @@ def test_a_qr_box_the_classifier_reads_as_a_placard_becomes_one(tmp_path):
     # background (which includes QR codes) beats every label: the box stays the model's qr
     (blue,) = det.detect(_frame(_painted((0, 0, 255))))
     assert blue.class_name == "qr" and blue.confidence == pytest.approx(0.7, abs=1e-6)
+
+
+def test_a_model_that_finds_placards_without_naming_them_needs_and_uses_the_classifier(tmp_path):
+    # one 'hazmat' class: the classifier names the green box oxidizer; s q_top as for a named one
+    meta = {"names": "{0: 'hazmat', 1: 'door'}", "task": "detect", "imgsz": "[320, 320]"}
+    out = yolov8_output([[100, 140, 40, 60], [250, 200, 40, 40]], [[0.8, 0], [0, 0.9]], 50)
+    model = make_constant_model(tmp_path / "det.onnx", out, metadata=meta)
+    with pytest.raises(DetectorConfigError, match="model class 'hazmat' finds placards without naming"):
+        OnnxYoloDetector(model=model, read_qr=False)
+    label = make_colour_label_model(tmp_path / "l.onnx", _weights())
+    det = OnnxYoloDetector(model=model, label_model=label, read_qr=False)
+    door, green = det.detect(_frame(_painted((0, 255, 0))))
+    assert (green.type, green.text) == ("hazmat", "oxidizer") and door.class_name == "door"
+    assert green.confidence == pytest.approx(0.8 * Q_TOP, rel=1e-5)
+    assert green.class_probs[CLASS_INDEX["explosive"]] == pytest.approx(0.8 * Q_REST, rel=1e-4)
+    assert green.class_probs.sum() == pytest.approx(1.0, abs=1e-9)

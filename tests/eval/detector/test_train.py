@@ -1,0 +1,56 @@
+"""poibench train's dataset preparation (the training itself needs the 'train' extra)."""
+
+import pytest
+import yaml
+
+from eval.detector.train import TrainError, TrainSpec, data_yaml, placard_dataset
+from poi.core.names import CLASS_INDEX, RESCUE_CLASSES
+
+
+def _dataset(root, rows_by_file):
+    for split in ("train", "val"):
+        (root / "images" / split).mkdir(parents=True)
+        (root / "labels" / split).mkdir(parents=True)
+    for name, rows in rows_by_file.items():
+        (root / "images" / "train" / f"{name}.png").write_bytes(b"png")
+        (root / "labels" / "train" / f"{name}.txt").write_text("".join(r + "\n" for r in rows))
+    doc = {"path": str(root), "train": "images/train", "val": "images/val", "nc": 24}
+    doc["names"] = dict(enumerate(RESCUE_CLASSES))
+    (root / "data.yaml").write_text(yaml.safe_dump(doc))
+    return data_yaml(root)
+
+
+def test_one_placard_class_keeps_the_other_types_in_order(tmp_path):
+    ox, door, qr = CLASS_INDEX["oxidizer"], CLASS_INDEX["door"], CLASS_INDEX["qr"]
+    data = _dataset(
+        tmp_path / "d",
+        {"a": [f"{ox} 0.5 0.5 0.1 0.2", f"{door} 0.2 0.3 0.1 0.4"], "b": [f"{qr} 0.1 0.1 0.05 0.05"]},
+    )
+    out = placard_dataset(data, tmp_path / "run" / "data-placards")
+    doc = yaml.safe_load(out.read_text())
+    names = [doc["names"][k] for k in sorted(doc["names"])]
+    assert names == ["hazmat", "qr", "door", "valve", "baby-doll", "fire-extinguisher", "exit-sign",
+                     "fire-extinguisher-sign", "heat-source"]  # fmt: skip
+    assert doc["nc"] == 9
+    labels = out.parent / "labels" / "train"
+    # oxidizer (a label) -> 0; door (index 17 of 24) -> 17 - 15 = 2; qr (16) -> 1
+    assert (labels / "a.txt").read_text() == "0 0.5 0.5 0.1 0.2\n2 0.2 0.3 0.1 0.4\n"
+    assert (labels / "b.txt").read_text() == "1 0.1 0.1 0.05 0.05\n"
+    assert (out.parent / "images" / "train" / "a.png").read_bytes() == b"png"  # linked, not copied
+    assert (out.parent / "images" / "train").is_symlink()
+    placard_dataset(data, tmp_path / "run" / "data-placards")  # a rerun rewrites in place
+    assert (labels / "a.txt").read_text().startswith("0 0.5")
+
+
+def test_a_bad_label_line_names_its_file_and_line(tmp_path):
+    data = _dataset(tmp_path / "d", {"a": ["3 0.5 0.5 0.1 0.1", "x 0.5 0.5 0.1 0.1"]})
+    with pytest.raises(TrainError, match=r"a\.txt:2: class index 'x' is not an integer"):
+        placard_dataset(data, tmp_path / "out")
+    data = _dataset(tmp_path / "e", {"a": ["24 0.5 0.5 0.1 0.1"]})
+    with pytest.raises(TrainError, match=r"a\.txt:1: class index 24 is not in 0\.\.23"):
+        placard_dataset(data, tmp_path / "out2")
+
+
+def test_placards_mode_is_checked():
+    with pytest.raises(TrainError, match="--placards must be one of named, one, got 'some'"):
+        TrainSpec(data="d", out="o", placards="some")
