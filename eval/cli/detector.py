@@ -34,6 +34,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=0.25,
         help="share of the placards laid face up on the floor (default 0.25; trials keep theirs on walls)",
     )
+    d.add_argument(
+        "--camera",
+        choices=("random", "trial"),
+        default="random",
+        help="random: each image draws its colour camera from wide ranges (for training, default); "
+        "trial: the trial's D435 defaults on a still camera (to compare renders with real photos)",
+    )
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=cmd_dataset)
 
@@ -217,6 +224,7 @@ def cmd_dataset(args) -> int:
         val_every=args.val_every,
         counts={**DatasetSpec.default_counts(), "hazmat": args.hazmat},
         hazmat_on_floor=args.hazmat_on_floor,
+        **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),
     )
     with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:
         summary = write_dataset(spec, args.out, progress=bar.update)

@@ -174,3 +174,20 @@ def test_existing_24_class_datasets_still_pass_the_train_check(tmp_path):
     grown.write_text(yaml.safe_dump({"names": [*DATASET_NAMES_V1, "pillar-blue"]}))
     with pytest.raises(TrainError, match="24 classes in order"):
         data_yaml(grown)
+
+
+def test_trial_camera_dataset_is_still_and_unblurred(tmp_path):
+    out = tmp_path / "trial"
+    assert (
+        main(
+            ["dataset", "--out", str(out), "--images", "2", "--per-scenario", "2", "--camera", "trial", "--quiet"]
+        )
+        == 0
+    )
+    spec = yaml.safe_load((out / "dataset.yaml").read_text())["spec"]
+    assert spec["camera"] is None and spec["blur_fraction"] == 0.0 and spec["hazmat_on_floor"] == 0.25
+    rows = (out / "manifest.csv").read_text().splitlines()
+    col = rows[0].split(",").index("blur")
+    assert len(rows) == 3 and all(r.split(",")[col] == "" for r in rows[1:])
+    with pytest.raises(DatasetError, match=r"--hazmat-on-floor must be in \[0, 1\], got 2"):
+        DatasetSpec(images=1, hazmat_on_floor=2)
