@@ -291,8 +291,9 @@ class ColourSpec:
     switches off the random ones (noise) and the blurs, compression and white-balance error,
     leaving exposure and tone.
 
-    Light: ``lux`` is the scene's illuminance (default: the lighting preset's level,
-    ``sim.world.LIGHT_LEVEL_LUX``); a white surface in full light gives
+    Light: ``lux`` is the illuminance on a white surface the robot's lamp lights (default: the
+    lighting preset's level, ``sim.world.LIGHT_LEVEL_LUX``; the render's shading sets the rest,
+    ``sim.world.lux_of_decoded_one``); a white surface in full light gives
     ``sensitivity_e_per_lux_ms`` electrons per lux and millisecond of exposure at unit gain.
     Auto-exposure (``auto_exposure``) meters the mean linear level and sets exposure first
     (``min_exposure_ms`` .. ``max_exposure_ms``), then analog gain (1 .. ``max_gain``), so the

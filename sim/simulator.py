@@ -75,7 +75,7 @@ from sim.sensors.t265 import PoseTrack, simulate_t265
 from sim.sensors.thermal import thermal_image
 from sim.sensors.wheel_odometry import simulate_wheel_odometry
 from sim.tour import plan_tour
-from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, World, build_world, door_gap_m
+from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, World, build_world, door_gap_m, lux_of_decoded_one
 
 SENSOR_STREAM = 1
 ARENA_LIGHT_HEIGHT_M = 2.5  # the goal arena's lamps hang from a room's ceiling, not over low walls
@@ -251,7 +251,8 @@ class Simulation:
             )
         self._temp_of_geom = self._geom_temperatures()
         col = sc.sensors.d435.colour
-        self.colour_lux = col.lux if col.lux is not None else LIGHT_LEVEL_LUX[sc.lighting]
+        lux = col.lux if col.lux is not None else LIGHT_LEVEL_LUX[sc.lighting]
+        self.colour_lux = lux_of_decoded_one(sc.lighting, lux, col.gamma)  # of a decoded render 1
         self._camera = ColourCamera(col, d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
         self._meters: dict[int, float] = {}  # frame index -> auto-exposure meter of its render
         self._tilt_rad = tilt
@@ -462,6 +463,7 @@ class Simulation:
             return self._camera, self.colour_lux
         i = self.intrinsics
         lux = colour.lux if colour.lux is not None else LIGHT_LEVEL_LUX[self.scenario.lighting]
+        lux = lux_of_decoded_one(self.scenario.lighting, lux, colour.gamma)
         return ColourCamera(colour, i.width, i.height, i.fx, i.fy, i.ppx, i.ppy), lux
 
     def _steady_exposure(self, rgb: np.ndarray, spec: ColourSpec, lux: float) -> Exposure:

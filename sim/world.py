@@ -52,10 +52,23 @@ class World:
 
 
 # Illuminance of each lighting preset where its lamps light a surface fully, for the colour
-# camera's exposure (sim/sensors/d435_color.py): a render value of 1 (decoded) is a white
-# surface at this level. Judgements (docs/FACTS.md "D435 colour camera"): a brightly lit
+# camera's exposure (sim/sensors/d435_color.py): a white surface the robot's lamp lights is
+# at this level (lux_of_decoded_one). Judgements (docs/FACTS.md "D435 colour camera"): a brightly lit
 # hall, a room lit by the robot's own lamp, a hall with a few spot lamps.
 LIGHT_LEVEL_LUX: dict[str, float] = {"bright": 1000.0, "dim": 80.0, "uneven": 300.0}
+# The render's (display-encoded) level of a white surface facing the robot's own lamp in each
+# preset: the headlight's ambient plus diffuse (_lights); bright's sun takes it to 1.
+LAMP_WHITE_LEVEL: dict[str, float] = {"bright": 1.0, "dim": 0.45, "uneven": 0.37}
+
+
+def lux_of_decoded_one(lighting: str, lux: float, gamma: float) -> float:
+    """The illuminance a decoded render value of 1 stands for, so that a white surface the
+    robot's lamp lights (render level ``LAMP_WHITE_LEVEL``) is at ``lux``.
+
+    The dim presets render their lit whites below 1; taking ``lux`` for a decoded 1 would
+    count their darkness twice (a dim white at 80 lux read as 0.45 ** 2.2 * 80 = 14 lux).
+    """
+    return lux / LAMP_WHITE_LEVEL[lighting] ** gamma
 
 
 def _lights(
