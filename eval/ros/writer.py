@@ -62,6 +62,10 @@ DETECTION_RGBA = (1.0, 0.85, 0.1, 0.9)
 CONFIRMED_RGBA = (0.15, 0.35, 1.0, 0.9)
 
 
+# tf2_msgs/TFMessage as ROS 1 defines it (tf2_msgs/msg/TFMessage.msg)
+TF_MESSAGE_DEFINITION = "geometry_msgs/TransformStamped[] transforms\n"
+
+
 class LogError(ValueError):
     """A log that cannot be written (an unknown format); one line."""
 
@@ -121,6 +125,10 @@ class LogWriter:
         self.T_tracker_camera = np.asarray(T_tracker_camera, float)
         self.truth = list(truth)
         self.ts = get_typestore(Stores.ROS1_NOETIC if fmt == "bag" else Stores.ROS2_HUMBLE)
+        if "tf2_msgs/msg/TFMessage" not in self.ts.types:  # rosbags' ROS 1 store lacks it: its definition
+            from rosbags.typesys import get_types_from_msg
+
+            self.ts.register(get_types_from_msg(TF_MESSAGE_DEFINITION, "tf2_msgs/msg/TFMessage"))
         self._serialize = self.ts.serialize_ros1 if fmt == "bag" else self.ts.serialize_cdr
         self._queue: queue.Queue = queue.Queue(maxsize=QUEUE_FRAMES)
         self.stats = _Stats()
