@@ -47,6 +47,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_replay(args) -> int:
+    from eval.ros import require_rosbags
+
+    require_rosbags("poibench replay")
     from eval.ros.reader import open_recording
     from eval.ros.replay import ReplayError, replay
     from eval.ros.topics import parse_overrides

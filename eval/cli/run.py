@@ -150,7 +150,10 @@ def cmd_run(args) -> int:
         print(f"note: {rules_note}", file=sys.stderr)
     logger = None
     if args.log:
+        from eval.ros import require_rosbags
         from eval.ros.topics import parse_overrides
+
+        require_rosbags(f"poibench run --log {args.log}")
         from eval.ros.writer import TrialLogger
         from eval.trial.run import MISSION_START
 

@@ -16,3 +16,19 @@ Full entries in docs/SOURCES.md.
 .. [rosbags] Ternaris, "rosbags: pure Python library to read, modify, convert and write rosbag
    files", Apache-2.0.
 """
+
+from __future__ import annotations
+
+
+class RosExtraError(RuntimeError):
+    """The ``ros`` extra (rosbags) is not installed; one line saying how to install it."""
+
+
+def require_rosbags(command: str) -> None:
+    """Refuse ``command`` with one line when ``rosbags`` cannot be imported."""
+    try:
+        import rosbags  # noqa: F401
+    except ImportError:
+        raise RosExtraError(
+            f"{command} needs the rosbags library: pip install 'poibench[ros]' (or pip install rosbags)"
+        ) from None
