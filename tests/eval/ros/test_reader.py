@@ -63,6 +63,9 @@ def test_replay_of_the_real_d435_recording_writes_a_valid_poi_file(tmp_path, cap
     assert (ki["width"], ki["height"], ki["fx"], ki["fy"], ki["ppx"], ki["ppy"]) == FIXTURE_COLOUR_K
     for name in ("map.png", "trial.mp4", "live/frames.jsonl", "live/init.json"):
         assert (out / name).stat().st_size > 0, name
+    from eval.live.server import ReplaySource
+
+    assert len(ReplaySource(out).frames) == 1  # what poibench view replays
 
 
 def test_depth_aligned_to_a_colour_camera_of_other_optics():
@@ -147,6 +150,80 @@ def test_a_good_tiny_bag_replays(tmp_path, capsys):
     # odometry on frame 0 only (identity pose); frames 1 and 2 have none within half a period
     assert frames[0].pose is not None and np.allclose(frames[0].pose, np.eye(4))
     assert frames[1].pose is None and frames[2].pose is None
+
+
+def test_rosbag2_sqlite3_with_the_pose_from_tf(tmp_path):
+    """A rosbag2 folder in sqlite3 storage whose only pose is /tf (map -> base_link moving 0.1 m a frame
+    along x, base_link -> the colour optical frame in /tf_static): each frame's pose is map -> colour."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from eval.ros.messages import transform_msg
+    from poi.core.geometry import R_BODY_OPTICAL, make_transform
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    k = Intrinsics(width=8, height=6, fx=10.0, fy=10.0, ppx=3.5, ppy=2.5)
+    T_base_cam = make_transform(R_BODY_OPTICAL, [0.1, 0.0, 0.5])
+    path = tmp_path / "rec"
+    with Writer(path, version=9) as w:
+        conns = {}
+
+        def put(topic, msgtype, t, msg):
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, msgtype, typestore=ts)
+            w.write(conns[topic], t, ts.serialize_cdr(msg, msgtype))
+
+        def tf(t, parent, child, T):
+            stamped = build(
+                ts,
+                "geometry_msgs/msg/TransformStamped",
+                header=header(ts, t, parent),
+                child_frame_id=child,
+                transform=transform_msg(ts, T),
+            )
+            return build(ts, "tf2_msgs/msg/TFMessage", transforms=[stamped])
+
+        put(
+            "/tf_static",
+            "tf2_msgs/msg/TFMessage",
+            1_000_000_000,
+            tf(1_000_000_000, "base_link", "cam", T_base_cam),
+        )
+        for i in range(3):
+            t = 1_000_000_000 + i * 100_000_000
+            put(
+                "/tf",
+                "tf2_msgs/msg/TFMessage",
+                t,
+                tf(t, "map", "base_link", make_transform(np.eye(3), [0.1 * i, 0, 0])),
+            )
+            put(
+                "/camera/color/image_raw",
+                "sensor_msgs/msg/Image",
+                t,
+                image_msg(ts, t, "cam", np.zeros((6, 8, 3), np.uint8), "rgb8"),
+            )
+            put("/camera/color/camera_info", "sensor_msgs/msg/CameraInfo", t, camera_info_msg(ts, t, "cam", k))
+            z = np.full((6, 8), 2.0, np.float32)
+            put(
+                "/camera/aligned_depth_to_color/image_raw",
+                "sensor_msgs/msg/Image",
+                t,
+                image_msg(ts, t, "cam", z, "32FC1"),
+            )
+            put(
+                "/camera/aligned_depth_to_color/camera_info",
+                "sensor_msgs/msg/CameraInfo",
+                t,
+                camera_info_msg(ts, t, "cam", k),
+            )
+    rec = open_recording(path)
+    assert rec.pose_source == "tf map" and np.allclose(rec.T_tracker_camera, np.eye(4))
+    frames = list(rec.frames())
+    assert len(frames) == 3 and frames[2].depth_m[0, 0] == np.float32(2.0)
+    for i, f in enumerate(frames):
+        expected = make_transform(np.eye(3), [0.1 * i, 0, 0]) @ T_base_cam
+        assert np.allclose(f.pose, expected, atol=1e-12), i
 
 
 def test_missing_topic(tmp_path, capsys):
