@@ -204,9 +204,10 @@ def cmd_run(args) -> int:
     written = list(res.written)
     if log is not None:
         written.append(log.path.name + ("/" if log.path.is_dir() else ""))
+        cpu, wait = log.caller_ms_per_frame
         print(
             f"ROS log {log.path}: {log.stats.frames} frames, {log.cpu_ms_per_frame:.1f} ms CPU a frame on the "
-            f"writer thread, the trial waited {1e3 * log.stats.wait_s / max(log.stats.frames, 1):.2f} ms a frame"
+            f"writer thread; the trial's thread {cpu:.2f} ms CPU a frame, {wait:.2f} ms waiting for the writer"
         )
     print(f"wrote {res.out_dir}/: {' '.join(written)}")
     return 0

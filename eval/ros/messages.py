@@ -46,6 +46,20 @@ COLOUR_ENCODINGS = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4}
 DEPTH_ENCODINGS = ("16UC1", "mono16", "32FC1")
 
 
+# tf2_msgs/TFMessage as ROS 1 defines it (tf2_msgs/msg/TFMessage.msg); rosbags' ROS 1 store lacks it
+TF_MESSAGE_DEFINITION = "geometry_msgs/TransformStamped[] transforms\n"
+
+
+def typestore(ros1: bool):
+    """rosbags' message types of ROS 1 Noetic or ROS 2 Humble, ``tf2_msgs/TFMessage`` included."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if "tf2_msgs/msg/TFMessage" not in ts.types:
+        ts.register(get_types_from_msg(TF_MESSAGE_DEFINITION, "tf2_msgs/msg/TFMessage"))
+    return ts
+
+
 class MessageError(ValueError):
     """A message poibench cannot use (an unknown encoding, a size that does not fit); one line."""
 

@@ -46,6 +46,7 @@ from eval.ros.messages import (
     image_msg,
     pose_msg,
     transform_msg,
+    typestore,
 )
 from eval.ros.topics import FrameNames, Topics
 from poi.core.geometry import invert_transform, make_transform, planar_pose, rot_z
@@ -60,10 +61,6 @@ TEXT_HEIGHT_M = 0.12
 TRUTH_RGBA = (0.1, 0.8, 0.2, 0.8)
 DETECTION_RGBA = (1.0, 0.85, 0.1, 0.9)
 CONFIRMED_RGBA = (0.15, 0.35, 1.0, 0.9)
-
-
-# tf2_msgs/TFMessage as ROS 1 defines it (tf2_msgs/msg/TFMessage.msg)
-TF_MESSAGE_DEFINITION = "geometry_msgs/TransformStamped[] transforms\n"
 
 
 class LogError(ValueError):
@@ -90,6 +87,7 @@ class _Stats:
     frames: int = 0
     cpu_s: float = 0.0
     wait_s: float = 0.0  # time the trial spent waiting for a queue slot
+    caller_cpu_s: float = 0.0  # CPU time the trial's thread spent handing frames over
     error: BaseException | None = None
     counts: dict[str, int] = field(default_factory=dict)
 
@@ -113,8 +111,6 @@ class LogWriter:
         topics: Topics | None = None,
         names: FrameNames | None = None,
     ) -> None:
-        from rosbags.typesys import Stores, get_typestore
-
         if fmt not in FORMATS:
             raise LogError(f"--log {fmt}: unknown log format; expected one of {', '.join(FORMATS)}")
         self.path = Path(path)
@@ -124,11 +120,7 @@ class LogWriter:
         self.start_ns = int(start_ns)
         self.T_tracker_camera = np.asarray(T_tracker_camera, float)
         self.truth = list(truth)
-        self.ts = get_typestore(Stores.ROS1_NOETIC if fmt == "bag" else Stores.ROS2_HUMBLE)
-        if "tf2_msgs/msg/TFMessage" not in self.ts.types:  # rosbags' ROS 1 store lacks it: its definition
-            from rosbags.typesys import get_types_from_msg
-
-            self.ts.register(get_types_from_msg(TF_MESSAGE_DEFINITION, "tf2_msgs/msg/TFMessage"))
+        self.ts = typestore(ros1=fmt == "bag")
         self._serialize = self.ts.serialize_ros1 if fmt == "bag" else self.ts.serialize_cdr
         self._queue: queue.Queue = queue.Queue(maxsize=QUEUE_FRAMES)
         self.stats = _Stats()
@@ -145,6 +137,7 @@ class LogWriter:
         """Queue one frame with the pipeline's localised observations and confirmed snapshots."""
         if self.stats.error is not None:
             raise self._failure()
+        c0 = time.thread_time()
         item = _Item(
             t_ns=self.start_ns + round(frame.timestamp_s * 1e9),
             frame=frame,
@@ -160,6 +153,7 @@ class LogWriter:
         t0 = time.perf_counter()
         self._queue.put(item)
         self.stats.wait_s += time.perf_counter() - t0
+        self.stats.caller_cpu_s += time.thread_time() - c0
 
     def close(self) -> None:
         """Write what is queued, end the log (metadata.yaml for rosbag2) and raise a write that failed."""
@@ -176,7 +170,14 @@ class LogWriter:
 
     @property
     def cpu_ms_per_frame(self) -> float:
+        """CPU time of the writer thread per frame (serialising and writing), ms."""
         return 1e3 * self.stats.cpu_s / self.stats.frames if self.stats.frames else float("nan")
+
+    @property
+    def caller_ms_per_frame(self) -> tuple[float, float]:
+        """(CPU, wall) ms per frame the trial's own thread spent in :meth:`write`, waiting included."""
+        n = max(self.stats.frames, 1)
+        return 1e3 * self.stats.caller_cpu_s / n, 1e3 * self.stats.wait_s / n
 
     def _failure(self) -> OSError:
         e = self.stats.error
@@ -391,7 +392,10 @@ class TrialLogger:
                 topics=self.topics,
                 names=self.names,
             )
-        self.writer.write(frame, res.observations, pipe.confirmed())
+        c0 = time.thread_time()
+        confirmed = pipe.confirmed()
+        self.writer.stats.caller_cpu_s += time.thread_time() - c0
+        self.writer.write(frame, res.observations, confirmed)
 
     def close(self) -> LogWriter | None:
         if self.writer is not None:

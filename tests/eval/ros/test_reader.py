@@ -14,7 +14,7 @@ pytest.importorskip("rosbags")
 
 from eval.cli.main import main
 from eval.ros.align import align_depth_to_color
-from eval.ros.messages import build, camera_info_msg, header, image_msg, pose_msg
+from eval.ros.messages import build, camera_info_msg, header, image_msg, pose_msg, transform_msg, typestore
 from eval.ros.reader import open_recording
 from poi.core.poi_file import read_poi_file
 from poi.core.types import Intrinsics
@@ -91,12 +91,13 @@ def test_depth_aligned_to_a_colour_camera_of_other_optics():
 # --- broken recordings: one line naming the file and the topic ----------------------------------------
 
 
-def _write_bag(path: Path, *, colour_encoding="rgb8", with_depth=True, with_info=True) -> Path:
-    """A tiny ROS 1 bag on the realsense-ros topics: three 8x6 frames."""
+def _write_bag(path: Path, *, colour_encoding="rgb8", with_depth=True, with_info=True, unaligned=False) -> Path:
+    """A tiny ROS 1 bag on the realsense-ros topics: three 8x6 frames, depth 1.5 m everywhere; with
+    ``unaligned`` the depth is on /camera/depth/image_rect_raw in frame "d", 0.15 m to the right of the
+    colour frame "c" (p_c = p_d + (0.15, 0, 0), in /tf_static)."""
     from rosbags.rosbag1 import Writer
-    from rosbags.typesys import Stores, get_typestore
 
-    ts = get_typestore(Stores.ROS1_NOETIC)
+    ts = typestore(ros1=True)
     k = Intrinsics(width=8, height=6, fx=10.0, fy=10.0, ppx=3.5, ppy=2.5)
     with Writer(path) as w:
         conns = {}
@@ -116,15 +117,23 @@ def _write_bag(path: Path, *, colour_encoding="rgb8", with_depth=True, with_info
                 put("/camera/color/camera_info", "sensor_msgs/msg/CameraInfo", t, camera_info_msg(ts, t, "c", k))
             if with_depth:
                 mm = np.full((6, 8), 1500, np.uint16)
-                put(
-                    "/camera/aligned_depth_to_color/image_raw",
-                    "sensor_msgs/msg/Image",
-                    t,
-                    image_msg(ts, t, "c", mm, "16UC1"),
-                )
+                stem, frame = ("/camera/depth/", "d") if unaligned else ("/camera/aligned_depth_to_color/", "c")
+                image = stem + ("image_rect_raw" if unaligned else "image_raw")
+                put(image, "sensor_msgs/msg/Image", t, image_msg(ts, t, frame, mm, "16UC1"))
                 if with_info:
-                    info = camera_info_msg(ts, t, "c", k)
-                    put("/camera/aligned_depth_to_color/camera_info", "sensor_msgs/msg/CameraInfo", t, info)
+                    put(stem + "camera_info", "sensor_msgs/msg/CameraInfo", t, camera_info_msg(ts, t, frame, k))
+        if unaligned:
+            T = np.eye(4)
+            T[0, 3] = 0.15
+            stamped = build(
+                ts,
+                "geometry_msgs/msg/TransformStamped",
+                header=header(ts, 1_000_000_000, "c"),
+                child_frame_id="d",
+                transform=transform_msg(ts, T),
+            )
+            static = build(ts, "tf2_msgs/msg/TFMessage", transforms=[stamped])
+            put("/tf_static", "tf2_msgs/msg/TFMessage", 1_000_000_000, static)
         pose = build(ts, "geometry_msgs/msg/PoseWithCovariance", pose=pose_msg(ts, np.eye(4)))
         odom = build(
             ts, "nav_msgs/msg/Odometry", header=header(ts, 1_000_000_000, "odom"), child_frame_id="t", pose=pose
@@ -158,7 +167,6 @@ def test_rosbag2_sqlite3_with_the_pose_from_tf(tmp_path):
     from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_typestore
 
-    from eval.ros.messages import transform_msg
     from poi.core.geometry import R_BODY_OPTICAL, make_transform
 
     ts = get_typestore(Stores.ROS2_HUMBLE)
@@ -224,6 +232,16 @@ def test_rosbag2_sqlite3_with_the_pose_from_tf(tmp_path):
     for i, f in enumerate(frames):
         expected = make_transform(np.eye(3), [0.1 * i, 0, 0]) @ T_base_cam
         assert np.allclose(f.pose, expected, atol=1e-12), i
+
+
+def test_unaligned_realsense_ros_depth_is_aligned_with_the_tf_between_the_optical_frames(tmp_path):
+    """Depth 1.5 m on /camera/depth/image_rect_raw, its frame 0.15 m from the colour frame: in the colour
+    image it moves by f * 0.15 / 1.5 = 1 px to the right, so column 0 has no depth and the rest 1.5 m."""
+    rec = open_recording(_write_bag(tmp_path / "unaligned.bag", unaligned=True))
+    assert rec.depth_topic == "/camera/depth/image_rect_raw" and not rec.aligned
+    assert np.allclose(rec.T_color_depth[:3, 3], [0.15, 0.0, 0.0])
+    z = next(rec.frames()).depth_m
+    assert np.all(z[:, 0] == 0) and np.all(z[:, 1:] == np.float32(1.5))
 
 
 def test_missing_topic(tmp_path, capsys):
