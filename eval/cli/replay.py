@@ -86,8 +86,8 @@ def cmd_replay(args) -> int:
         print(format_tables(res.score))
     print(
         f"{rec.path.name} ({rec.layout} layout, pose from {rec.pose_source}): {res.n_frames} frames in "
-        f"{res.wall_s:.1f} s ({res.frames_per_s:.1f} frames/s), {res.confirmed} objects reported"
-        + (f"; {res.score.headline()}" if res.score is not None else "")
+        f"{res.wall_s:.1f} s ({res.frames_per_s:.1f} frames/s, {res.cpu_ms_per_frame:.0f} ms CPU a frame), "
+        f"{res.confirmed} objects reported" + (f"; {res.score.headline()}" if res.score is not None else "")
     )
     print(f"wrote {res.out_dir}/: {' '.join(res.written)}")
     return 0

@@ -30,6 +30,7 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import bisect
+import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -344,12 +345,17 @@ def open_recording(
         small |= {t for t in viewer_ext.values() if t}
         conns = [by_topic[t] for t in sorted(small | set(stamps)) if t in by_topic]
         for conn, _, raw in _messages(reader, conns, path):
-            msg = _deserialize(reader, raw, conn, path)
             t = conn.topic
-            if t in stamps:
-                stamps[t].append(stamp_ns(msg.header.stamp))
-                frame_ids.setdefault(t, msg.header.frame_id.lstrip("/"))
-            elif t in info_topics and t not in infos:
+            if t in stamps:  # an image: only its header is needed here
+                head = _raw_header(raw, reader.is2)
+                if head is None:
+                    msg = _deserialize(reader, raw, conn, path)
+                    head = (stamp_ns(msg.header.stamp), msg.header.frame_id)
+                stamps[t].append(head[0])
+                frame_ids.setdefault(t, head[1].lstrip("/"))
+                continue
+            msg = _deserialize(reader, raw, conn, path)
+            if t in info_topics and t not in infos:
                 infos[t] = _decode(intrinsics_of, msg, t, path)
             elif t == odom:
                 p = msg.pose.pose
@@ -481,6 +487,30 @@ def open_recording(
         _thermal_of=thermal_of,
         _poses=poses,
     )
+
+
+def _raw_header(raw, ros2: bool) -> tuple[int, str] | None:
+    """(stamp ns, frame_id) of a serialised message that starts with a ``std_msgs/Header``, read from its
+    first bytes: ROS 2 CDR little-endian (4-byte encapsulation, int32 sec, uint32 nanosec, uint32 length
+    with the terminating NUL, the characters) or ROS 1 (uint32 seq, uint32 secs, uint32 nsecs, uint32
+    length, the characters). None for anything else (a big-endian CDR), which is then deserialised whole.
+
+    >>> _raw_header(bytes([0, 1, 0, 0]) + struct.pack("<iII", 2, 5, 2) + b"c" + bytes(1), ros2=True)
+    (2000000005, 'c')
+    """
+    b = memoryview(raw)
+    try:
+        if ros2:
+            if bytes(b[:2]) != b"\x00\x01":
+                return None
+            sec, nsec, n = struct.unpack_from("<iII", b, 4)
+            name = bytes(b[16 : 16 + max(n - 1, 0)])
+        else:
+            _, sec, nsec, n = struct.unpack_from("<IIII", b, 0)
+            name = bytes(b[16 : 16 + n])
+        return sec * 1_000_000_000 + nsec, name.decode("utf-8")
+    except (struct.error, UnicodeDecodeError):
+        return None
 
 
 def _matrix(translation, rotation, topic: str, path: Path) -> np.ndarray:

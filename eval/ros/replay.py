@@ -43,6 +43,7 @@ class ReplayResult:
     n_frames: int
     wall_s: float
     frames_per_s: float
+    cpu_ms_per_frame: float
     notes: list[str]
     written: list[str]
     score: object | None = None
@@ -164,7 +165,7 @@ def replay(
     path: list[list[float]] = []
     skipped = 0
     streaming = True
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     k = 0
     try:
         frames = rec.frames()
@@ -201,6 +202,7 @@ def replay(
         else:
             live.close()
     wall = time.perf_counter() - t0
+    cpu = time.process_time() - c0  # all threads of the process (the encoder's ffmpeg is a child: not counted)
     final = pipe.confirmed()
     outputs.write("pois.csv", lambda _: writer.finalize(final))
     result = None
@@ -238,6 +240,7 @@ def replay(
         "skipped_frames": skipped,
         "wall_s": round(wall, 3),
         "frames_per_s": round(k / wall, 2) if wall > 0 else None,
+        "cpu_ms_per_frame": round(1e3 * cpu / k, 2) if k else None,
         "notes": notes,
     }
     outputs.write("replay.json", lambda p: p.write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8"))
@@ -252,6 +255,7 @@ def replay(
         n_frames=k,
         wall_s=wall,
         frames_per_s=k / wall if wall > 0 else float("inf"),
+        cpu_ms_per_frame=1e3 * cpu / k if k else float("nan"),
         notes=notes,
         written=outputs.names(),
         score=result,
