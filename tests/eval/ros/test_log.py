@@ -24,6 +24,13 @@ from eval.trial.run import MISSION_START
 
 DETECTORS = Path(__file__).resolve().parents[2] / "poi" / "detectors"  # red_detector.py
 SCENE = ["--set", "maze.file=rrl_small", "--set", "objects.generate.counts={fire-extinguisher: 2, valve: 1}"]
+# T265 dropouts, so that some frames have no pose (8 of the 40 with this seed): no odometry for them
+DROPOUTS = [
+    "--set",
+    "sensors.t265.dropouts.rate_per_min=30",
+    "--set",
+    "sensors.t265.dropouts.duration_s=[0.3, 0.6]",
+]
 RED = "python:red_detector:RedBlobDetector"
 FRAMES = 40
 START_NS = int(MISSION_START.replace(tzinfo=timezone.utc).timestamp()) * 1_000_000_000
@@ -66,7 +73,12 @@ def _trial(tmp: Path, fmt: str) -> Path:
         weights = red_detector.write_weights(tmp / "red.npz")
         out = tmp / f"t_{fmt}"
         argv = ["run", "--detector", RED, "--set", f"detector.options.weights={weights}", "--log", fmt]
-        assert main([*argv, "--max-frames", str(FRAMES), "--no-video", "--quiet", "--out", str(out), *SCENE]) == 0
+        assert (
+            main(
+                [*argv, "--max-frames", str(FRAMES), "--no-video", "--quiet", "--out", str(out), *SCENE, *DROPOUTS]
+            )
+            == 0
+        )
     finally:
         sys.path.remove(str(DETECTORS))
     return out
@@ -84,6 +96,8 @@ def bag_trial(tmp_path_factory) -> Path:
 
 def _expected(trial: Path) -> dict:
     cfg = yaml.safe_load((trial / "config.yaml").read_text())
+    live = [json.loads(line) for line in (trial / "live" / "frames.jsonl").read_text().splitlines()]
+    assert len(live) == FRAMES
     s = cfg["scenario"]["sensors"]
     d = s["d435"]
     K = [d["fx"], 0.0, d["ppx"], 0.0, d["fy"], d["ppy"], 0.0, 0.0, 1.0]
@@ -107,6 +121,8 @@ def _expected(trial: Path) -> dict:
         "thermal_size": (th["width"], th["height"]),
         "stamps": [START_NS + round(k / s["fps"] * 1e9) for k in range(FRAMES)],
         "truth": len([r for r in (trial / "truth.csv").read_text().splitlines()[8:] if r.strip()]),
+        # the frames the pipeline had a pose for, as the trial's live record has them
+        "posed": [k for k, m in enumerate(live) if m["pose"] is not None],
     }
 
 
@@ -123,8 +139,10 @@ def _check(summary: dict, trial: Path) -> None:
         assert counts[topic] == FRAMES, topic
         assert summary["stamps"][topic] == exp["stamps"], topic
     assert counts["/tf_static"] == 1 and counts["/poibench/truth"] == 1
-    # the odometry and /tf on every frame with a pose (this trial's tracker has no dropout in 40 frames)
-    assert counts["/t265/odom/sample"] == counts["/tf"] == FRAMES
+    # the odometry and /tf on every frame with a pose, none on a dropout
+    posed = [exp["stamps"][k] for k in exp["posed"]]
+    assert 0 < len(posed) < FRAMES
+    assert summary["stamps"]["/t265/odom/sample"] == summary["stamps"]["/tf"] == posed
     for topic, enc in ENCODINGS.items():
         assert summary["encodings"][topic] == {enc}, topic
     for topic in ("/camera/color/camera_info", "/camera/aligned_depth_to_color/camera_info"):
