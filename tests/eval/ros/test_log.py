@@ -304,3 +304,49 @@ def test_round_trip_replay_gives_the_same_poi_file(fmt, mcap_trial, bag_trial, t
         json.loads((out / "score.json").read_text())["total"]
         == json.loads((trial / "score.json").read_text())["total"]
     )
+
+
+def test_renamed_topics_and_the_tf_chain_give_the_pose_and_mount(tmp_path):
+    """LogWriter alone on two synthetic frames, colour renamed: reading the log back, the TF chain
+    map -> ... -> colour optical frame equals pose @ mount, and the replay reader recovers both."""
+    from eval.ros.reader import open_recording
+    from eval.ros.topics import Topics, parse_overrides
+    from eval.ros.writer import LogWriter
+    from poi.core.geometry import make_transform, rot_x, rot_z
+    from poi.core.types import Frame, Intrinsics
+
+    k = Intrinsics(width=8, height=6, fx=10.0, fy=10.0, ppx=3.5, ppy=2.5)
+    mount = make_transform(rot_x(-1.2), [0.05, -0.02, 0.1])
+    poses = [make_transform(rot_z(0.3) @ rot_x(0.02), [1.0, 2.0, 0.9]), None]
+    topics = parse_overrides(["color=/front/rgb", "color_info=/front/rgb_info"])
+    w = LogWriter(tmp_path / "t.bag", "bag", start_ns=START_NS, T_tracker_camera=mount, truth=[], topics=topics)
+    for i, pose in enumerate(poses):
+        z = np.full((6, 8), 1.234, np.float32)
+        f = Frame(
+            index=i, timestamp_s=0.1 * i, rgb=np.zeros((6, 8, 3), np.uint8), intrinsics=k, depth_m=z, pose=pose
+        )
+        w.write(f, [], [])
+    w.close()
+    assert w.stats.counts["/front/rgb"] == 2 and Topics().color not in w.stats.counts
+    assert w.stats.counts["/t265/odom/sample"] == 1  # none for the frame without a pose
+    given = {"color", "color_info"}
+    rec = open_recording(tmp_path / "t.bag", topics, given)
+    assert rec.pose_source == "odometry /t265/odom/sample"
+    assert np.allclose(rec.T_tracker_camera, mount, atol=1e-12)
+    frames = list(rec.frames())
+    assert np.allclose(frames[0].pose, poses[0], atol=1e-12) and frames[1].pose is None
+    assert frames[0].depth_m[0, 0] == np.float32(1.234)  # 1234 mm
+    # the /tf chain: map -> odom -> base_link -> t265_pose_frame -> colour optical frame
+    from rosbags.highlevel import AnyReader
+
+    from eval.ros.reader import TfTree
+
+    tree = TfTree()
+    with AnyReader([tmp_path / "t.bag"]) as r:
+        for c, _, raw in r.messages([c for c in r.connections if c.topic in ("/tf", "/tf_static")]):
+            tree.add(r.deserialize(raw, c.msgtype), c.topic == "/tf_static")
+    tree.sort()
+    T = tree.between("map", "camera_color_optical_frame", START_NS, 0)
+    assert np.allclose(T, poses[0] @ mount, atol=1e-12)
+    base = tree.between("map", "base_link", START_NS, 0)
+    assert abs(base[2, 3]) < 1e-12 and np.allclose(base[:3, 2], [0, 0, 1])  # the base on the floor, upright
