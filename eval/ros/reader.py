@@ -157,6 +157,8 @@ class Recording:
         colours: dict[int, np.ndarray] = {}
         depths: dict[int, np.ndarray] = {}
         thermals: dict[int, np.ndarray] = {}
+        last_depth = {d: j for j, d in enumerate(self._depth_of) if d is not None}
+        last_thermal = {d: j for j, d in enumerate(self._thermal_of) if d is not None}
         k = 0
         t0 = self._color_stamps[0] if self._color_stamps else 0
         with _open(self.path) as reader:
@@ -178,9 +180,11 @@ class Recording:
                     if ts_ is not None and ts_ not in thermals:
                         break
                     yield self._frame(k, t0, colours.pop(cs), depths.get(ds), thermals.get(ts_))
+                    if last_depth.get(ds) == k:  # no later colour frame pairs with this depth image
+                        depths.pop(ds, None)
+                    if last_thermal.get(ts_) == k:
+                        thermals.pop(ts_, None)
                     k += 1
-                    _forget(depths, ds, self._depth_of[k:])
-                    _forget(thermals, ts_, self._thermal_of[k:])
         if k < len(self._color_stamps):
             raise RecordingError(
                 f"{self.path}: truncated: {len(self._color_stamps) - k} frames of {self.color_topic} "
@@ -205,11 +209,6 @@ class Recording:
             thermal_c=thermal,
             thermal_intrinsics=self.thermal_k if thermal is not None else None,
         )
-
-
-def _forget(store: dict, s: int | None, later: list[int | None]) -> None:
-    if s is not None and s not in later:
-        store.pop(s, None)
 
 
 def _open(path: Path):
