@@ -57,11 +57,14 @@ class TrainSpec:
     workers: int = 2
     threads: int = field(default_factory=lambda: os.cpu_count() or 1)
     placards: str = "named"  # 'one': one class for the 16 labels, named by the label classifier
+    hours: float | None = None  # a time budget: Ultralytics fits the epochs into it (overrides epochs)
 
     def __post_init__(self) -> None:
         for name in ("epochs", "imgsz", "batch", "threads"):
             if getattr(self, name) < 1:
                 raise TrainError(f"--{name} must be at least 1, got {getattr(self, name)}")
+        if self.hours is not None and not self.hours > 0:
+            raise TrainError(f"--hours must be above 0, got {self.hours}")
         if self.placards not in PLACARD_MODES:
             raise TrainError(f"--placards must be one of {', '.join(PLACARD_MODES)}, got {self.placards!r}")
         if self.imgsz % 32:
@@ -185,6 +188,7 @@ def train(spec: TrainSpec) -> Path:
         model.train(
             data=str(data),
             epochs=spec.epochs,
+            time=spec.hours,
             imgsz=spec.imgsz,
             batch=spec.batch,
             seed=spec.seed,

@@ -53,6 +53,11 @@ def test_a_bad_label_line_names_its_file_and_line(tmp_path):
         placard_dataset(data, tmp_path / "out2")
 
 
+def test_hours_must_be_positive():
+    with pytest.raises(TrainError, match="--hours must be above 0, got 0"):
+        TrainSpec(data="d", out="o", hours=0)
+
+
 def test_placards_mode_is_checked():
     with pytest.raises(TrainError, match="--placards must be one of named, one, got 'some'"):
         TrainSpec(data="d", out="o", placards="some")
