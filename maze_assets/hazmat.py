@@ -313,6 +313,8 @@ EDGE = 0.015  # paper margin around the diamond's corners
 BORDER_INSET = 0.050  # the inner border line: 12.5 mm in from a 250 mm edge (172.519(c))
 BORDER_W = 0.010
 SYM_CX, SYM_BASE_Y, SYM_H = 0.5, 0.43, 0.27  # symbol box: bottom centre and height
+# the skull and the biohazard sign fill more of the top corner on printed placards
+BIG_SYM_H = 0.33
 NUMBER_CY, NUMBER_CAP = 0.81, 0.125
 WORD_CAP = 0.106  # 41 mm on a 273 mm placard (172.519(c))
 MM = 1.0 / (273.0 * np.sqrt(2.0))  # one millimetre of a 273 mm placard, in texture units
@@ -582,16 +584,16 @@ def _draw_symbol(label: str, c: _Canvas, st: PlacardStyle) -> None:
     elif label == "non-flammable-gas":
         _cylinder(s, ink)
     elif label == "poison":
-        _skull(s, ink, bg)
+        _skull(_Symbol(c, base=SYM_BASE_Y, h=BIG_SYM_H), ink, bg)
     elif label == "inhalation-hazard":
         h = (INHALATION_POINT_Y - EDGE) * 0.47
         _skull(_Symbol(c, base=INHALATION_POINT_Y - 0.05, h=h), ink, BLACK)
     elif label == "infectious-substance":
-        _biohazard(s, ink, bg)
+        _biohazard(_Symbol(c, base=SYM_BASE_Y + 0.02, h=BIG_SYM_H), ink, bg)
     elif label == "radioactive":
         _trefoil(_Symbol(c, base=RADIOACTIVE_SPLIT_Y + 0.01, h=0.27), ink, YELLOW)
     elif label == "corrosive":
-        _corrosive(_Symbol(c, base=CORROSIVE_SPLIT_Y - 0.015, h=0.25), ink, WHITE)
+        _corrosive(_Symbol(c, base=CORROSIVE_SPLIT_Y - 0.015, h=0.29), ink, WHITE)
     elif label == "explosive" and st.division in ("1.1", "1.2", "1.3"):
         _bomb(s, ink)
 

@@ -58,6 +58,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--threads", type=int, default=os.cpu_count() or 1, help="torch CPU threads (default: every core)"
     )
     t.add_argument(
+        "--hours",
+        type=float,
+        help="train for this long instead of --epochs: the epochs are fitted to the time after the first",
+    )
+    t.add_argument(
         "--placards",
         choices=("named", "one"),
         default="named",
@@ -254,6 +259,7 @@ def cmd_train(args) -> int:
             workers=args.workers,
             threads=args.threads,
             placards=args.placards,
+            hours=args.hours,
         )
     )
     print(f"model: {out}")

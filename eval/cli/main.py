@@ -34,6 +34,7 @@ def _command_modules() -> list:
         "eval.cli.sim",
         "eval.cli.run",
         "eval.cli.score",
+        "eval.cli.replay",
         "eval.cli.detector",
         "eval.cli.sweep",
     ):

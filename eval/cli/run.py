@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from datetime import timezone
+from pathlib import Path
 
-from eval.trial.scenarios import resolve_scenario, split_settings
+from eval.trial.scenarios import SettingError, resolve_scenario, split_settings
 
 DEFAULT_RULES = "ex3"
 
@@ -56,6 +58,20 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--no-live-record",
         action="store_true",
         help="do not write live/ (the record poibench view replays); --live still serves the view",
+    )
+    p.add_argument(
+        "--log",
+        choices=["mcap", "bag"],
+        help="also write the trial as a ROS log: mcap (a rosbag2 folder trial_mcap/, for ros2 bag play and "
+        "Foxglove) or bag (a ROS 1 trial.bag, for rosbag play)",
+    )
+    p.add_argument(
+        "--log-topic",
+        action="append",
+        default=[],
+        metavar="NAME=/TOPIC",
+        help="a log topic name other than realsense-ros's (color, depth, odom, thermal, truth, detections, "
+        "confirmed, ... ); repeatable",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", action="store_true", help="serve the live view on 127.0.0.1 while the trial runs")
@@ -132,6 +148,19 @@ def cmd_run(args) -> int:
     rules = load_rules(rules_name)
     if rules_note:
         print(f"note: {rules_note}", file=sys.stderr)
+    logger = None
+    if args.log:
+        from eval.ros import require_rosbags
+        from eval.ros.topics import parse_overrides
+
+        require_rosbags(f"poibench run --log {args.log}")
+        from eval.ros.writer import TrialLogger
+        from eval.trial.run import MISSION_START
+
+        start_ns = int(MISSION_START.replace(tzinfo=timezone.utc).timestamp()) * 1_000_000_000
+        logger = TrialLogger(Path(args.out), args.log, start_ns, topics=parse_overrides(args.log_topic))
+    elif args.log_topic:
+        raise SettingError("--log-topic needs --log mcap|bag")
     server = None
     if args.live:
         from eval.live.server import LiveServer
@@ -151,10 +180,12 @@ def cmd_run(args) -> int:
             progress=not args.quiet,
             max_frames=max_frames,
             live_server=server,
+            on_frame=logger,
         )
     finally:
         if server is not None:
             server.stop()
+        log = logger.close() if logger is not None else None
     for note in res.notes:
         print(f"note: {note}", file=sys.stderr)
     print(format_tables(res.score))
@@ -170,5 +201,13 @@ def cmd_run(args) -> int:
         f"({res.real_time_factor:.1f}x real time), "
         f"{res.cpu_s:.0f} CPU s ({res.cpu_s_per_sim_s:.2f} per simulated s)"
     )
-    print(f"wrote {res.out_dir}/: {' '.join(res.written)}")
+    written = list(res.written)
+    if log is not None:
+        written.append(log.path.name + ("/" if log.path.is_dir() else ""))
+        cpu, wait = log.caller_ms_per_frame
+        print(
+            f"ROS log {log.path}: {log.stats.frames} frames, {log.cpu_ms_per_frame:.1f} ms CPU a frame on the "
+            f"writer thread; the trial's thread {cpu:.2f} ms CPU a frame, {wait:.2f} ms waiting for the writer"
+        )
+    print(f"wrote {res.out_dir}/: {' '.join(written)}")
     return 0

@@ -15,7 +15,7 @@ metadata. Running the same command again resumes an interrupted run from
 ``placards="one"`` (``--placards one``) trains one class, ``hazmat``, for the 16
 labels: the model finds placards and the label classifier (``poibench train-labels``)
 names them from the full-resolution crop, as the pipeline does anyway. The labels are
-rewritten into ``RUN/data-placards`` (the images are linked, not copied), so each
+rewritten into ``RUN/data-placards`` (the images are hard-linked, not copied), so each
 placard class no longer has a sixteenth of the examples to learn from.
 
 References
@@ -29,6 +29,7 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import os
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -56,11 +57,14 @@ class TrainSpec:
     workers: int = 2
     threads: int = field(default_factory=lambda: os.cpu_count() or 1)
     placards: str = "named"  # 'one': one class for the 16 labels, named by the label classifier
+    hours: float | None = None  # a time budget: Ultralytics fits the epochs into it (overrides epochs)
 
     def __post_init__(self) -> None:
         for name in ("epochs", "imgsz", "batch", "threads"):
             if getattr(self, name) < 1:
                 raise TrainError(f"--{name} must be at least 1, got {getattr(self, name)}")
+        if self.hours is not None and not self.hours > 0:
+            raise TrainError(f"--hours must be above 0, got {self.hours}")
         if self.placards not in PLACARD_MODES:
             raise TrainError(f"--placards must be one of {', '.join(PLACARD_MODES)}, got {self.placards!r}")
         if self.imgsz % 32:
@@ -89,9 +93,9 @@ def data_yaml(data: str | Path) -> Path:
 def placard_dataset(data: Path, dst: Path) -> Path:
     """A copy of dataset ``data`` (its data.yaml) with the 16 hazmat labels as one class.
 
-    Class k < 16 becomes 0 (``hazmat``), class k >= 16 becomes k - 15; ``images/`` are
-    links to the source's folders. Rewritten on every call (cheap), so it follows the
-    source. Returns the new data.yaml.
+    Class k < 16 becomes 0 (``hazmat``), class k >= 16 becomes k - 15; the images are hard
+    links to the source's (copies across file systems). Labels are rewritten on every call
+    (cheap), so they follow the source. Returns the new data.yaml.
     """
     import yaml
 
@@ -102,10 +106,16 @@ def placard_dataset(data: Path, dst: Path) -> Path:
         images = src / "images" / split
         if not images.is_dir():
             raise TrainError(f"{images}: no such folder; give a folder written by 'poibench dataset'")
-        link = dst / "images" / split
-        link.parent.mkdir(parents=True, exist_ok=True)
-        if not link.is_symlink():
-            link.symlink_to(images.resolve(), target_is_directory=True)
+        linked = dst / "images" / split
+        linked.mkdir(parents=True, exist_ok=True)
+        for img in sorted(images.iterdir()):
+            if img.is_file() and not (linked / img.name).exists():
+                # a hard link (a copy across file systems): Ultralytics resolves folder links and
+                # would read the source's labels beside the source's images
+                try:
+                    os.link(img, linked / img.name)
+                except OSError:
+                    shutil.copy2(img, linked / img.name)
         out = dst / "labels" / split
         out.mkdir(parents=True, exist_ok=True)
         for f in sorted((src / "labels" / split).glob("*.txt")):
@@ -178,6 +188,7 @@ def train(spec: TrainSpec) -> Path:
         model.train(
             data=str(data),
             epochs=spec.epochs,
+            time=spec.hours,
             imgsz=spec.imgsz,
             batch=spec.batch,
             seed=spec.seed,

@@ -36,8 +36,10 @@ def test_one_placard_class_keeps_the_other_types_in_order(tmp_path):
     # oxidizer (a label) -> 0; door (index 17 of 24) -> 17 - 15 = 2; qr (16) -> 1
     assert (labels / "a.txt").read_text() == "0 0.5 0.5 0.1 0.2\n2 0.2 0.3 0.1 0.4\n"
     assert (labels / "b.txt").read_text() == "1 0.1 0.1 0.05 0.05\n"
-    assert (out.parent / "images" / "train" / "a.png").read_bytes() == b"png"  # linked, not copied
-    assert (out.parent / "images" / "train").is_symlink()
+    img = out.parent / "images" / "train" / "a.png"
+    assert img.read_bytes() == b"png" and img.stat().st_nlink == 2  # hard-linked, not copied
+    # no link Ultralytics could resolve back to the source folder and its 24-class labels
+    assert not img.is_symlink() and not img.parent.is_symlink()
     placard_dataset(data, tmp_path / "run" / "data-placards")  # a rerun rewrites in place
     assert (labels / "a.txt").read_text().startswith("0 0.5")
 
@@ -49,6 +51,11 @@ def test_a_bad_label_line_names_its_file_and_line(tmp_path):
     data = _dataset(tmp_path / "e", {"a": ["24 0.5 0.5 0.1 0.1"]})
     with pytest.raises(TrainError, match=r"a\.txt:1: class index 24 is not in 0\.\.23"):
         placard_dataset(data, tmp_path / "out2")
+
+
+def test_hours_must_be_positive():
+    with pytest.raises(TrainError, match="--hours must be above 0, got 0"):
+        TrainSpec(data="d", out="o", hours=0)
 
 
 def test_placards_mode_is_checked():

@@ -1,0 +1,263 @@
+"""``poibench replay``: the pipeline over a robot's recording, with a trial's outputs.
+
+The frames come from :func:`eval.ros.reader.open_recording`; the pipeline is
+:class:`poi.pipeline.Pipeline` with the detectors :func:`eval.trial.run.make_detectors` builds, and
+the outputs are written as :func:`eval.trial.run.run_trial` writes them (one
+:class:`eval.trial.outputs.TrialOutputs`): ``pois.csv`` (streamed, then finished atomically),
+``trial.mp4`` (the annotated view), ``live/`` (what ``poibench view`` replays), ``map.png`` (the
+path and the reports), ``replay.json`` (what was read and how fast) and, with a ground truth,
+``score.json``.
+
+The POI file's date and start time are the first colour frame's stamp (UTC); its mission name is
+the trial config's scenario (``--config``), else the recording's name.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from eval.live.video import H264Writer
+from eval.ros.reader import Recording
+from eval.scoring.map_plot import MapReport, draw_map, score_layers
+from eval.scoring.report import live_summary, to_json_dict
+from eval.scoring.scorer import score
+from eval.trial.outputs import TrialOutputs
+from poi.core.geometry import matrix_to_quat_wxyz
+from poi.core.poi_file import read_poi_file
+
+
+class ReplayError(ValueError):
+    """A replay that cannot run as asked (the oracle detector); one line."""
+
+
+@dataclass(kw_only=True)
+class ReplayResult:
+    out_dir: Path
+    n_frames: int
+    wall_s: float
+    frames_per_s: float
+    cpu_ms_per_frame: float
+    notes: list[str]
+    written: list[str]
+    score: object | None = None
+    confirmed: int = 0
+
+
+@dataclass
+class _NoWorld:
+    """What :func:`eval.trial.run.make_detectors` and :class:`eval.live.record.LiveRecorder` ask of a
+    simulation, for a recording: no known objects, no walls, its frame count and rate."""
+
+    n_frames: int
+    fps: float
+    scenario: object = field(init=False)
+
+    def __post_init__(self) -> None:
+        sensors = type("Sensors", (), {"fps": self.fps})()
+        self.scenario = type("Scenario", (), {"sensors": sensors})()
+
+    def truth_objects(self) -> list:
+        return []
+
+    def walls_in_map(self) -> list:
+        return []
+
+
+def mount_sets(T: np.ndarray) -> list[str]:
+    """Pipeline settings that give the mount ``T`` (full float precision)."""
+    q = [float(v) for v in matrix_to_quat_wxyz(T[:3, :3])]
+    t = [float(v) for v in T[:3, 3]]
+    return [
+        f"mount.T_tracker_camera.translation_m=[{t[0]!r}, {t[1]!r}, {t[2]!r}]",
+        f"mount.T_tracker_camera.quaternion_wxyz=[{q[0]!r}, {q[1]!r}, {q[2]!r}, {q[3]!r}]",
+    ]
+
+
+def replay_config(rec: Recording, config_path: str | None, detector: str | None, sets: list[str]):
+    """(pipeline config, detector choice, mission name) for the replay of ``rec``."""
+    from eval.trial.run import DEFAULT_CALIBRATION, DEFAULT_LABEL_MODEL, DEFAULT_MODEL
+    from poi.config import apply_overrides, load_config
+
+    mission = rec.path.stem if rec.path.is_file() else rec.path.name
+    if config_path:
+        from eval.trial.trial_config import load_trial_config
+
+        doc, given = load_trial_config(config_path)
+        cfg = doc.pipeline
+        detector = detector or (doc.detector if "detector" in given else "default")
+        mission = doc.scenario.name
+        defaults = False  # the config names its own label model and calibration
+    else:
+        cfg = load_config()
+        detector = detector or "default"
+        defaults = detector == "default" and DEFAULT_MODEL.exists()
+    if detector == "oracle":
+        raise ReplayError("--detector oracle needs the simulator's ground truth; a recording has none")
+    extra = list(sets)
+    if rec.T_tracker_camera is not None:
+        extra = mount_sets(rec.T_tracker_camera) + extra
+    cfg = apply_overrides(cfg, extra)
+    if defaults and cfg.detector.label_model is None and DEFAULT_LABEL_MODEL.exists():
+        cfg = apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"])
+    if defaults and cfg.calibration is None and DEFAULT_CALIBRATION.exists():
+        cfg = apply_overrides(cfg, [f"calibration={DEFAULT_CALIBRATION}"])
+    return cfg, detector, mission
+
+
+def replay(
+    rec: Recording,
+    out_dir: str | Path,
+    *,
+    config_path: str | None = None,
+    detector: str | None = None,
+    pipeline_sets: list[str] = (),
+    truth_path: str | None = None,
+    rules=None,
+    video: bool = True,
+    record_live: bool = True,
+    progress: bool = False,
+    max_frames: int | None = None,
+) -> ReplayResult:
+    """Run the pipeline over ``rec`` and write the outputs in ``out_dir``."""
+    from tqdm import tqdm
+
+    from eval.live.record import LiveRecorder
+    from eval.trial.run import detector_label, make_detectors
+    from poi.annotate import annotate
+    from poi.pipeline import Pipeline
+    from poi.report import PoiWriter, ReportHeader
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    outputs = TrialOutputs(out)
+    notes = list(rec.notes)
+    cfg, detector, mission = replay_config(rec, config_path, detector, list(pipeline_sets))
+    n = rec.n_frames if max_frames is None else min(max_frames, rec.n_frames)
+    fps = rec.fps
+    world = _NoWorld(n_frames=n, fps=fps)
+    detectors, _ = make_detectors(detector, cfg, world, notes)
+    pipe = Pipeline(cfg, detectors)
+    notes.extend(pipe.notes)
+    truth_file = read_poi_file(truth_path) if truth_path else None
+    header = ReportHeader(
+        team=cfg.report.team,
+        country=cfg.report.country,
+        mission=mission,
+        start=rec.start,
+        version=cfg.report.poi_version,
+    )
+    writer = PoiWriter(out / "pois.csv", header, robot=cfg.report.robot, mode=cfg.report.mode)
+    vid = H264Writer(out / "trial.mp4", rec.color_k.width, rec.color_k.height, fps) if video else None
+
+    def running_score() -> dict | None:
+        if truth_file is None:
+            return None
+        return live_summary(score(read_poi_file(out / "pois.csv"), truth_file, rules))
+
+    live = LiveRecorder(out, world, title=f"{mission} (replay)", score_fn=running_score, record=record_live)
+    path: list[list[float]] = []
+    skipped = 0
+    streaming = True
+    t0, c0 = time.perf_counter(), time.process_time()
+    k = 0
+    try:
+        frames = rec.frames()
+        for frame in tqdm(frames, total=n, desc="replay", unit="frame", disable=not progress, file=sys.stderr):
+            if k >= n:
+                break
+            res = pipe.process(frame)
+            skipped += res.skipped_reason is not None
+            if res.pose_map is not None:
+                T = res.pose_map @ pipe.T_tracker_camera
+                path.append([float(T[0, 3]), float(T[1, 3])])
+            for snap in res.newly_confirmed:
+                if streaming:
+                    try:
+                        writer.append(snap)
+                    except OSError:
+                        streaming = False
+            view = annotate(frame.rgb, res.detections, pipe.confirmed(), frame.timestamp_s)
+            if vid is not None:
+                try:
+                    vid.write(view)
+                except OSError as e:
+                    outputs.fail("trial.mp4", e)
+                    with contextlib.suppress(OSError):
+                        vid.close()
+                    vid = None
+            live.on_frame(frame, res, pipe, view)
+            k += 1
+    finally:
+        if vid is not None:
+            outputs.write("trial.mp4", lambda _: vid.close())
+        if record_live:
+            outputs.write("live/", lambda _: live.close())
+        else:
+            live.close()
+    wall = time.perf_counter() - t0
+    cpu = time.process_time() - c0  # all threads of the process (the encoder's ffmpeg is a child: not counted)
+    final = pipe.confirmed()
+    outputs.write("pois.csv", lambda _: writer.finalize(final))
+    result = None
+    if truth_file is not None:
+        result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
+        doc = to_json_dict(result)
+        doc["replay"] = {"recording": str(rec.path), "frames": k, "skipped_frames": skipped, "notes": notes}
+        outputs.write("score.json", lambda p: p.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8"))
+        layers = score_layers(result)
+    else:
+        layers = {
+            "reports": [
+                MapReport(
+                    id=s.report_id,
+                    type=s.type,
+                    x=float(s.position_map[0]),
+                    y=float(s.position_map[1]),
+                    status="identified",
+                    text=s.text,
+                )
+                for s in final
+            ],
+            "truth": [],
+        }
+    info = {
+        "recording": str(rec.path),
+        "layout": rec.layout,
+        "colour": rec.color_topic,
+        "depth": rec.depth_topic,
+        "depth_aligned_here": not rec.aligned,
+        "pose": rec.pose_source,
+        "intrinsics": rec.color_k.to_dict(),
+        "detector": detector_label(detector),
+        "frames": k,
+        "skipped_frames": skipped,
+        "wall_s": round(wall, 3),
+        "frames_per_s": round(k / wall, 2) if wall > 0 else None,
+        "cpu_ms_per_frame": round(1e3 * cpu / k, 2) if k else None,
+        "notes": notes,
+    }
+    outputs.write("replay.json", lambda p: p.write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8"))
+    title = f"{mission} (replay of {rec.path.name})" + (f": {result.headline()}" if result is not None else "")
+    outputs.write(
+        "map.png",
+        lambda p: draw_map(p, walls=[], robot_path=np.asarray(path).reshape(-1, 2), title=title, **layers),
+    )
+    outputs.check()
+    return ReplayResult(
+        out_dir=out,
+        n_frames=k,
+        wall_s=wall,
+        frames_per_s=k / wall if wall > 0 else float("inf"),
+        cpu_ms_per_frame=1e3 * cpu / k if k else float("nan"),
+        notes=notes,
+        written=outputs.names(),
+        score=result,
+        confirmed=len(final),
+    )
