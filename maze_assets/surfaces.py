@@ -1,11 +1,14 @@
-"""Wall and floor textures: oriented strand board (OSB) walls and a plywood floor.
+"""Wall, floor and hall textures: the sheets an arena is built from, and the hall around it.
 
-RoboCupRescue arenas are built from OSB and plywood sheets. The wall texture is
-a mid-light tan with overlapping wood flakes and fine grain, so a stereo depth
-camera (docs/FACTS.md "D435 depth": low-texture surfaces read 0) would find matches on it; the
-floor is plywood with long grain bands, a little darker. Both are drawn from an
-explicit ``rng`` (same generator state, same image) and tile seamlessly
-(everything wraps around the edges).
+RoboCupRescue arenas are built from OSB and plywood sheets, some painted. A wall sheet
+(:func:`draw_wall`) is OSB (overlapping wood flakes and fine grain), sanded plywood (long
+wavy grain) or painted board; each gets the joints between sheets, rows of screw heads and
+the marks of use (pencil lines, tape, scuffs low on the wall, now and then soot). The
+textures have detail for a stereo depth camera to match (docs/FACTS.md "D435 depth":
+low-texture surfaces read 0). Floors (:func:`draw_floor_kind`) are plywood, OSB or painted
+grey; :func:`draw_hall_wall` is the hall seen past the arena (blockwork under windows).
+All are drawn from an explicit ``rng`` (same generator state, same image) and tile
+seamlessly (everything wraps around the edges); sim/world.py picks the kinds per scenario.
 
 >>> w = draw_plywood(64, np.random.default_rng(1))
 >>> w.shape, w.dtype.name
