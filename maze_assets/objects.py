@@ -50,6 +50,11 @@ class PlacedObject:
     wall: str | None = None  # name of the wall segment it hangs on or replaces
     look_seed: int | None = None
     roll: float = 0.0
+    # The A4 page a QR code is printed on (the first code of a page carries it): (left, right,
+    # bottom, top) of the page in the object's local (y, z), metres; drawn as a white sheet on the
+    # wall, not part of the object (maze_assets.models.build_page).
+    page_m: tuple[float, float, float, float] | None = None
+    module_m: float | None = None  # a QR code's module side, metres (None: whatever its size gives)
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:
