@@ -80,3 +80,23 @@ def object_id_from_geom_name(name: str | None) -> int | None:
         return None
     m = _GEOM_RE.match(name)
     return int(m.group(1)) if m else None
+
+
+def fiducial_text(diameter_m: float) -> str:
+    """A fiducial's ground-truth text: its pipe diameter, which the map draws it at.
+
+    >>> fiducial_text(0.3), fiducial_diameter_m("300 mm"), fiducial_diameter_m("")
+    ('300 mm', 0.3, None)
+    """
+    return f"{round(diameter_m * 1000):d} mm"
+
+
+def fiducial_diameter_m(text: str) -> float | None:
+    """The diameter a fiducial's text gives (:func:`fiducial_text`), or None."""
+    parts = text.split()
+    if len(parts) == 2 and parts[1] == "mm":
+        try:
+            return float(parts[0]) / 1000
+        except ValueError:
+            return None
+    return None

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from maze_assets.models import ARENA_SIZE_M, FIDUCIAL_DIAMETER_M, FIDUCIAL_LENGTH_M, qr_side_m
-from maze_assets.objects import PlacedObject
+from maze_assets.objects import PlacedObject, fiducial_text
 from poi.core.names import ARENA_TYPES, HAZMAT_LABELS
 from sim.scenario import ObjectsGenerate, ObjectSpec, QrSheets, Scenario
 
@@ -239,26 +239,6 @@ def _texts(gen: ObjectsGenerate, n_hazmat: int, n_qr: int, rng) -> tuple[list[st
 FIDUCIAL_CLEAR_M = 0.3
 A4_M = (0.210, 0.297)  # width, height of a portrait A4 page
 PAGE_MARGIN_M = 0.008
-
-
-def fiducial_text(diameter_m: float) -> str:
-    """A fiducial's ground-truth text: its pipe diameter, which the map draws it at.
-
-    >>> fiducial_text(0.3), fiducial_diameter_m("300 mm"), fiducial_diameter_m("")
-    ('300 mm', 0.3, None)
-    """
-    return f"{round(diameter_m * 1000):d} mm"
-
-
-def fiducial_diameter_m(text: str) -> float | None:
-    """The diameter a fiducial's text gives (:func:`fiducial_text`), or None."""
-    parts = text.split()
-    if len(parts) == 2 and parts[1] == "mm":
-        try:
-            return float(parts[0]) / 1000
-        except ValueError:
-            return None
-    return None
 
 
 def _opposite_pairs(maze) -> list[tuple[object, object]]:

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from maze_assets.models import FIDUCIAL_DIAMETER_M, FIDUCIAL_LENGTH_M, half_cylinder_mesh, qr_side_m
+from maze_assets.objects import fiducial_diameter_m
 from maze_assets.qr import draw_qr
 from sim.maze import find_maze, load_maze
-from sim.placement import A4_M, PlacementError, fiducial_diameter_m, place_objects
+from sim.placement import A4_M, PlacementError, place_objects
 from sim.scenario import ScenarioError, apply_settings, load_scenario
 
 

@@ -177,3 +177,33 @@ def test_bad_mapping_fields_are_refused_with_the_field_named(change: dict, messa
     d.pop("source")
     with pytest.raises(RulesError, match=message.replace("(", r"\(")):
         rules_from_dict(d, source="r.yaml")
+
+
+def test_the_map_draws_fiducials_as_half_discs_against_their_wall(tmp_path) -> None:
+    import cv2
+
+    from eval.scoring.map_plot import FIDUCIAL_REPORT_RGB, FIDUCIAL_RGB, MapFiducial, draw_map, score_layers
+
+    rep = _file([_row(0, "qr", 0.0, 0.4, 0.5, "Chart A"), _row(1, "fiducial", 2.05, 0.0, 0.25)])
+    layers = score_layers(score(rep, truth(), RMRC2025))
+    assert layers["fiducials"][:2] == [
+        MapFiducial(x=-2.0, y=0.0, diameter_m=0.3),
+        MapFiducial(x=2.0, y=0.0, diameter_m=0.3),
+    ]
+    assert layers["fiducials"][-1] == MapFiducial(x=2.05, y=0.0, reported=True)
+    assert [r.type for r in layers["reports"]] == ["qr"]  # a fiducial report is drawn as a fiducial
+    walls = [((-3.0, -0.025), (9.0, -0.025))]  # all fiducials stand on its north face, facing +y
+
+    def pixels(path, rgb) -> int:
+        img = cv2.imread(str(path))[:, :, ::-1]
+        return int((img == rgb).all(axis=2).sum())
+
+    with_f = draw_map(tmp_path / "f.png", walls=walls, robot_path=[[0, 0.6]], **layers)
+    layers.pop("fiducials")
+    without = draw_map(tmp_path / "n.png", walls=walls, robot_path=[[0, 0.6]], **layers)
+    assert pixels(without, FIDUCIAL_RGB) == 0
+    # 910 px of axes over 14 m: 65 px a metre; a 0.3 m half-disc covers pi 9.75^2 / 2 = 149 px less its
+    # black edge; four truth fiducials, one half under the reported one: more than one half-disc, less
+    # than four whole ones (the legend's swatches add a few pixels of each grey)
+    assert 149 < pixels(with_f, FIDUCIAL_RGB) < 4 * 149
+    assert pixels(without, FIDUCIAL_REPORT_RGB) == 0 < pixels(with_f, FIDUCIAL_REPORT_RGB)
