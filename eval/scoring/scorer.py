@@ -304,8 +304,10 @@ def _apply_fiducial_mapping(
             f"{located} of {tested} QR code(s) mapped; the report lacks {len(used_truth)} of the fiducials "
             "the test needs: their true positions were used as the map's"
         )
-    else:
+    elif tested:
         block["reason"] = f"{located} of {tested} QR code(s) mapped, against the reported fiducials"
+    else:
+        block["reason"] = "no QR code was paired: nothing to test"
     return block
 
 

@@ -90,3 +90,22 @@ def test_bad_fiducial_and_sheet_settings_are_refused() -> None:
     small = apply_settings(sc, ["maze.file=rmrc_lanes"])
     with pytest.raises(PlacementError, match="counts.fiducial: a pair of fiducials"):
         place_objects(small, load_maze(find_maze("rmrc_lanes")), np.random.default_rng(0))
+
+
+def test_the_world_draws_each_page_once_and_no_object_owns_it(rmrc_objects) -> None:
+    import mujoco
+
+    from poi.core.types import Intrinsics
+    from sim.world import build_world
+
+    sc, objs = rmrc_objects
+    intr = Intrinsics(width=64, height=48, fx=60.0, fy=60.0, ppx=32.0, ppy=24.0)
+    world = build_world(load_maze(find_maze(sc.maze.file)), objs, intr, "bright", np.random.default_rng(0))
+    m = world.model
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(m.ngeom)]
+    pages = [g for g, n in enumerate(names) if n and n.startswith("qr_page_")]
+    assert len(pages) == 3 and all(world.geom_object_id[g] == -1 for g in pages)
+    fid = [g for g, n in enumerate(names) if n and n.startswith("poi_") and n.endswith("_fiducial_body")]
+    assert len(fid) == 6 and sorted(int(world.geom_object_id[g]) for g in fid) == list(range(6))
+    # a page lies flat on its wall, A4 in size (the box's half extents: depth, width, height)
+    assert sorted(m.geom_size[pages[0]][1:] * 2) == pytest.approx(sorted(A4_M))
