@@ -258,8 +258,8 @@ def draw_map(
                 capstyle="projecting",
             )
         )
-    for f in fids:
-        _draw_fiducial(ax, f, segs, pt_per_px)
+    for f, facing in zip(fids, fiducial_facings(fids, segs), strict=True):
+        _draw_fiducial(ax, f, facing, pt_per_px)
     for o in objs:
         _draw_truth(ax, o, pt_per_px, px_per_m, truth_circle_m)
     if goal is not None:
@@ -441,8 +441,26 @@ def fiducial_facing_deg(x: float, y: float, segs: np.ndarray) -> float:
     return float(np.degrees(np.arctan2(d[1], d[0])))
 
 
-def _draw_fiducial(ax: Any, f: MapFiducial, segs: np.ndarray, pt_per_px: float) -> None:
-    facing = fiducial_facing_deg(f.x, f.y, segs)
+def fiducial_facings(fids: Sequence[MapFiducial], segs: np.ndarray, near_m: float = 1.0) -> list[float]:
+    """Which way each fiducial faces, degrees: a true one away from its nearest wall
+    (:func:`fiducial_facing_deg`); a reported one, whose centre may fall a few centimetres on
+    either side of the wall, as the nearest true one within ``near_m`` does, else as its wall.
+
+    >>> wall = np.array([[[0.0, 0.0], [2.0, 0.0]]])
+    >>> fiducial_facings([MapFiducial(x=1.0, y=0.025), MapFiducial(x=1.02, y=-0.01, reported=True)], wall)
+    [90.0, 90.0]
+    """
+    own = [fiducial_facing_deg(f.x, f.y, segs) for f in fids]
+    truth = [(f, a) for f, a in zip(fids, own, strict=True) if not f.reported]
+    out = []
+    for f, a in zip(fids, own, strict=True):
+        near = [(math.hypot(f.x - t.x, f.y - t.y), ta) for t, ta in truth] if f.reported else []
+        near = [na for na in near if na[0] <= near_m]
+        out.append(min(near)[1] if near else a)
+    return out
+
+
+def _draw_fiducial(ax: Any, f: MapFiducial, facing: float, pt_per_px: float) -> None:
     rgb = FIDUCIAL_REPORT_RGB if f.reported else FIDUCIAL_RGB
     ax.add_patch(
         Wedge(
