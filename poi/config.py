@@ -252,6 +252,8 @@ class FiducialConfig:
     high_m: tuple[float, float] = (0.6, 1.1)
     min_hits: int = number(3, lo=1)
     min_cells: int = number(15, lo=3)
+    top_m: float = number(0.12, lo=0.0)
+    min_top_fraction: float = number(0.3, lo=0.0, hi=1.0)
     radius_m: tuple[float, float] = (0.12, 0.18)
     max_rms_m: float = number(0.03, lo=0.0)
 

@@ -14,9 +14,9 @@ K = Intrinsics(width=160, height=120, fx=110.0, fy=110.0, ppx=79.5, ppy=59.5)
 R_PIPE, WALL_X, H_CAM = 0.15, 1.0, 0.3
 
 
-def _depth(cam_xy: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+def _depth(cam_xy: tuple[float, float], top_m: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """The z-depth image of a camera at (x, y, 0.3) looking along +x (optical z = map x, optical
-    x = map -y, optical y = map -z), and its T_map_camera."""
+    x = map -y, optical y = map -z), with the pipe ``top_m`` tall, and its T_map_camera."""
     v, u = np.mgrid[0 : K.height, 0 : K.width].astype(float)
     d = np.stack([(u - K.ppx) / K.fx, (v - K.ppy) / K.fy, np.ones_like(u)], axis=-1)  # optical rays, z = 1
     R = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # optical -> map
@@ -27,7 +27,7 @@ def _depth(cam_xy: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     t = np.where((t_wall > 0) & (o[2] + t_wall * D[..., 2] <= 1.2), t_wall, t)
     t_floor = np.where(D[..., 2] < 0, -o[2] / np.minimum(D[..., 2], -1e-12), np.inf)
     t = np.minimum(t, t_floor)
-    # the pipe: (x - 1)^2 + y^2 = r^2, x <= 1, 0 <= z <= 0.5; nearest root
+    # the pipe: (x - 1)^2 + y^2 = r^2, x <= 1, 0 <= z <= top_m; nearest root
     a = D[..., 0] ** 2 + D[..., 1] ** 2
     b = 2 * ((o[0] - WALL_X) * D[..., 0] + o[1] * D[..., 1])
     c = (o[0] - WALL_X) ** 2 + o[1] ** 2 - R_PIPE**2
@@ -35,7 +35,7 @@ def _depth(cam_xy: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     t_pipe = np.where(disc >= 0, (-b - np.sqrt(np.maximum(disc, 0))) / (2 * a), np.inf)
     z = o[2] + t_pipe * D[..., 2]
     x = o[0] + t_pipe * D[..., 0]
-    t_pipe = np.where((t_pipe > 0) & (z >= 0) & (z <= 0.5) & (x <= WALL_X), t_pipe, np.inf)
+    t_pipe = np.where((t_pipe > 0) & (z >= 0) & (z <= top_m) & (x <= WALL_X), t_pipe, np.inf)
     t = np.minimum(t, t_pipe)
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = R, o
@@ -92,3 +92,13 @@ def test_the_pipeline_reports_fiducials_only_when_asked() -> None:
     assert off.landmarks() == []
     (snap,) = on.landmarks()
     assert snap.report_id == 0 and snap.position_map[:2] == pytest.approx([WALL_X, 0.0], abs=0.03)
+
+
+def test_something_round_but_low_is_not_a_fiducial() -> None:
+    # the same half-pipe cut to 0.2 m: nothing of it reaches the top of the low band (0.30-0.42 m)
+    m = FiducialMapper(FiducialConfig(enabled=True, every_n_frames=1, stride_px=1, min_hits=1))
+    for k, xy in enumerate([(0.0, -0.4), (0.0, 0.4), (0.2, 0.0)]):
+        depth, T = _depth(xy, top_m=0.2)
+        m.add(Frame(index=k, timestamp_s=float(k), rgb=np.zeros((K.height, K.width, 3), np.uint8),
+                    intrinsics=K, depth_m=depth, pose=T), T)  # fmt: skip
+    assert m.fits() == []
