@@ -17,7 +17,7 @@ from pixels.
 For each distance and ring the table gives the gap's size in pixels on the image
 (gap mm x fx / distance) and the share of readings that are right, wrong (a direction,
 not the true one) and None (unreadable). Run:
-``MUJOCO_GL=egl python bench/bench_landolt.py [--targets 24 --poses 4 --seed 0]``.
+``MUJOCO_GL=egl python bench/bench_landolt.py [--targets 24 --poses 4 --seed 0] [--set key=value ...]``.
 """
 
 from __future__ import annotations
@@ -29,18 +29,15 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-import sim.gl  # noqa: F401  (chooses MUJOCO_GL before mujoco is imported)
-import mujoco  # noqa: E402, I001  (after sim.gl)
-
-from maze_assets.landolt import card_side_mm, draw_landolt  # noqa: E402
-from maze_assets.mjcf import SceneAssets, fmt  # noqa: E402
-from poi.core.landolt import LandoltSpec, random_orientations  # noqa: E402
-from poi.detectors.landolt import read_landolt  # noqa: E402
-from sim.camera import d435_intrinsics, mujoco_camera_attrs  # noqa: E402
-from sim.render import SceneRenderer  # noqa: E402
-from sim.scenario import load_scenario  # noqa: E402
-from sim.sensors.d435_color import ColourCamera, meter, steady_state_exposure  # noqa: E402
-from sim.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX, lux_of_decoded_one  # noqa: E402
+from maze_assets.landolt import card_side_mm, draw_landolt
+from maze_assets.mjcf import SceneAssets, fmt
+from poi.core.landolt import LandoltSpec, random_orientations
+from poi.detectors.landolt import read_landolt
+from sim.camera import d435_intrinsics, mujoco_camera_attrs
+from sim.render import SceneRenderer
+from sim.scenario import apply_settings, load_scenario
+from sim.sensors.d435_color import ColourCamera, meter, steady_state_exposure
+from sim.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX, lux_of_decoded_one
 
 TEXTURE_PX = 512  # the card's texture: ring 5's 0.33 mm gap is 2.6 texels
 TARGET_SPACING_M = 3.0  # cards side by side along y, far enough apart that one fills a crop
@@ -49,7 +46,9 @@ MAX_YAW_DEG = 8.0
 MAX_SHIFT_FRAC = 0.3  # of the half field of view at the distance
 
 
-def build_scene(spec: LandoltSpec, orientations: list[tuple[int, ...]], intr, lamp_level: float) -> tuple[str, dict]:
+def build_scene(
+    spec: LandoltSpec, orientations: list[tuple[int, ...]], intr, lamp_level: float
+) -> tuple[str, dict]:
     """MJCF of the cards (facing +x at y = i x TARGET_SPACING_M, z = 0) and a camera rig."""
     assets = SceneAssets()
     side_m = card_side_mm(spec) / 1000.0
@@ -109,25 +108,20 @@ def project(points_w: np.ndarray, cam_pos: np.ndarray, cam_mat: np.ndarray, intr
     return np.stack([intr.ppx + intr.fx * pc[:, 0] / z, intr.ppy - intr.fy * pc[:, 1] / z], axis=1)
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--scenario", default="default")
-    ap.add_argument("--distances", type=float, nargs="+", default=[0.3, 0.5, 0.75, 1.0, 1.5, 2.0])
-    ap.add_argument("--targets", type=int, default=24)
-    ap.add_argument("--poses", type=int, default=4)
-    ap.add_argument("--seed", type=int, default=0)
-    args = ap.parse_args()
-    if args.targets < 1 or args.poses < 1 or any(d <= 0 for d in args.distances):
-        ap.error("--targets and --poses must be at least 1 and every distance positive")
-    sc = load_scenario(args.scenario)
+def measure(sc, distances: list[float], n_targets: int, poses: int, seed: int) -> np.ndarray:
+    """Counts (len(distances), n_rings, 3): readings right, wrong and None per distance and ring."""
+    import mujoco  # after sim (importing sim chooses MUJOCO_GL before mujoco is loaded)
+
     d = sc.sensors.d435
     intr = d435_intrinsics(d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
     col = d.colour
-    lux = lux_of_decoded_one(sc.lighting, col.lux if col.lux is not None else LIGHT_LEVEL_LUX[sc.lighting], col.gamma)
+    lux = lux_of_decoded_one(
+        sc.lighting, col.lux if col.lux is not None else LIGHT_LEVEL_LUX[sc.lighting], col.gamma
+    )
     camera = ColourCamera(col, intr.width, intr.height, intr.fx, intr.fy, intr.ppx, intr.ppy)
-    rng = np.random.default_rng(args.seed)
+    rng = np.random.default_rng(seed)
     spec = LandoltSpec()
-    truth = [random_orientations(spec.n_rings, rng) for _ in range(args.targets)]
+    truth = [random_orientations(spec.n_rings, rng) for _ in range(n_targets)]
     xml, files = build_scene(spec, truth, intr, LAMP_WHITE_LEVEL[sc.lighting])
     model = mujoco.MjModel.from_xml_string(xml, files)
     data = mujoco.MjData(model)
@@ -135,12 +129,11 @@ def main() -> None:
     half = card_side_mm(spec) / 2000.0
     corners = np.array([[0, -half, half], [0, half, half], [0, half, -half], [0, -half, -half]], float)
     half_fov = math.atan(intr.width / 2 / intr.fx), math.atan(intr.height / 2 / intr.fy)
-    counts = np.zeros((len(args.distances), spec.n_rings, 3), int)  # right, wrong, None
-    t0 = time.perf_counter()
+    counts = np.zeros((len(distances), spec.n_rings, 3), int)  # right, wrong, None
     with SceneRenderer(model, intr.width, intr.height, "d435") as r:
-        for i_d, dist in enumerate(args.distances):
+        for i_d, dist in enumerate(distances):
             for i_t, o in enumerate(truth):
-                for _ in range(args.poses):
+                for _ in range(poses):
                     dy = rng.uniform(-1, 1) * MAX_SHIFT_FRAC * dist * math.tan(half_fov[0])
                     dz = rng.uniform(-1, 1) * MAX_SHIFT_FRAC * dist * math.tan(half_fov[1])
                     yaw = math.radians(rng.uniform(-MAX_YAW_DEG, MAX_YAW_DEG))
@@ -153,29 +146,48 @@ def main() -> None:
                     frame = camera.render(rgb, exposure, lux, rng=rng, pool=None)
                     cw = corners + np.array([0.0, i_t * TARGET_SPACING_M, 0.0])
                     uv = project(cw, data.cam_xpos[cam_id], data.cam_xmat[cam_id].reshape(3, 3), intr)
-                    box = (*uv.min(axis=0), *uv.max(axis=0))
-                    reading = read_landolt(frame, box)
+                    reading = read_landolt(frame, (*uv.min(axis=0), *uv.max(axis=0)))
                     for k in range(spec.n_rings):
                         got = None if reading is None else reading.rings[k].orientation_deg
                         counts[i_d, k, 2 if got is None else (0 if got == o[k] else 1)] += 1
+    return counts
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--scenario", default="default")
+    ap.add_argument("--set", action="append", default=[], help="a scenario setting key=value")
+    ap.add_argument("--distances", type=float, nargs="+", default=[0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0, 1.25, 1.5, 2.0])
+    ap.add_argument("--targets", type=int, default=24)
+    ap.add_argument("--poses", type=int, default=4)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    if args.targets < 1 or args.poses < 1 or any(d <= 0 for d in args.distances):
+        ap.error("--targets and --poses must be at least 1 and every distance positive")
+    sc = apply_settings(load_scenario(args.scenario), args.set)
+    d = sc.sensors.d435
+    t0 = time.perf_counter()
+    counts = measure(sc, args.distances, args.targets, args.poses, args.seed)
     elapsed = time.perf_counter() - t0
     n = args.targets * args.poses
+    spec = LandoltSpec()
     gaps = spec.gaps_mm()
     print(
-        f"scenario {args.scenario!r} ({intr.width}x{intr.height}, fx {intr.fx} px, lighting {sc.lighting}), "
-        f"{args.targets} targets x {args.poses} poses = {n} readings per distance and ring, seed {args.seed}; "
-        f"{elapsed:.0f} s"
+        f"scenario {args.scenario!r} {' '.join(args.set)} ({d.width}x{d.height}, fx {d.fx} px, lighting "
+        f"{sc.lighting}): {args.targets} targets x {args.poses} poses = {n} readings per distance and ring, "
+        f"seed {args.seed}; {elapsed:.0f} s"
     )
-    print("ring gaps (mm): " + ", ".join(f"{k + 1}: {g:.2f}" for k, g in enumerate(gaps)))
     print()
-    print("| distance (m) | " + " | ".join(f"ring {k + 1} (gap px): right / wrong / None" for k in range(spec.n_rings)) + " |")
-    print("|---:|" + "---|" * spec.n_rings)
+    print("readings right % / wrong % (the rest None), and the gap's width on the image")
+    print()
+    print("| distance | " + " | ".join(f"ring {k + 1} ({g:.2f} mm gap)" for k, g in enumerate(gaps)) + " |")
+    print("|---:|" + "---:|" * spec.n_rings)
     for i_d, dist in enumerate(args.distances):
         cells = []
         for k in range(spec.n_rings):
-            right, wrong, none = (100.0 * c / n for c in counts[i_d, k])
-            cells.append(f"({gaps[k] * intr.fx / (dist * 1000):.1f} px) {right:.0f}% / {wrong:.0f}% / {none:.0f}%")
-        print(f"| {dist:g} | " + " | ".join(cells) + " |")
+            right, wrong, _none = (100.0 * c / n for c in counts[i_d, k])
+            cells.append(f"{right:.0f} / {wrong:.0f} ({gaps[k] * d.fx / (dist * 1000):.1f} px)")
+        print(f"| {dist:g} m | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -67,7 +67,9 @@ class LandoltSpec:
         if int(self.n_rings) != self.n_rings or self.n_rings < 1:
             raise ValueError(f"n_rings: expected a positive integer, got {self.n_rings}")
         if not (0.0 < self.ring_ratio < 1.0 - 2.0 * STROKE_FRAC):
-            raise ValueError(f"ring_ratio: expected 0 < ratio < {1.0 - 2.0 * STROKE_FRAC:.1f}, got {self.ring_ratio}")
+            raise ValueError(
+                f"ring_ratio: expected 0 < ratio < {1.0 - 2.0 * STROKE_FRAC:.1f}, got {self.ring_ratio}"
+            )
 
     def diameters_mm(self) -> list[float]:
         """Outer diameter of each ring, outermost first (ring 1)."""

@@ -21,14 +21,16 @@ the orientations, which it reads from the image with OpenCV:
    for within a quarter of a stroke of its design centre radius 0.8 ratio**(k-1). Its
    contrast c_k is its peak minus the brighter of the white bands just outside and
    inside it; a ring under ``min_contrast`` (of the full black-white range) is not
-   resolved and reads None.
+   resolved and reads None (at the resolution limit the ring and its white bands blur
+   into one grey long before its gap's direction is lost, so this threshold is low).
 4. **Gap.** The angular profile p(psi) is the mean of q over the middle half of the
    ring's stroke. For each of the 8 directions, the mean of p over a window of
    ``window_frac`` of the gap's angular width (29 degrees at mid-stroke) gives a score
    s_j = (median(p) - mean_j) / c_k: about 1 where the gap is, 0 elsewhere. The answer
    is the best direction; its confidence is s_best - s_second. It is None when the
-   confidence is under ``min_confidence``, or the margin (in darkness) is under
-   ``noise_k`` robust standard deviations of p outside the best window, or the
+   confidence is under ``min_confidence``, or the margin in darkness (confidence x c_k)
+   is under ``min_dip`` or under ``noise_k`` robust standard deviations of p outside
+   the best window, or the
    continuous gap angle (the minimum of p smoothed over the gap's width) is more than
    22.5 degrees from the best direction.
 
@@ -74,9 +76,12 @@ class LandoltReaderConfig:
     hull_fit_tol: float = 0.12  # |hull area / ellipse area - 1| at most this
     n_radii: int = 400  # polar samples from rho = 0 to RHO_MAX
     n_angles: int = 720  # polar samples round the circle (0.5 degree)
-    min_contrast: float = 0.3  # a ring's darkness over its white bands, of black - white
+    # thresholds set on the rendered bench's seed 5 (bench/bench_landolt.py; its table is seed 0):
+    # no wrong reading there had a contrast over 0.018 or a dip over 0.06
+    min_contrast: float = 0.06  # a ring's darkness over its white bands, of black - white
     window_frac: float = 0.6  # direction window: this fraction of the gap's angular width
     min_confidence: float = 0.4  # best direction's score minus the second best
+    min_dip: float = 0.1  # the same difference in darkness (of black - white): confidence x contrast
     noise_k: float = 4.0  # the margin must exceed this many robust sigmas of the profile
 
     def __post_init__(self) -> None:
@@ -84,7 +89,7 @@ class LandoltReaderConfig:
             raise ValueError(f"n_rings: expected a positive integer, got {self.n_rings}")
         if not (0.0 < self.ring_ratio < 1.0 - 2.0 * STROKE_FRAC):
             raise ValueError(f"ring_ratio: expected 0 < ratio < 0.6, got {self.ring_ratio}")
-        for name in ("margin_frac", "min_contrast", "min_confidence", "noise_k"):
+        for name in ("margin_frac", "min_contrast", "min_confidence", "min_dip", "noise_k"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name}: expected a number >= 0, got {getattr(self, name)}")
         if not 0 < self.window_frac <= 1:
@@ -99,6 +104,7 @@ class RingReading:
 
     ring: int  # 1 = outermost
     orientation_deg: int | None
+    best_deg: int | None  # the best direction even when it is not confident; None if unresolved
     confidence: float  # best direction's score minus the second best (0 when unresolved)
     contrast: float  # the ring's darkness over its white bands, of black - white
     gap_angle_deg: float | None  # continuous estimate of the gap's direction
@@ -179,7 +185,13 @@ def _band(m: np.ndarray, rho: np.ndarray, lo: float, hi: float) -> np.ndarray:
 
 
 def _read_ring(
-    k: int, q: np.ndarray, m: np.ndarray, rho: np.ndarray, psi: np.ndarray, scale_px: float, cfg: LandoltReaderConfig
+    k: int,
+    q: np.ndarray,
+    m: np.ndarray,
+    rho: np.ndarray,
+    psi: np.ndarray,
+    scale_px: float,
+    cfg: LandoltReaderConfig,
 ) -> RingReading:
     """Ring k (0 = outermost) from the darkness q (NR, NA) and its radial median m (NR,)."""
     r_out = cfg.ring_ratio**k  # design outer radius, rho units
@@ -189,7 +201,13 @@ def _read_ring(
 
     def unresolved(contrast: float) -> RingReading:
         return RingReading(
-            ring=k + 1, orientation_deg=None, confidence=0.0, contrast=contrast, gap_angle_deg=None, diameter_px=diameter_px
+            ring=k + 1,
+            orientation_deg=None,
+            best_deg=None,
+            confidence=0.0,
+            contrast=contrast,
+            gap_angle_deg=None,
+            diameter_px=diameter_px,
         )
 
     near = (rho >= r_mid - 0.25 * s) & (rho <= r_mid + 0.25 * s)
@@ -212,7 +230,7 @@ def _read_ring(
         inside = _band(m, rho, 0.2 * r_in, 0.7 * r_in)
     white_local = max(float(np.mean(outside)), float(np.mean(inside)))
     contrast = peak - white_local
-    if contrast < cfg.min_contrast:
+    if contrast <= 0.0:
         return unresolved(contrast)
     rho_c = float(rho[i_peak])
     rows = (rho >= rho_c - 0.25 * s) & (rho <= rho_c + 0.25 * s)
@@ -225,7 +243,7 @@ def _read_ring(
     half_win = max(1, int(round(cfg.window_frac * gap_halfwidth_deg / step)))
     na = len(psi)
     scores = []
-    for j, direction in enumerate(DIRECTIONS_DEG):
+    for direction in DIRECTIONS_DEG:
         c = int(round(direction / step)) % na
         win = np.take(p, np.arange(c - half_win, c + half_win + 1), mode="wrap")
         scores.append((base - float(win.mean())) / contrast)
@@ -244,10 +262,17 @@ def _read_ring(
     keep = np.ones(na, bool)
     keep[np.arange(c_best - 2 * half_gap, c_best + 2 * half_gap + 1) % na] = False
     sigma = 1.4826 * float(np.median(np.abs(p[keep] - np.median(p[keep]))))
-    readable = confidence >= cfg.min_confidence and confidence * contrast > cfg.noise_k * sigma and off <= 22.5
+    readable = (
+        contrast >= cfg.min_contrast
+        and confidence >= cfg.min_confidence
+        and confidence * contrast >= cfg.min_dip
+        and confidence * contrast > cfg.noise_k * sigma
+        and off <= 22.5
+    )
     return RingReading(
         ring=k + 1,
         orientation_deg=int(DIRECTIONS_DEG[best]) if readable else None,
+        best_deg=int(DIRECTIONS_DEG[best]),
         confidence=confidence,
         contrast=contrast,
         gap_angle_deg=gap_angle,
@@ -304,4 +329,3 @@ def read_landolt(
         angle_deg=float(ang),
         rings=rings,
     )
-
