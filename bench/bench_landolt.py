@@ -32,10 +32,11 @@ import numpy as np
 from maze_assets.landolt import card_side_mm, draw_landolt
 from maze_assets.mjcf import SceneAssets, fmt
 from poi.core.landolt import LandoltSpec, random_orientations
+from poi.core.types import Intrinsics
 from poi.detectors.landolt import read_landolt
 from sim.camera import d435_intrinsics, mujoco_camera_attrs
 from sim.render import SceneRenderer
-from sim.scenario import apply_settings, load_scenario
+from sim.scenario import Scenario, apply_settings, load_scenario
 from sim.sensors.d435_color import ColourCamera, meter, steady_state_exposure
 from sim.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX, lux_of_decoded_one
 
@@ -47,7 +48,7 @@ MAX_SHIFT_FRAC = 0.3  # of the half field of view at the distance
 
 
 def build_scene(
-    spec: LandoltSpec, orientations: list[tuple[int, ...]], intr, lamp_level: float
+    spec: LandoltSpec, orientations: list[tuple[int, ...]], intr: Intrinsics, lamp_level: float
 ) -> tuple[str, dict]:
     """MJCF of the cards (facing +x at y = i x TARGET_SPACING_M, z = 0) and a camera rig."""
     assets = SceneAssets()
@@ -101,14 +102,14 @@ def yaw_quat(yaw: float) -> np.ndarray:
     return np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
 
 
-def project(points_w: np.ndarray, cam_pos: np.ndarray, cam_mat: np.ndarray, intr) -> np.ndarray:
+def project(points_w: np.ndarray, cam_pos: np.ndarray, cam_mat: np.ndarray, intr: Intrinsics) -> np.ndarray:
     """(N, 2) pixels of world points; MuJoCo's camera looks along -z with y up."""
     pc = (points_w - cam_pos) @ cam_mat  # (N, 3) in the camera frame
     z = -pc[:, 2]
     return np.stack([intr.ppx + intr.fx * pc[:, 0] / z, intr.ppy - intr.fy * pc[:, 1] / z], axis=1)
 
 
-def measure(sc, distances: list[float], n_targets: int, poses: int, seed: int) -> np.ndarray:
+def measure(sc: Scenario, distances: list[float], n_targets: int, poses: int, seed: int) -> np.ndarray:
     """Counts (len(distances), n_rings, 3): readings right, wrong and None per distance and ring."""
     import mujoco  # after sim (importing sim chooses MUJOCO_GL before mujoco is loaded)
 
@@ -157,7 +158,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--scenario", default="default")
     ap.add_argument("--set", action="append", default=[], help="a scenario setting key=value")
-    ap.add_argument("--distances", type=float, nargs="+", default=[0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0, 1.25, 1.5, 2.0])
+    ap.add_argument(
+        "--distances", type=float, nargs="+", default=[0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.0, 1.25, 1.5, 2.0]
+    )
     ap.add_argument("--targets", type=int, default=24)
     ap.add_argument("--poses", type=int, default=4)
     ap.add_argument("--seed", type=int, default=0)

@@ -30,9 +30,8 @@ the orientations, which it reads from the image with OpenCV:
    is the best direction; its confidence is s_best - s_second. It is None when the
    confidence is under ``min_confidence``, or the margin in darkness (confidence x c_k)
    is under ``min_dip`` or under ``noise_k`` robust standard deviations of p outside
-   the best window, or the
-   continuous gap angle (the minimum of p smoothed over the gap's width) is more than
-   22.5 degrees from the best direction.
+   the best window, or the continuous gap angle (the minimum of p smoothed over the
+   gap's width) is more than 22.5 degrees from the best direction.
 
 >>> read_landolt(np.full((64, 64, 3), 255, np.uint8)) is None  # a blank card: no ring
 True
@@ -121,6 +120,9 @@ class LandoltReading:
     rings: tuple[RingReading, ...]
 
 
+# cv2.fitEllipse's ((cx, cy), (A, B), angle_deg): centre, full axes, rotation of axis A
+Ellipse = tuple[tuple[float, float], tuple[float, float], float]
+
 RHO_MAX = 1.15  # polar grid reaches past the outer edge, to the white card round it
 
 
@@ -132,7 +134,7 @@ def _to_gray(rgb: np.ndarray) -> np.ndarray:
     raise ValueError(f"expected an RGB (H, W, 3) or grey (H, W) image, got shape {rgb.shape}")
 
 
-def _outer_ellipse(gray: np.ndarray, cfg: LandoltReaderConfig):
+def _outer_ellipse(gray: np.ndarray, cfg: LandoltReaderConfig) -> Ellipse | None:
     """((cx, cy), (A, B), angle) of the outer ring in ``gray``'s pixels, or None."""
     g8 = np.clip(gray, 0, 255).astype(np.uint8)
     _t, dark = cv2.threshold(g8, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
@@ -158,7 +160,9 @@ def _outer_ellipse(gray: np.ndarray, cfg: LandoltReaderConfig):
     return None
 
 
-def _polar(gray: np.ndarray, ellipse, cfg: LandoltReaderConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _polar(
+    gray: np.ndarray, ellipse: Ellipse, cfg: LandoltReaderConfig
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(P, rho, psi): P (n_radii, n_angles) grey sampled at rho x ellipse radius in direction
     psi (degrees counter-clockwise as seen, image y down)."""
     (cx, cy), (A, B), ang = ellipse
