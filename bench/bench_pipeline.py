@@ -32,7 +32,7 @@ import numpy as np
 
 from poi.config import apply_overrides, load_config
 from poi.core.geometry import matrix_to_quat_wxyz
-from poi.core.names import CLASSES, TYPES, class_to_identity
+from poi.core.names import CLASSES, MAPPING_TYPES, TYPES, class_to_identity
 from poi.core.types import Detection, Observation
 from poi.pipeline import Pipeline
 from sim.oracle import OracleDetector, OracleSettings
@@ -64,6 +64,7 @@ def main() -> None:
         + (["localize.mode=slam"] if args.slam else []),
     )
     oracle = OracleDetector(OracleSettings(seed=0))
+    DETECTED_TYPES = tuple(t for t in TYPES if t not in MAPPING_TYPES)  # the map's landmarks have no class
     pipe = Pipeline(cfg, [oracle])
     # seed live tracks spread over the maze
     rng = np.random.default_rng(0)
@@ -71,7 +72,7 @@ def main() -> None:
     for i in range(args.tracks):
         # every type, spread over the maze but under the floor: gated against and tested for
         # view every frame, never seen, so all of them stay alive
-        typ = TYPES[i % len(TYPES)]
+        typ = DETECTED_TYPES[i % len(DETECTED_TYPES)]
         cls = next(c for c in CLASSES if class_to_identity(c)[0] == typ)
         det = Detection(class_name=cls, type=typ, text="", box_xyxy=(0, 0, 10, 10), confidence=0.9)
         p = np.array([rng.uniform(-1, 8), rng.uniform(-8, 1), -2.0])

@@ -32,6 +32,11 @@ Reference points and extents, for a characteristic size ``s = obj.size_m``:
   (floor at z = -s/2).
 - ball: a yellow sphere of diameter ``s`` (``BALL_DIAMETER_M``, a small football) resting
   on the floor; the origin at its centre.
+- fiducial (the RMRC labyrinth's mapping fiducial, [RMRC2025]_ "Mapping"): half of a PVC
+  pipe of diameter ``s`` (250-350 mm), ``FIDUCIAL_LENGTH_M`` (500 mm) long, standing on
+  the floor with its axis vertical and its cut face against the wall: from above, half a
+  circle. The origin is on the axis (on the wall face) at half its length (floor at
+  z = -0.25 m); one exact mesh (:func:`half_cylinder_mesh`), matte grey PVC.
 
 >>> from maze_assets.mjcf import SceneAssets
 >>> from maze_assets.objects import PlacedObject
@@ -45,6 +50,7 @@ Full entries in docs/SOURCES.md.
 
 .. [Bouda2025] M. Bouda, E. Doležal, O. Váňa, "Řešení úkolu pro TurtleBot s detekcí objektů
    a SLAM" ("A solution of the TurtleBot task with object detection and SLAM"), 2025.
+.. [RMRC2025] RoboCup Rescue Rapidly Manufactured Robot Challenge rulebook, 2025.
 """
 
 from __future__ import annotations
@@ -58,10 +64,11 @@ from scipy.spatial.transform import Rotation
 from maze_assets.hazmat import draw_hazmat, placard_style
 from maze_assets.mjcf import SceneAssets, fmt
 from maze_assets.objects import PlacedObject
-from maze_assets.qr import draw_qr
+from maze_assets.qr import QUIET_MODULES, draw_qr, qr_modules
 from maze_assets.signs import draw_exit_sign, draw_fire_extinguisher_sign
 
 FLAT_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign")
+CARD_RGBA = (0.95, 0.95, 0.94, 1.0)  # the white card behind a flat item, and a QR page
 TEXTURE_PX = 256
 QUAD_OFFSET_M = 0.003  # the image floats this far in front of the wall face
 BACKING_M = 0.002  # thickness of the card / plate behind the image
@@ -83,6 +90,12 @@ PILLAR_RGBA: dict[str, tuple[float, float, float, float]] = {
     "pillar-green": (0.10, 0.62, 0.18, 1.0),
 }
 BALL_RGBA = (0.98, 0.85, 0.05, 1.0)
+# The mapping fiducial ([RMRC2025] "Mapping", as issue 22 quotes it): "a 250-350 mm diameter PVC
+# pipe cut in half, 500 mm long"; grey PVC, matte; the arc drawn with FIDUCIAL_SEGMENTS facets.
+FIDUCIAL_DIAMETER_M = (0.25, 0.35)
+FIDUCIAL_LENGTH_M = 0.50
+FIDUCIAL_RGBA = (0.62, 0.64, 0.66, 1.0)
+FIDUCIAL_SEGMENTS = 32
 ARENA_SIZE_M: dict[str, float] = {
     "pillar-blue": PILLAR_HEIGHT_M,
     "pillar-red": PILLAR_HEIGHT_M,
@@ -280,7 +293,7 @@ def _flat(b: _Body) -> None:
     obj = b.obj
     w, h = flat_extent_m(obj.type, obj.size_m)
     mat, _ = _flat_texture(obj, b.assets)
-    backing = _material(b.assets, "card", (0.95, 0.95, 0.94, 1.0))
+    backing = _material(b.assets, "card", CARD_RGBA)
     if obj.type == "hazmat" and obj.look_seed is not None and placard_style(obj.text, obj.look_seed).look.cut:
         # cut out along the diamond: a square plate turned 45 degrees about the normal
         side = w / np.sqrt(2.0)
@@ -485,6 +498,92 @@ def _ball(b: _Body) -> None:
     b.sphere("body", yellow, (0, 0, 0), b.obj.size_m / 2)
 
 
+def half_cylinder_mesh(radius_m: float, length_m: float, segments: int = FIDUCIAL_SEGMENTS):
+    """Vertices (N, 3) and outward-facing triangles (M, 3) of a closed half-cylinder.
+
+    The axis is z (from -length/2 to +length/2), the curved side on x >= 0 (angles -90 to
+    +90 degrees in ``segments`` facets), the flat cut face in the plane x = 0. The side,
+    the two end caps and the flat face have their own vertices, so MuJoCo's vertex normals
+    stay smooth round the side and sharp at the edges.
+
+    >>> V, F = half_cylinder_mesh(0.15, 0.5, 4)
+    >>> V.shape, F.shape, float(V[:, 0].max()), float(V[:, 1].min()), float(V[:, 2].max())
+    ((24, 3), (16, 3), 0.15, -0.15, 0.25)
+    """
+    if not (radius_m > 0 and length_m > 0 and segments >= 2):
+        raise ModelError(
+            f"half_cylinder_mesh: radius and length must be > 0 and segments >= 2, got "
+            f"{radius_m}, {length_m}, {segments}"
+        )
+    a = np.linspace(-np.pi / 2, np.pi / 2, segments + 1)  # (S+1,)
+    ring = np.c_[radius_m * np.cos(a), radius_m * np.sin(a)]  # (S+1, 2)
+    ring[[0, -1], 0] = 0.0  # the ends of the arc lie exactly on the cut face
+    h = length_m / 2
+    S = segments + 1
+    side = np.r_[np.c_[ring, np.full(S, -h)], np.c_[ring, np.full(S, h)]]  # bottom ring, then top ring
+    bottom = np.c_[ring, np.full(S, -h)]
+    top = np.c_[ring, np.full(S, h)]
+    flat = np.array([[0.0, -radius_m, -h], [0.0, radius_m, -h], [0.0, radius_m, h], [0.0, -radius_m, h]])
+    V = np.r_[side, bottom, top, flat]
+    F: list[tuple[int, int, int]] = []
+    for k in range(segments):  # side: counter-clockwise seen from outside
+        b0, b1, t0, t1 = k, k + 1, S + k, S + k + 1
+        F += [(b0, b1, t1), (b0, t1, t0)]
+    ob, ot = 2 * S, 3 * S
+    for k in range(1, segments):  # caps: fans from the arc's first point (on the cut face)
+        F.append((ob, ob + k + 1, ob + k))  # bottom faces -z
+        F.append((ot, ot + k, ot + k + 1))  # top faces +z
+    of = 4 * S
+    F += [(of, of + 2, of + 1), (of, of + 3, of + 2)]  # the cut face faces -x
+    return V, np.asarray(F, dtype=int)
+
+
+def qr_side_m(text: str, module_m: float) -> float:
+    """Side of a QR object's image (quiet zone included) whose modules are ``module_m`` wide.
+
+    The texture is ``TEXTURE_PX`` pixels with an integer number of pixels per module
+    (maze_assets.qr.draw_qr), so the side is TEXTURE_PX / (pixels per module) modules.
+
+    >>> round(qr_side_m("Chart A 2mm", 0.002), 4)  # 21 modules + 8 quiet: 8 px a module, 32 modules
+    0.064
+    """
+    m = qr_modules(text).shape[0] + 2 * QUIET_MODULES
+    return TEXTURE_PX / (TEXTURE_PX // m) * module_m
+
+
+def build_page(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
+    """The white A4 page under a QR code that carries ``page_m``, as a ``<body>`` of its own
+    (named ``qr_page_{id}``, not ``poi_...``: no object owns its pixels), or None."""
+    if obj.page_m is None:
+        return None
+    left, right, bottom, top = obj.page_m
+    paper = _material(assets, "card", CARD_RGBA)  # the same white as the codes' own backing
+    body = ET.Element("body", name=f"qr_page_{obj.id}", pos=fmt(obj.position), euler=fmt([0.0, 0.0, obj.yaw]))
+    ET.SubElement(
+        body,
+        "geom",
+        name=f"qr_page_{obj.id}_sheet",
+        type="box",
+        material=paper,
+        contype="0",
+        conaffinity="0",
+        group="0",
+        pos=fmt([BACKING_M / 4, (left + right) / 2, (bottom + top) / 2]),
+        size=fmt([BACKING_M / 4, (right - left) / 2, (top - bottom) / 2]),
+    )
+    return body
+
+
+def _fiducial(b: _Body) -> None:
+    r = b.obj.size_m / 2
+    name = f"objmesh_fiducial_{round(b.obj.size_m * 1e4)}"
+    if not b.assets.has(name):
+        V, F = half_cylinder_mesh(r, FIDUCIAL_LENGTH_M)
+        b.assets.mesh(name, V, F)
+    pvc = _material(b.assets, "pvc_grey", FIDUCIAL_RGBA, specular=0.1, shininess=0.1)
+    b.geom("body", pvc, type="mesh", mesh=name)
+
+
 def build_object(
     obj: PlacedObject,
     assets: SceneAssets,
@@ -521,6 +620,8 @@ def build_object(
         _pillar(b)
     elif obj.type == "ball":
         _ball(b)
+    elif obj.type == "fiducial":
+        _fiducial(b)
     else:  # PlacedObject already checks the type; this guards a new type without a model
         raise ModelError(f"object {obj.id}: no model for type {obj.type!r}")
     return b.el

@@ -53,6 +53,11 @@ class PlacedObject:
     look_seed: int | None = None
     roll: float = 0.0
     tilt: float = 0.0
+    # The A4 page a QR code is printed on (the first code of a page carries it): (left, right,
+    # bottom, top) of the page in the object's local (y, z), metres; drawn as a white sheet on the
+    # wall, not part of the object (maze_assets.models.build_page).
+    page_m: tuple[float, float, float, float] | None = None
+    module_m: float | None = None  # a QR code's module side, metres (None: whatever its size gives)
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:
@@ -78,3 +83,23 @@ def object_id_from_geom_name(name: str | None) -> int | None:
         return None
     m = _GEOM_RE.match(name)
     return int(m.group(1)) if m else None
+
+
+def fiducial_text(diameter_m: float) -> str:
+    """A fiducial's ground-truth text: its pipe diameter, which the map draws it at.
+
+    >>> fiducial_text(0.3), fiducial_diameter_m("300 mm"), fiducial_diameter_m("")
+    ('300 mm', 0.3, None)
+    """
+    return f"{round(diameter_m * 1000):d} mm"
+
+
+def fiducial_diameter_m(text: str) -> float | None:
+    """The diameter a fiducial's text gives (:func:`fiducial_text`), or None."""
+    parts = text.split()
+    if len(parts) == 2 and parts[1] == "mm":
+        try:
+            return float(parts[0]) / 1000
+        except ValueError:
+            return None
+    return None

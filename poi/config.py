@@ -238,6 +238,33 @@ class QrConfig:
 
 
 @dataclass(kw_only=True)
+class FiducialConfig:
+    """Mapping fiducials from depth (poi.estimation.fiducials): off unless a run asks for them
+    (``poibench run`` does under a preset that judges the QR mapping bonus by fiducials).
+    Heights are above the floor, in the map frame."""
+
+    enabled: bool = False
+    every_n_frames: int = number(4, lo=1)
+    stride_px: int = number(4, lo=1, hi=64)
+    max_range_m: float = number(3.0, lo=0.2)
+    cell_m: float = number(0.02, lo=0.005, hi=0.1)
+    low_m: tuple[float, float] = (0.08, 0.42)
+    high_m: tuple[float, float] = (0.6, 1.1)
+    min_hits: int = number(3, lo=1)
+    min_cells: int = number(15, lo=3)
+    top_m: float = number(0.12, lo=0.0)
+    min_top_fraction: float = number(0.3, lo=0.0, hi=1.0)
+    radius_m: tuple[float, float] = (0.12, 0.18)
+    max_rms_m: float = number(0.03, lo=0.0)
+
+    def __post_init__(self) -> None:
+        for name in ("low_m", "high_m", "radius_m"):
+            a, b = getattr(self, name)
+            if not 0 <= a < b:
+                raise FieldError(f"fiducials.{name}", f"expected [low, high] with 0 <= low < high, got [{a}, {b}]")
+
+
+@dataclass(kw_only=True)
 class ReportConfig:
     """Header and row values of the POI file (docs/RULES.md "The POI file")."""
 
@@ -258,6 +285,7 @@ class PipelineConfig:
     mount: MountConfig = field(default_factory=MountConfig)
     slam: SlamConfig = field(default_factory=SlamConfig)
     qr: QrConfig = field(default_factory=QrConfig)
+    fiducials: FiducialConfig = field(default_factory=FiducialConfig)
     thermal: SwitchConfig = field(default_factory=SwitchConfig)
     report: ReportConfig = field(default_factory=ReportConfig)
     calibration: str | None = None

@@ -15,7 +15,9 @@ Per frame (:meth:`Pipeline.process`):
    that have no text yet and do not fall in the gate of a track whose text is
    settled (``qr.settled_votes`` reads);
 5. tracks whose centre is in view (poi.estimation.visibility) are passed to the tracker for the
-   negative update, and the tracker steps ([Avevor2022]_ 2.4).
+   negative update, and the tracker steps ([Avevor2022]_ 2.4);
+6. with ``fiducials.enabled``, the frame's depth feeds the fiducial mapper
+   (poi.estimation.fiducials), whose fiducials :meth:`Pipeline.landmarks` gives at the end.
 
 Detections get the id of the track they fed (``Detection.track_id``) for display.
 
@@ -40,6 +42,7 @@ import numpy as np
 from poi.config import PipelineConfig, mount_matrix
 from poi.core.types import Detection, Frame, Observation, TrackSnapshot
 from poi.estimation.covariance import Calibration, load_calibration
+from poi.estimation.fiducials import FiducialMapper
 from poi.estimation.localize import localize
 from poi.estimation.slam_localizer import SlamLocalizer
 from poi.estimation.tracker import Tracker
@@ -93,6 +96,7 @@ class Pipeline:
         self.tracker = Tracker(cfg.tracker, calibration)
         self.slam = SlamLocalizer(cfg.slam) if cfg.localize.mode == "slam" else None
         self.notes: list[str] = []
+        self.fiducials = FiducialMapper(cfg.fiducials) if cfg.fiducials.enabled else None
         self._qr_reader: Callable | None = None
         if cfg.qr.enabled:
             self._qr_reader, note = _find_qr_reader()
@@ -204,7 +208,11 @@ class Pipeline:
         step = self.tracker.step(observations, frame.timestamp_s, visible)
         for i, tid in step.pairs + step.new_tracks + step.duplicates:
             detections[det_of_obs[i]].track_id = tid
-        timing["track"] = 1e3 * (time.perf_counter() - t3)
+        t4 = time.perf_counter()
+        timing["track"] = 1e3 * (t4 - t3)
+        if self.fiducials is not None:
+            self.fiducials.add(frame, frame.pose @ self.T_tracker_camera)
+            timing["fiducials"] = 1e3 * (time.perf_counter() - t4)
         return FrameResult(
             frame_index=frame.index,
             timestamp_s=frame.timestamp_s,
@@ -219,6 +227,14 @@ class Pipeline:
     def confirmed(self) -> list[TrackSnapshot]:
         """Snapshots of the confirmed tracks, by report id."""
         return self.tracker.snapshots(confirmed_only=True)
+
+    def landmarks(self) -> list[TrackSnapshot]:
+        """The mapping fiducials found (step 6), as confirmed snapshots numbered after the
+        confirmed tracks' report ids; none unless ``fiducials.enabled``."""
+        if self.fiducials is None:
+            return []
+        ids = [t.report_id for t in self.confirmed() if t.report_id is not None]
+        return self.fiducials.landmarks(start_id=max(ids, default=-1) + 1)
 
     def tracks(self) -> list[TrackSnapshot]:
         """Snapshots of every live track, tentative ones included."""

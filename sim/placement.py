@@ -5,6 +5,19 @@ cell size for smaller arenas (RMRC's 0.3 m lanes). Wall-mounted signs hang on
 wall faces at a height drawn from ``wall_height_m``; floor objects stand
 against a wall so the robot's route through the cell centres passes them; doors
 replace an inner wall piece ("in an opening").
+
+RMRC mapping fiducials ([RMRC2025]_ "Mapping", as issue 22 quotes it: half-cylinders "mounted
+in pairs facing each other on walls") stand on the floor in pairs on the two opposite walls of
+a corridor cell, at the same place along it, each pair one pipe diameter drawn from
+250-350 mm (:func:`place_fiducials`). QR sheets (``objects.generate.qr_sheets``) are A4
+pages of codes in several module sizes on random wall faces at random heights
+(:func:`place_qr_sheets`).
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [RMRC2025] RoboCup Rescue Rapidly Manufactured Robot Challenge rulebook, 2025.
 """
 
 from __future__ import annotations
@@ -13,10 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from maze_assets.models import ARENA_SIZE_M
-from maze_assets.objects import PlacedObject
+from maze_assets.models import ARENA_SIZE_M, FIDUCIAL_DIAMETER_M, FIDUCIAL_LENGTH_M, qr_side_m
+from maze_assets.objects import PlacedObject, fiducial_text
 from poi.core.names import ARENA_TYPES, HAZMAT_LABELS
-from sim.scenario import ObjectsGenerate, ObjectSpec, Scenario
+from sim.scenario import ObjectsGenerate, ObjectSpec, QrSheets, Scenario
 
 RRL_CELL_M = 1.2
 
@@ -60,6 +73,8 @@ def default_size(type_: str, maze) -> float:
     arena's pillars and ball keep their real size (maze_assets.models.ARENA_SIZE_M)."""
     if type_ in ARENA_SIZE_M:
         return ARENA_SIZE_M[type_]
+    if type_ == "fiducial":  # a real pipe: the middle of the rulebook's 250-350 mm
+        return sum(FIDUCIAL_DIAMETER_M) / 2
     return SIZE_AT_RRL_M[type_] * _scale(maze)
 
 
@@ -124,6 +139,9 @@ def object_at_face(
         xy = base + n * (0.10 * s)
         pos = np.array([xy[0], xy[1], 0.5 * size_m])
         mount = "floor"
+    elif type_ == "fiducial":  # standing on the floor, its cut face on the wall face
+        pos = np.array([base[0], base[1], FIDUCIAL_LENGTH_M / 2])
+        mount = "wall"
     else:
         raise PlacementError(f"object {obj_id}: type {type_!r} is not placed on a wall face")
     return PlacedObject(
@@ -215,6 +233,156 @@ def _texts(gen: ObjectsGenerate, n_hazmat: int, n_qr: int, rng) -> tuple[list[st
     if len(qrs) < n_qr:
         raise PlacementError(f"objects.generate.qr_texts: {len(qrs)} texts for {n_qr} QR codes")
     return order[:n_hazmat], qrs[:n_qr]
+
+
+# A corridor between a pair of fiducials keeps at least this much clear width (a robot passes).
+FIDUCIAL_CLEAR_M = 0.3
+A4_M = (0.210, 0.297)  # width, height of a portrait A4 page
+PAGE_MARGIN_M = 0.008
+
+
+def _opposite_pairs(maze) -> list[tuple[object, object]]:
+    """(face, face) pairs on opposite sides of the same cell (n/s or e/w): a corridor."""
+    by_cell: dict[tuple[int, int], dict[str, object]] = {}
+    for f in maze.wall_faces():
+        by_cell.setdefault(tuple(f.cell), {})[_side(f)] = f
+    pairs = []
+    for cell in sorted(by_cell):
+        sides = by_cell[cell]
+        for a, b in (("n", "s"), ("w", "e")):
+            if a in sides and b in sides:
+                pairs.append((sides[a], sides[b]))
+    return pairs
+
+
+def place_fiducials(
+    n: int, maze, rng: np.random.Generator, objects: list[PlacedObject], min_spacing_m: float
+) -> None:
+    """Append ``n`` fiducials (n even) to ``objects``: pairs facing each other across a cell.
+
+    Each pair takes a random corridor cell (walls on two opposite sides) no other pair uses,
+    a diameter drawn uniformly from ``FIDUCIAL_DIAMETER_M`` and a random place along the
+    walls, the same for both; a pair keeps ``min_spacing_m`` from every object placed before.
+    """
+    pairs = _opposite_pairs(maze)
+    clear = maze.settings.cell_size_m - maze.settings.wall_thickness_m
+    if n and clear < FIDUCIAL_DIAMETER_M[1] + FIDUCIAL_CLEAR_M:
+        raise PlacementError(
+            f"counts.fiducial: a pair of fiducials ({FIDUCIAL_DIAMETER_M[1] * 1000:.0f} mm pipes) needs cells at "
+            f"least {FIDUCIAL_DIAMETER_M[1] + FIDUCIAL_CLEAR_M + maze.settings.wall_thickness_m:.2f} m wide; "
+            f"this maze's are {maze.settings.cell_size_m:g} m"
+        )
+    used: set[tuple[int, int]] = set()
+    placed = 0
+    order = rng.permutation(len(pairs)) if pairs else []
+    for i in order:
+        if placed == n:
+            break
+        fa, fb = pairs[int(i)]
+        if tuple(fa.cell) in used:
+            continue
+        d = float(rng.uniform(*FIDUCIAL_DIAMETER_M))
+        margin = max(0.0, 0.5 * fa.length_m - d / 2 - 0.02)
+        u = float(rng.uniform(-margin, margin))  # along fa's "left"; fb faces it, so its left is the other way
+        a = object_at_face(len(objects), "fiducial", fiducial_text(d), fa, 0.0, u, d, maze, None)
+        b = object_at_face(len(objects) + 1, "fiducial", fiducial_text(d), fb, 0.0, -u, d, maze, None)
+        if any(np.linalg.norm(p.position - o.position) < min_spacing_m for p in (a, b) for o in objects):
+            continue
+        objects += [a, b]
+        used.add(tuple(fa.cell))
+        placed += 2
+    if placed < n:
+        raise PlacementError(
+            f"counts.fiducial: only {placed} of {n} fiducials fit: the maze has {len(pairs)} cells with walls on "
+            "two opposite sides"
+        )
+
+
+def page_layout(texts: list[str], module_m: list[float]) -> list[tuple[float, float, float]]:
+    """Where each code sits on a portrait A4 page: (u, v, side) of its centre from the page's
+    centre (u to the viewer's right, v up) and its side, metres.
+
+    Codes are laid out in rows from the top left, largest first as given, with
+    ``PAGE_MARGIN_M`` round the page; a page that cannot hold them all is an error.
+
+    >>> [tuple(round(x, 3) for x in c) for c in page_layout(["Chart A 5mm", "Chart A 2mm"], [0.005, 0.002])]
+    [(-0.017, 0.06, 0.16), (-0.065, -0.052, 0.064)]
+    """
+    W, H = A4_M
+    sides = [qr_side_m(t, m) for t, m in zip(texts, module_m, strict=True)]
+    out = []
+    x, y, row_h = PAGE_MARGIN_M, PAGE_MARGIN_M, 0.0  # from the top-left corner, y down
+    for t, side in zip(texts, sides, strict=True):
+        if x + side > W - PAGE_MARGIN_M + 1e-9 and x > PAGE_MARGIN_M:
+            x, y, row_h = PAGE_MARGIN_M, y + row_h, 0.0
+        if x + side > W - PAGE_MARGIN_M + 1e-9 or y + side > H - PAGE_MARGIN_M + 1e-9:
+            raise PlacementError(
+                f"qr_sheets.module_mm: the code {t!r} ({side * 1000:.0f} mm) does not fit on an A4 page"
+            )
+        out.append((x + side / 2 - W / 2, H / 2 - (y + side / 2), side))
+        x += side
+        row_h = max(row_h, side)
+    return out
+
+
+def place_qr_sheets(
+    sheets: QrSheets,
+    first_letter: int,
+    maze,
+    rng: np.random.Generator,
+    objects: list[PlacedObject],
+    min_spacing_m: float,
+) -> None:
+    """Append the codes of ``sheets.count`` A4 pages to ``objects`` (module docstring).
+
+    Page ``k`` is named by :func:`qr_text` (first_letter + k) and each of its codes reads
+    "<name> <module>mm"; its first code carries the page (``page_m``) so the page is drawn.
+    A page goes on a random wall face, centred at a random place along it and a random height
+    in ``sheets.height_m`` (kept on the wall), ``min_spacing_m`` from every object before it.
+    """
+    W, H = A4_M
+    faces = [f for f in maze.wall_faces() if f.length_m >= W]
+    wall_h = maze.settings.wall_height_m
+    modules = [m / 1000 for m in sheets.module_mm]
+    for k in range(sheets.count):
+        name = qr_text(first_letter + k)
+        texts = [f"{name} {m:g}mm" for m in sheets.module_mm]
+        layout = page_layout(texts, modules)
+        for _attempt in range(400):
+            face = faces[int(rng.integers(len(faces)))]
+            margin = max(0.0, 0.5 * face.length_m - W / 2 - 0.02)
+            offset = float(rng.uniform(-margin, margin))
+            lo, hi = sheets.height_m
+            hi = min(hi, wall_h - H / 2 - 0.01)
+            lo = min(max(lo, H / 2 + 0.01), hi)
+            height = float(rng.uniform(lo, hi))
+            centre = object_at_face(-1, "qr", texts[0], face, height, offset, 0.2, maze, None)
+            if any(np.linalg.norm(centre.position - o.position) < min_spacing_m for o in objects):
+                continue
+            right = -_along(np.asarray(face.normal_xy, float))  # the viewer's right on this face
+            for j, ((u, v, side), text, m) in enumerate(zip(layout, texts, modules, strict=True)):
+                pos = centre.position + np.array([right[0] * u, right[1] * u, v])
+                page = (-W / 2 - u, W / 2 - u, -H / 2 - v, H / 2 - v) if j == 0 else None
+                objects.append(
+                    PlacedObject(
+                        id=len(objects),
+                        type="qr",
+                        text=text,
+                        position=pos,
+                        yaw=centre.yaw,
+                        mount="wall",
+                        size_m=side,
+                        wall=face.wall,
+                        page_m=page,
+                        module_m=m,
+                    )
+                )
+            break
+        else:
+            raise PlacementError(
+                f"qr_sheets: could not place page {k + 1} of {sheets.count} with min_spacing_m={min_spacing_m}: "
+                "the maze is too small"
+            )
 
 
 UPRIGHT_SHARE = 0.5  # placards hung upright (within a few degrees); the rest at any angle
@@ -313,6 +481,11 @@ def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedOb
         if placed < n_doors:
             raise PlacementError(f"only {placed} of {n_doors} doors fit: the maze has too few inner walls")
 
+    n_fid = counts.pop("fiducial", 0)
+    if n_fid:
+        place_fiducials(n_fid, maze, rng, objects, gen.min_spacing_m * s)
+        used_walls |= {o.wall for o in objects if o.type == "fiducial"}
+
     # then everything else, in a fixed type order, each on a random free wall face
     todo: list[tuple[str, str]] = []
     for t in ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign", "valve", *FLOOR_TYPES):
@@ -352,4 +525,6 @@ def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedOb
                 f"could not place a {t} with min_spacing_m={gen.min_spacing_m}: the maze is too small "
                 "for the requested counts"
             )
+    if gen.qr_sheets is not None and gen.qr_sheets.count:
+        place_qr_sheets(gen.qr_sheets, len(qrs), maze, rng, objects, gen.min_spacing_m * s)
     return objects

@@ -31,6 +31,7 @@ Full entries in docs/SOURCES.md.
 
 .. [Bouda2025] M. Bouda, E. Doležal, O. Váňa, "Řešení úkolu pro TurtleBot s detekcí objektů
    a SLAM" ("A solution of the TurtleBot task with object detection and SLAM"), 2025.
+.. [RMRC2025] RoboCup Rescue Rapidly Manufactured Robot Challenge rulebook, 2025.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from typing import Literal
 import yaml
 
 from poi.core.loader import LoadError, number, safe_load
-from poi.core.names import RESCUE_TYPES, TYPES
+from poi.core.names import MAPPING_TYPES, RESCUE_TYPES, TYPES
 from sim.schema import SchemaError, Source, build, convert, load_yaml, load_yaml_file, to_plain
 
 SCENARIO_VERSION = 1
@@ -126,8 +127,42 @@ DEFAULT_COUNTS: dict[str, int] = {
 
 
 @dataclass(kw_only=True)
+class QrSheets:
+    """A4 pages of QR codes ([RMRC2025]_, as issue 22 quotes it: "A4 pages of codes in several
+    sizes, stapled at random locations and heights, matte"), placed by sim/placement.py.
+
+    ``count`` pages, each on a random wall face with its centre at a height drawn from
+    ``height_m``; every page carries one code per entry of ``module_mm`` (the side of one
+    module, millimetres; the finals' code has 2 mm modules), all encoding the page's name and
+    their module size ("Chart F 2mm").
+    """
+
+    count: int = number(0, lo=0, hi=100)
+    module_mm: tuple[float, ...] = (5.0, 3.0, 2.0)
+    height_m: tuple[float, float] = (0.25, 1.0)
+
+    def __post_init__(self) -> None:
+        if not self.module_mm or any(not 0.5 <= m <= 20 for m in self.module_mm):
+            raise ValueError(
+                f"module_mm: expected one or more module sizes in 0.5..20 mm, got {list(self.module_mm)}"
+            )
+        if len(set(self.module_mm)) != len(self.module_mm):
+            raise ValueError(f"module_mm: expected each module size once, got {list(self.module_mm)}")
+        lo, hi = self.height_m
+        if not 0.0 <= lo <= hi:
+            raise ValueError(f"height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}")
+
+
+GENERATED_TYPES: tuple[str, ...] = RESCUE_TYPES + MAPPING_TYPES
+
+
+@dataclass(kw_only=True)
 class ObjectsGenerate:
-    """Random placement: how many of each type, and the spacing rules."""
+    """Random placement: how many of each type, and the spacing rules.
+
+    ``counts.fiducial`` places RMRC mapping fiducials in pairs facing each other across a
+    cell (so it must be even; sim/placement.py); ``qr_sheets`` adds pages of QR codes.
+    """
 
     counts: dict[str, int] = field(default_factory=lambda: dict(DEFAULT_COUNTS))
     min_spacing_m: float = 0.6
@@ -137,14 +172,22 @@ class ObjectsGenerate:
     # share of the placards laid face up on the floor in front of their wall (sim.placement.
     # lay_placards_on_floor); the dataset generator lays some there, trials keep them on walls
     hazmat_on_floor: float = number(0.0, lo=0.0, hi=1.0)
+    qr_sheets: QrSheets | None = None
 
     def __post_init__(self) -> None:
         for t, n in self.counts.items():
-            if t not in RESCUE_TYPES:
+            if t not in GENERATED_TYPES:
                 where = " (the arena's types are laid out by 'arena')" if t in TYPES else ""
-                raise ValueError(f"counts: unknown type {t!r}{where}; expected one of {', '.join(RESCUE_TYPES)}")
+                raise ValueError(
+                    f"counts: unknown type {t!r}{where}; expected one of {', '.join(GENERATED_TYPES)}"
+                )
             if n < 0:
                 raise ValueError(f"counts.{t}: must be >= 0, got {n}")
+        if self.counts.get("fiducial", 0) % 2:
+            raise ValueError(
+                f"counts.fiducial: fiducials are mounted in pairs facing each other; expected an even number, "
+                f"got {self.counts['fiducial']}"
+            )
         lo, hi = self.wall_height_m
         if not 0.0 <= lo <= hi:
             raise ValueError(f"wall_height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}")

@@ -21,7 +21,7 @@ import numpy as np
 import sim.gl  # noqa: F401  (must precede the mujoco import)
 from maze_assets.clutter import build_clutter, place_clutter  # noqa: E402
 from maze_assets.mjcf import SceneAssets, fmt  # noqa: E402
-from maze_assets.models import build_object, door_frame_extent_m  # noqa: E402
+from maze_assets.models import build_object, build_page, door_frame_extent_m  # noqa: E402
 from maze_assets.objects import PlacedObject  # noqa: E402
 from maze_assets.surfaces import (  # noqa: E402
     FLOOR_KINDS,
@@ -322,6 +322,9 @@ def build_world_xml(
         world.append(el)
     for obj in objects:
         world.append(build_object(obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m))
+        page = build_page(obj, assets)  # the A4 sheet of a QR page (sim/placement.py)
+        if page is not None:
+            world.append(page)
 
     rig = ET.SubElement(world, "body", name=RIG_BODY, mocap="true", pos="0 0 1")
     ET.SubElement(rig, "camera", name=CAMERA_NAME, **mujoco_camera_attrs(intr))

@@ -36,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--rules",
         default=None,
-        help="ex3 | rmrc2025 | turtlebot | FILE (default: the scenario's own rules, else ex3)",
+        help="a scoring preset (ex3, rmrc2025, rmrc2026, rmrc2026-finals, turtlebot) or a rules FILE "
+        "(default: the scenario's own rules, else ex3)",
     )
     p.add_argument("--noise", choices=["on", "off"], help="switch all sensor noise on or off")
     p.add_argument(

@@ -1,4 +1,4 @@
-"""``poibench score REPORT.csv --truth TRUTH.csv [--rules ex3|rmrc2025|turtlebot|FILE] [--json]``.
+"""``poibench score REPORT.csv --truth TRUTH.csv [--rules PRESET|FILE] [--json]``.
 
 Prints the score tables (or the JSON report) to stdout: points, or the map error of a
 ``scoring: map_error`` preset (turtlebot). Exit status 0 whenever

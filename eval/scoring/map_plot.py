@@ -13,6 +13,12 @@ missed objects with a dashed outline labelled ``miss``, and reports identified
 but not located edged in black. Everything is in the map frame, metres, equal
 aspect. Drawing uses matplotlib's Agg canvas directly (no pyplot state).
 
+RMRC mapping fiducials (``fiducial``, [RMRC2025]_; docs/RULES.md "QR mapping by fiducials") are
+landmarks, not scored objects: the true ones are drawn as what the rule asks a map to show,
+"at least half a circle ... seen from above", a filled grey half-disc of the pipe's diameter
+(its truth text, :func:`sim.placement.fiducial_text`) whose flat side lies on the nearest wall;
+a reported one as a dark grey half-disc of the middle diameter, 0.30 m.
+
 The TurtleBot goal arena's objects (not in the competition's conventions) are
 circles in their own colours: blue, red and green pillars, a yellow ball. A
 map-error result (eval/map_error.py) draws the truth circles at its pairing
@@ -20,6 +26,12 @@ distance, and the goal: a dashed line between the two truth goal pillars, the
 truth centre as a black cross and the reported centre as a filled black dot joined
 to it (:class:`MapGoal`). :func:`score_layers` gives ``draw_map`` all of that from
 a score result of either kind.
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [RMRC2025] RoboCup Rescue Rapidly Manufactured Robot Challenge rulebook, 2025.
 """
 
 from __future__ import annotations
@@ -35,10 +47,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Circle, Polygon
+from matplotlib.patches import Circle, Polygon, Wedge
 
 from eval.scoring.map_error import STATUS_PAIRED, MapErrorResult
 from eval.scoring.scorer import STATUS_FALSE, STATUS_IGNORED, STATUS_LOCATED, ScoreResult
+from maze_assets.objects import fiducial_diameter_m
 
 CELL_SIZE_M = 1.0
 GRID_STEP_M = 0.5
@@ -64,6 +77,9 @@ ARENA_RGB: dict[str, tuple[int, int, int]] = {
 }
 ARENA_LABELS = {"pillar-blue": "blue pillar", "pillar-red": "red pillar", "pillar-green": "green pillar"}
 GOAL_RGB = (0, 0, 0)
+FIDUCIAL_RGB = (150, 152, 156)  # grey PVC (maze_assets.models.FIDUCIAL_RGBA)
+FIDUCIAL_REPORT_RGB = (70, 72, 76)
+FIDUCIAL_DEFAULT_DIAMETER_M = 0.30
 
 # Figure layout in pixels: axes margins, with the legend in the right margin.
 _MARGIN_LEFT_PX, _MARGIN_BOTTOM_PX, _MARGIN_TOP_PX, LEGEND_WIDTH_PX = 60, 50, 40, 230
@@ -93,6 +109,16 @@ class MapTruth:
     found: bool
     id: int | None = None
     text: str = ""
+
+
+@dataclass(kw_only=True)
+class MapFiducial:
+    """A mapping fiducial on the map: where it is, its pipe diameter, truth or reported."""
+
+    x: float
+    y: float
+    diameter_m: float = FIDUCIAL_DEFAULT_DIAMETER_M
+    reported: bool = False
 
 
 @dataclass(kw_only=True)
@@ -127,10 +153,19 @@ def markers_from_score(result: ScoreResult | MapErrorResult) -> tuple[list[MapRe
 
 
 def score_layers(result: ScoreResult | MapErrorResult) -> dict[str, Any]:
-    """``draw_map`` keyword arguments for a score result: ``reports``, ``truth`` and, for a
-    map-error result, ``truth_circle_m`` (its pairing distance) and ``goal``."""
+    """``draw_map`` keyword arguments for a score result: ``reports``, ``truth``, ``fiducials``
+    (true and reported mapping fiducials, when there are any) and, for a map-error result,
+    ``truth_circle_m`` (its pairing distance) and ``goal``."""
     reports, truth = markers_from_score(result)
+    fiducials = [
+        MapFiducial(x=o.x, y=o.y, diameter_m=_diameter(getattr(o, "text", "")))
+        for o in result.objects
+        if o.type == "fiducial"
+    ] + [MapFiducial(x=r.x, y=r.y, reported=True) for r in reports if r.type == "fiducial"]
+    reports = [r for r in reports if r.type != "fiducial"]
     layers: dict[str, Any] = {"reports": reports, "truth": truth}
+    if fiducials:
+        layers["fiducials"] = fiducials
     if isinstance(result, MapErrorResult):
         layers["truth_circle_m"] = result.rules.max_pair_distance_m
         posts = [o for o in result.objects if o.type == result.rules.goal_type]
@@ -171,14 +206,17 @@ def draw_map(
     dpi: int = 100,
     truth_circle_m: float = LOCATE_CIRCLE_M,
     goal: MapGoal | None = None,
+    fiducials: Iterable[MapFiducial] = (),
 ) -> Path:
     """Draw the map and write it as a PNG of exactly ``size_px`` (width, height) pixels.
 
     ``walls`` are ((x0, y0), (x1, y1)) segments and ``robot_path`` an (N, 2) array,
     both in the map frame (metres). ``reports`` and ``truth`` are :class:`MapReport` /
     :class:`MapTruth` records or mappings with the same keys. ``truth_circle_m`` is the
-    radius of the circle round each truth object; ``goal`` draws the goal arena's goal.
+    radius of the circle round each truth object; ``goal`` draws the goal arena's goal;
+    ``fiducials`` the mapping fiducials as half-discs against their nearest wall.
     """
+    fids = list(fiducials)
     width_px, height_px = int(size_px[0]), int(size_px[1])
     if width_px < _MARGIN_LEFT_PX + LEGEND_WIDTH_PX + 100 or height_px < 200:
         raise ValueError(f"size_px {size_px} too small; expected at least (390, 200)")
@@ -220,6 +258,8 @@ def draw_map(
                 capstyle="projecting",
             )
         )
+    for f, facing in zip(fids, fiducial_facings(fids, segs), strict=True):
+        _draw_fiducial(ax, f, facing, pt_per_px)
     for o in objs:
         _draw_truth(ax, o, pt_per_px, px_per_m, truth_circle_m)
     if goal is not None:
@@ -236,7 +276,7 @@ def draw_map(
         ax.set_title(title)
     arena = sorted({t for t in [*(r.type for r in reps), *(o.type for o in objs)] if t in ARENA_RGB})
     ax.legend(
-        handles=_legend_handles(pt_per_px, truth_circle_m, arena, goal is not None),
+        handles=_legend_handles(pt_per_px, truth_circle_m, arena, goal is not None, bool(fids)),
         loc="upper left",
         bbox_to_anchor=(1.02, 1.0),
         borderaxespad=0.0,
@@ -374,6 +414,69 @@ def _draw_truth(
         )
 
 
+def _diameter(text: str) -> float:
+    """A fiducial's diameter from its truth text ("300 mm"), else the middle one."""
+    d = fiducial_diameter_m(text)
+    return FIDUCIAL_DEFAULT_DIAMETER_M if d is None else d
+
+
+def fiducial_facing_deg(x: float, y: float, segs: np.ndarray) -> float:
+    """Which way a fiducial at (x, y) faces, degrees: away from the nearest wall segment (its
+    flat side is on the wall); 0 (+x) without walls.
+
+    >>> fiducial_facing_deg(0.5, 0.025, np.array([[[0.0, 0.0], [1.2, 0.0]]]))
+    90.0
+    """
+    if not len(segs):
+        return 0.0
+    a, b = segs[:, 0, :], segs[:, 1, :]  # (n, 2) each
+    p = np.array([x, y])
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0.0, 1.0)
+    near = a + t[:, None] * ab  # (n, 2) the closest point of each segment
+    k = int(np.argmin(np.linalg.norm(p - near, axis=1)))
+    d = p - near[k]
+    if np.linalg.norm(d) < 1e-9:  # on the centre line: either normal will do
+        d = np.array([-ab[k, 1], ab[k, 0]])
+    return float(np.degrees(np.arctan2(d[1], d[0])))
+
+
+def fiducial_facings(fids: Sequence[MapFiducial], segs: np.ndarray, near_m: float = 1.0) -> list[float]:
+    """Which way each fiducial faces, degrees: a true one away from its nearest wall
+    (:func:`fiducial_facing_deg`); a reported one, whose centre may fall a few centimetres on
+    either side of the wall, as the nearest true one within ``near_m`` does, else as its wall.
+
+    >>> wall = np.array([[[0.0, 0.0], [2.0, 0.0]]])
+    >>> fiducial_facings([MapFiducial(x=1.0, y=0.025), MapFiducial(x=1.02, y=-0.01, reported=True)], wall)
+    [90.0, 90.0]
+    """
+    own = [fiducial_facing_deg(f.x, f.y, segs) for f in fids]
+    truth = [(f, a) for f, a in zip(fids, own, strict=True) if not f.reported]
+    out = []
+    for f, a in zip(fids, own, strict=True):
+        near = [(math.hypot(f.x - t.x, f.y - t.y), ta) for t, ta in truth] if f.reported else []
+        near = [na for na in near if na[0] <= near_m]
+        out.append(min(near)[1] if near else a)
+    return out
+
+
+def _draw_fiducial(ax: Any, f: MapFiducial, facing: float, pt_per_px: float) -> None:
+    rgb = FIDUCIAL_REPORT_RGB if f.reported else FIDUCIAL_RGB
+    ax.add_patch(
+        Wedge(
+            (f.x, f.y),
+            f.diameter_m / 2,
+            facing - 90.0,
+            facing + 90.0,
+            facecolor=_rgb(rgb),
+            edgecolor="black",
+            linewidth=1.0 * pt_per_px,
+            alpha=0.8 if f.reported else 1.0,
+            zorder=4 if f.reported else 3,
+        )
+    )
+
+
 def _draw_goal(ax: Any, goal: MapGoal, pt_per_px: float) -> None:
     """The goal line between the truth posts (dashed), its truth centre (a cross) and the
     reported centre (a dot) joined to it."""
@@ -466,7 +569,11 @@ def _draw_report(ax: Any, r: MapReport, pt_per_px: float, font_pt: float) -> Non
 
 
 def _legend_handles(
-    pt_per_px: float, circle_m: float = LOCATE_CIRCLE_M, arena: Sequence[str] = (), goal: bool = False
+    pt_per_px: float,
+    circle_m: float = LOCATE_CIRCLE_M,
+    arena: Sequence[str] = (),
+    goal: bool = False,
+    fiducials: bool = False,
 ) -> list[Line2D]:
     """The legend: the competition's markers, or the arena's types when ``arena`` lists any."""
 
@@ -521,6 +628,20 @@ def _legend_handles(
     ]
     if arena:
         tail = [t for t in tail if t.get_label() != "identified, not located"]
+    if fiducials:
+        for label, rgb in (("fiducial (truth)", FIDUCIAL_RGB), ("fiducial (reported)", FIDUCIAL_REPORT_RGB)):
+            tail.append(
+                h(
+                    label,
+                    marker="o",
+                    fillstyle="top",
+                    linestyle="",
+                    markersize=ms,
+                    markerfacecolor=_rgb(rgb),
+                    markerfacecoloralt="none",
+                    markeredgecolor="black",
+                )  # fmt: skip
+            )
     if goal:
         tail += [
             h("goal line (truth)", color="black", linestyle=(0, (5, 3)), linewidth=1.5),

@@ -46,6 +46,7 @@ def to_json_dict(result: ScoreResult | MapErrorResult) -> dict[str, Any]:
         # only where they say something: a 1.3 file without types, a preset that scores autonomy
         **({} if result.types_checked else {"types_checked": False, "types_note": TYPES_NOTE}),
         **({} if result.autonomy is None else {"autonomy": result.autonomy}),
+        **({} if result.qr_mapping is None else {"qr_mapping": result.qr_mapping}),
     }
 
 
@@ -113,6 +114,7 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             if result.autonomy is None
             else [f"autonomy x{result.autonomy['multiplier']:g}: {result.autonomy['reason']}"]
         ),
+        *([] if result.qr_mapping is None else [f"QR mapping by fiducials: {result.qr_mapping['reason']}"]),
         "",
         "Reports",
     ]

@@ -35,6 +35,18 @@ A ``points`` rules file is a mapping with these fields (all required except
 ``qr_mapping_replaces_autonomy``
     Optional, default false; only with ``autonomy_multiplier``: ``qr`` reports are never
     multiplied (their locate bonus, the mapping bonus, takes the autonomy bonus's place).
+``qr_mapping``
+    Optional, default ``radius``: how a paired QR code earns ``located_points`` (the mapping
+    bonus). ``radius``: within ``locate_radius_m`` of its object. ``fiducials`` ([RMRC2025]_,
+    docs/RULES.md "QR mapping by fiducials"): its distances on the map to the two fiducials
+    closest to it in real life are each within ``fiducial_tolerance_m`` of the true distances
+    (the radius rule decides when the ground truth has fewer than two fiducials).
+``fiducial_tolerance_m``, ``fiducial_match_radius_m``
+    Required with ``qr_mapping: fiducials``, refused without it: the tolerance (RMRC: 0.30 m),
+    and how far a reported fiducial may lie from a true one to stand for it on the map.
+``qr_text_filter``
+    Optional: a regular expression; only QR codes whose text matches it whole are scored (the
+    others' objects and reports are ignored). The finals score only the 2 mm code: ``".* 2mm"``.
 
 A ``map_error`` rules file (the TurtleBot goal arena, [Bouda2025]_ section 1; scored by
 eval/map_error.py) has these fields (all required except ``description``):
@@ -70,10 +82,12 @@ Full entries in docs/SOURCES.md.
 
 .. [Bouda2025] M. Bouda, E. Doležal, O. Váňa, "Řešení úkolu pro TurtleBot s detekcí objektů
    a SLAM" ("A solution of the TurtleBot task with object detection and SLAM"), 2025.
+.. [RMRC2025] RoboCup Rescue Rapidly Manufactured Robot Challenge rulebook, 2025.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -82,7 +96,8 @@ from poi.core.loader import LoadError, Source, is_finite_number, load_yaml_file,
 from poi.core.names import TYPES
 
 RULES_DIR = Path(__file__).resolve().parent / "rules"
-PRESETS: tuple[str, ...] = ("ex3", "rmrc2025", "turtlebot")
+PRESETS: tuple[str, ...] = ("ex3", "rmrc2025", "rmrc2026", "rmrc2026-finals", "turtlebot")
+QR_MAPPINGS: tuple[str, ...] = ("radius", "fiducials")
 SCORINGS: tuple[str, ...] = ("points", "map_error")
 PENALTIES: tuple[str, ...] = ("type_points", "zero")
 UNSCORED_POLICIES: tuple[str, ...] = ("ignore",)
@@ -93,7 +108,8 @@ _AUTONOMY_FIELDS = (
     "autonomy_requires_no_false_or_multiple",
     "qr_mapping_replaces_autonomy",
 )
-_TOP_OPTIONAL = ("description", "scoring", *_AUTONOMY_FIELDS)
+_FIDUCIAL_FIELDS = ("fiducial_tolerance_m", "fiducial_match_radius_m")
+_TOP_OPTIONAL = ("description", "scoring", *_AUTONOMY_FIELDS, "qr_mapping", *_FIDUCIAL_FIELDS, "qr_text_filter")
 _TYPE_FIELDS = ("points", "locate_radius_m", "located_points", "identity_uses_text")
 _MAP_ERROR_FIELDS = ("name", "scoring", "types", "max_pair_distance_m", "goal_type")
 
@@ -126,11 +142,27 @@ class Rules:
     autonomy_multiplier: float | None = None
     autonomy_requires_no_false_or_multiple: bool = False
     qr_mapping_replaces_autonomy: bool = False
+    qr_mapping: str = "radius"
+    fiducial_tolerance_m: float | None = None
+    fiducial_match_radius_m: float | None = None
+    qr_text_filter: str | None = None
     source: str = field(default="", compare=False)
 
     def is_scored(self, type_: str | None) -> bool:
         """Whether reports and objects of ``type_`` are scored at all."""
         return type_ is not None and type_ in self.types
+
+    def text_is_scored(self, type_: str | None, text: str) -> bool:
+        """Whether a row of a scored type with ``text`` is scored: every text, except QR codes
+        the preset's ``qr_text_filter`` does not match whole.
+
+        >>> finals = load_rules("rmrc2026-finals")
+        >>> finals.text_is_scored("qr", "Chart F 2mm"), finals.text_is_scored("qr", "Chart F 5mm")
+        (True, False)
+        """
+        if type_ != "qr" or self.qr_text_filter is None:
+            return True
+        return re.fullmatch(self.qr_text_filter, text) is not None
 
     def autonomy_factor(self, type_: str) -> float:
         """What an autonomous (mode ``A``) report of ``type_`` has its points multiplied by, when
@@ -182,6 +214,12 @@ class Rules:
                 if self.autonomy_multiplier is not None
                 else {}
             ),
+            **(
+                {"qr_mapping": self.qr_mapping, **{f: getattr(self, f) for f in _FIDUCIAL_FIELDS}}
+                if self.qr_mapping == "fiducials"
+                else {}
+            ),
+            **({} if self.qr_text_filter is None else {"qr_text_filter": self.qr_text_filter}),
             "source": self.source,
         }
 
@@ -219,7 +257,7 @@ AnyRules = Rules | MapErrorRules
 
 
 def load_rules(name_or_path: str | Path) -> AnyRules:
-    """Load a preset by name ("ex3", "rmrc2025", "turtlebot") or a rules YAML file by path.
+    """Load a preset by name (one of ``PRESETS``) or a rules YAML file by path.
 
     Raises :class:`RulesError` naming the file and the field for anything missing or wrong.
     """
@@ -286,6 +324,32 @@ def rules_from_dict(data: Any, *, source: str | Source = "<dict>") -> AnyRules:
         if value and multiplier is None:
             raise _err(source, key, ": is true but autonomy_multiplier is not set; it has nothing to act on")
         flags[key] = value
+    mapping = data.get("qr_mapping", "radius")
+    if mapping not in QR_MAPPINGS:
+        raise _err(source, "qr_mapping", f": expected one of {', '.join(QR_MAPPINGS)}, got {show(mapping)}")
+    fiducial: dict[str, float | None] = {}
+    for key in _FIDUCIAL_FIELDS:
+        if mapping != "fiducials":
+            if key in data:
+                raise _err(source, key, ": is set but qr_mapping is not 'fiducials'; it has nothing to act on")
+            fiducial[key] = None
+            continue
+        if key not in data:
+            raise _err(source, key, f" is missing; expected {_EXPECTED[key]} (qr_mapping is 'fiducials')")
+        value = data[key]
+        if not _is_number(value) or isinstance(value, bool) or value <= 0:
+            raise _err(source, key, f": expected {_EXPECTED[key]}, got {show(value)}")
+        fiducial[key] = float(value)
+    if mapping == "fiducials" and ("qr" not in types or types["qr"].located_points is None):
+        raise _err(source, "qr_mapping", ": is 'fiducials' but types.qr has no located_points (no mapping bonus)")
+    text_filter = data.get("qr_text_filter")
+    if text_filter is not None:
+        if not isinstance(text_filter, str) or not text_filter:
+            raise _err(source, "qr_text_filter", f": expected a regular expression, got {show(text_filter)}")
+        try:
+            re.compile(text_filter)
+        except re.error as e:
+            raise _err(source, "qr_text_filter", f": not a regular expression ({e})") from None
     return Rules(
         name=name,
         description=description,
@@ -295,6 +359,9 @@ def rules_from_dict(data: Any, *, source: str | Source = "<dict>") -> AnyRules:
         types=types,
         autonomy_multiplier=multiplier,
         **flags,
+        qr_mapping=mapping,
+        **fiducial,
+        qr_text_filter=text_filter,
         source=source.name,
     )
 
@@ -401,6 +468,8 @@ _EXPECTED: dict[str, str] = {
     "scoring": f"one of {', '.join(SCORINGS)}",
     "autonomy_multiplier": "a number >= 1 (the points of an autonomous report are multiplied by it), or null",
     "map_error_types": "a non-empty list of type names",
+    "fiducial_tolerance_m": "a distance in metres > 0 (RMRC: 0.30)",
+    "fiducial_match_radius_m": "a distance in metres > 0 (a reported fiducial this near a true one stands for it)",
     "max_pair_distance_m": "a distance in metres > 0",
     "goal_type": "a type of 'types' (two objects of it mark the goal) or null",
 }

@@ -24,6 +24,20 @@ points of every paired report whose mode is ``A`` are multiplied by it after pai
 ``autonomy_requires_no_false_or_multiple`` is set and the run has a false report (a duplicate,
 a multiple detection, is one), or the report is a QR code and ``qr_mapping_replaces_autonomy``.
 
+Where the preset judges the QR mapping bonus by fiducials (``qr_mapping: fiducials``,
+[RMRC2025]_, docs/RULES.md "QR mapping by fiducials"), a paired QR report is located (scores
+``located_points``) when, for each of the two ground-truth fiducials closest to its object
+(horizontal distance), the horizontal distance from the reported QR position to that
+fiducial's position on the map differs from the true distance by at most
+``fiducial_tolerance_m``. A fiducial's position on the map is the reported fiducial paired with
+it (an optimal assignment within ``fiducial_match_radius_m``), or its true position when the
+report has none for it (the result's ``qr_mapping`` block counts those). With fewer than two
+fiducials in the ground truth the radius rule decides, and the block says so. This runs after
+pairing and before autonomy.
+
+QR codes whose text the preset's ``qr_text_filter`` does not match (the finals' larger codes)
+are ignored, reports and objects alike.
+
 Types the rules do not list are ignored (their reports and objects are listed
 with status ``ignored`` and count for nothing). A hazmat report whose label is
 not one of the 16, or a text-identity report with empty text, pairs with nothing.
@@ -34,6 +48,12 @@ Rules of another kind (``scoring: map_error``, the TurtleBot arena) are scored b
 
 Distances are compared with the radii with a tolerance of ``EPS_M`` = 1e-9 m
 (:mod:`eval.scoring.pairing`, which holds what this module shares with map_error).
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [RMRC2025] RoboCup Rescue Rapidly Manufactured Robot Challenge rulebook, 2025.
 """
 
 from __future__ import annotations
@@ -104,6 +124,7 @@ class ScoreResult:
     problems: list[ScoreProblem] = field(default_factory=list)
     types_checked: bool = True
     autonomy: dict[str, Any] | None = None
+    qr_mapping: dict[str, Any] | None = None
 
     def headline(self) -> str:
         """One line: ``12 / 20 points``."""
@@ -140,7 +161,8 @@ def score(reports: PoiFile, truth: PoiFile, rules: AnyRules) -> ScoreResult | Ma
     scored_objects: list[int] = []
 
     for k, obj in enumerate(truth.rows):
-        status = STATUS_MISSED if rules.is_scored(obj.type) else STATUS_IGNORED
+        scored = rules.is_scored(obj.type) and rules.text_is_scored(obj.type, obj.text)
+        status = STATUS_MISSED if scored else STATUS_IGNORED
         object_scores.append(object_outcome(obj, status))
         if status == STATUS_IGNORED:
             continue
@@ -155,9 +177,14 @@ def score(reports: PoiFile, truth: PoiFile, rules: AnyRules) -> ScoreResult | Ma
             untyped.append(rep)  # POI 1.3 without a type column: paired by location below
             continue
         if not rules.is_scored(rep.type):
-            report_scores[rep.line] = report_outcome(
-                rep, STATUS_IGNORED, f"type {rep.type} is not scored by {rules.name}"
-            )
+            why = f"type {rep.type} is not scored by {rules.name}"
+            if rep.type == "fiducial" and rules.qr_mapping == "fiducials":
+                why = "a fiducial: not scored; its map position is used by the QR mapping test"
+            report_scores[rep.line] = report_outcome(rep, STATUS_IGNORED, why)
+            continue
+        if not rules.text_is_scored(rep.type, rep.text):
+            why = f"text {rep.text!r} is not scored by {rules.name} (qr_text_filter {rules.qr_text_filter!r})"
+            report_scores[rep.line] = report_outcome(rep, STATUS_IGNORED, why)
             continue
         ident = identity_of(rep.type, rep.text, rules)
         if ident is None:
@@ -198,11 +225,90 @@ def score(reports: PoiFile, truth: PoiFile, rules: AnyRules) -> ScoreResult | Ma
 
     if untyped:
         _pair_by_location(untyped, truth, scored_objects, object_scores, report_scores, rules)
+    mapping = _apply_fiducial_mapping(rules, report_scores, object_scores, reports, truth)
     autonomy = _apply_autonomy(rules, report_scores, object_scores, {r.line: r.mode for r in reports.rows})
     result = _totals(rules, report_scores, object_scores, scored_objects, reports, truth)
     result.types_checked = reports.typed
     result.autonomy = autonomy
+    result.qr_mapping = mapping
     return result
+
+
+def _apply_fiducial_mapping(
+    rules: Rules,
+    report_scores: dict[int, ReportOutcome],
+    object_scores: list[ObjectOutcome],
+    reports: PoiFile,
+    truth: PoiFile,
+) -> dict[str, Any] | None:
+    """The QR mapping bonus by fiducials (module docstring), applied in place to the paired QR
+    reports and their objects; what was done, for the report, or None under the radius rule."""
+    if rules.qr_mapping != "fiducials":
+        return None
+    tol = float(rules.fiducial_tolerance_m)
+    fids = [o for o in truth.rows if o.type == "fiducial"]
+    block: dict[str, Any] = {
+        "rule": "fiducials",
+        "tolerance_m": tol,
+        "fiducials_truth": len(fids),
+        "fiducials_reported": sum(r.type == "fiducial" for r in reports.rows),
+    }
+    if len(fids) < 2:
+        block["reason"] = (
+            f"the ground truth has {len(fids)} fiducial(s), fewer than two: the radius rule decided "
+            f"(within {rules.types['qr'].locate_radius_m:g} m)"
+        )
+        return block
+    F = np.array([[o.x, o.y] for o in fids])  # (f, 2) true positions
+    reported = [r for r in reports.rows if r.type == "fiducial"]
+    on_map = F.copy()  # (f, 2) each fiducial where the map has it
+    from_report = np.zeros(len(fids), dtype=bool)
+    if reported:
+        R = np.array([[r.x, r.y] for r in reported])  # (n, 2)
+        with np.errstate(over="ignore"):
+            D = np.linalg.norm(R[:, None, :] - F[None, :, :], axis=2)
+        for i, j in optimal_pairs(D, rules.fiducial_match_radius_m):
+            on_map[j], from_report[j] = R[i], True
+    block["fiducials_paired"] = int(from_report.sum())
+    obj_by_line = {o.report_line: o for o in object_scores if o.report_line is not None}
+    rule = rules.types["qr"]
+    located = tested = 0
+    used_truth: set[int] = set()
+    for r in report_scores.values():
+        if r.type != "qr" or r.status not in (STATUS_LOCATED, STATUS_IDENTIFIED):
+            continue
+        o = obj_by_line[r.line]
+        q_true = np.array([o.x, o.y])
+        q_map = np.array([r.x, r.y])
+        d_true = np.linalg.norm(F - q_true, axis=1)  # (f,)
+        nearest = np.argsort(d_true, kind="stable")[:2]
+        errors = [abs(float(np.linalg.norm(q_map - on_map[j])) - float(d_true[j])) for j in nearest]
+        ok = max(errors) <= tol + EPS_M
+        used_truth |= {int(j) for j in nearest if not from_report[j]}
+        tested += 1
+        located += ok
+        names = " and ".join(
+            f"{fids[j].id} ({'reported' if from_report[j] else 'true position'}) {e:.2f} m"
+            for j, e in zip(nearest, errors, strict=True)
+        )
+        r.status = o.status = STATUS_LOCATED if ok else STATUS_IDENTIFIED
+        r.points = o.points = rule.located_points if ok else rule.points
+        o.located = ok
+        verdict = "mapped" if ok else "not mapped"
+        r.reason = f"{verdict}: distance errors to fiducials {names}, limit {tol:g} m"
+    block["qr_tested"] = tested
+    block["qr_mapped"] = located
+    if used_truth:
+        block["fiducials_from_truth"] = len(used_truth)
+        block["reason"] = (
+            f"{located} of {tested} QR code(s) mapped; the report lacks {len(used_truth)} of the fiducials "
+            "the test needs: their true positions were used as the map's"
+        )
+    elif tested:
+        block["reason"] = f"{located} of {tested} QR code(s) mapped, against the reported fiducials"
+    else:
+        block["reason"] = "no QR code was paired: nothing to test"
+    return block
 
 
 def _pair(

@@ -231,7 +231,9 @@ def run_trial(
             f"mount.T_tracker_camera.translation_m=[{T[0, 3]:.6f}, {T[1, 3]:.6f}, {T[2, 3]:.6f}]",
             f"mount.T_tracker_camera.quaternion_wxyz=[{q[0]:.9f}, {q[1]:.9f}, {q[2]:.9f}, {q[3]:.9f}]",
         ]
-        cfg = apply_overrides(cfg, mount_sets + list(pipeline_sets))
+        # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
+        wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
+        cfg = apply_overrides(cfg, mount_sets + ["fiducials.enabled=true"] * wants_fiducials + list(pipeline_sets))
         if detector == "default" and cfg.detector.label_model is None and DEFAULT_LABEL_MODEL.exists():
             cfg = apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"])
         detectors, oracle = make_detectors(detector, cfg, sim, notes)
@@ -319,7 +321,7 @@ def run_trial(
                 outputs.write("live/", lambda _: live.close())
             elif live is not None:
                 live.close()
-        final = pipe.confirmed()
+        final = pipe.confirmed() + pipe.landmarks()
         # the file as it is on disk is scored (if this rewrite failed: the rows streamed so far)
         outputs.write("pois.csv", lambda _: writer.finalize(final))
         sim_duration = float(sim.times_s[n - 1]) if n else 0.0

@@ -35,6 +35,7 @@ Full entries in docs/SOURCES.md.
    2022.
 .. [Bouda2025] M. Bouda, E. Doležal, O. Váňa, "Řešení úkolu pro TurtleBot s detekcí objektů
    a SLAM" ("A solution of the TurtleBot task with object detection and SLAM"), 2025.
+.. [RMRC2025] RoboCup Rescue Rapidly Manufactured Robot Challenge rulebook, 2025.
 """
 
 from __future__ import annotations
@@ -61,9 +62,14 @@ ARENA_TYPES: tuple[str, ...] = (
     "ball",
 )
 
+# Map landmarks of the RMRC labyrinth ([RMRC2025]_, "Mapping"): the fiducials, half-cylinders of
+# PVC pipe mounted in pairs facing each other on walls. Not points of interest: no preset scores
+# them, but the QR mapping bonus is judged by the distances to them (eval/scoring/scorer.py).
+MAPPING_TYPES: tuple[str, ...] = ("fiducial",)
+
 # Every canonical type: the rescue types first (their order is part of the file formats
-# and the class indices), then the arena's.
-TYPES: tuple[str, ...] = RESCUE_TYPES + ARENA_TYPES
+# and the class indices), then the arena's, then the map landmarks.
+TYPES: tuple[str, ...] = RESCUE_TYPES + ARENA_TYPES + MAPPING_TYPES
 
 HAZMAT_LABELS: tuple[str, ...] = (
     "explosive",
@@ -103,6 +109,8 @@ TYPE_ALIASES: dict[str, str] = {
     "green-pillar": "pillar-green",
     "yellow-ball": "ball",
     "football": "ball",
+    "fiducials": "fiducial",
+    "mapping-fiducial": "fiducial",
 }
 
 LABEL_ALIASES: dict[str, str] = {

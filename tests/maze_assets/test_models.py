@@ -33,7 +33,8 @@ from maze_assets.qr import draw_qr
 from poi.core.names import TYPES
 
 W, H = 640, 480
-SIZES = {**SIZE_AT_RRL_M, **ARENA_SIZE_M}  # the sizes placement gives each type at RRL scale
+# the sizes placement gives each type at RRL scale (a fiducial is a real 300 mm pipe)
+SIZES = {**SIZE_AT_RRL_M, **ARENA_SIZE_M, "fiducial": 0.3}
 TEXTS = {"hazmat": "organic-peroxide", "qr": "Chart M"}
 SPACING_M = 4.0  # objects stand this far apart along y, so each camera sees only its own
 

@@ -9,6 +9,7 @@ from poi.core.names import (
     ARENA_TYPES,
     CLASS_INDEX,
     CLASSES,
+    MAPPING_TYPES,
     RESCUE_CLASSES,
     RESCUE_TYPES,
     TYPES,
@@ -28,7 +29,8 @@ RESCUE_TYPES_V1 = [
 
 def test_rescue_types_and_classes_come_first_in_their_order():
     assert list(RESCUE_TYPES) == RESCUE_TYPES_V1
-    assert TYPES == RESCUE_TYPES + ARENA_TYPES
+    assert TYPES == RESCUE_TYPES + ARENA_TYPES + MAPPING_TYPES
+    assert MAPPING_TYPES == ("fiducial",) and "fiducial" not in CLASSES  # a landmark, not a detector class
     assert ARENA_TYPES == ("pillar-blue", "pillar-red", "pillar-green", "ball")
     assert len(RESCUE_CLASSES) == 24 and CLASSES[:24] == RESCUE_CLASSES
     assert CLASSES[24:] == ARENA_TYPES  # class = type for the arena

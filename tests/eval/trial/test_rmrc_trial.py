@@ -1,0 +1,31 @@
+"""`poibench run rmrc`: the RMRC labyrinth under its own rules (rmrc2026) asks the pipeline for
+the mapping fiducials, which it finds from depth and writes as 'fiducial' rows; the score says
+how the QR mapping bonus was judged."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import yaml
+
+from eval.cli.main import main
+from poi.core.poi_file import read_poi_file
+
+
+def test_rmrc_trial_reports_the_fiducials_it_passes(tmp_path, capsys) -> None:
+    out = tmp_path / "t"
+    args = ["run", "rmrc", "--out", str(out), "--detector", "oracle", "--max-frames", "90", "--quiet"]
+    assert main([*args, "--no-video", "--no-live-record"]) == 0
+    assert yaml.safe_load((out / "config.yaml").read_text())["pipeline"]["fiducials"]["enabled"] is True
+    truth = [r for r in read_poi_file(out / "truth.csv").rows if r.type == "fiducial"]
+    found = [r for r in read_poi_file(out / "pois.csv").rows if r.type == "fiducial"]
+    assert len(truth) == 6 and found
+    # the first 9 s pass the pair across the first corridor: every fiducial found is within
+    # 0.12 m of a true one (the pipe's axis), and the two of that pair are found
+    near = [min(math.dist((f.x, f.y), (t.x, t.y)) for t in truth) for f in found]
+    assert max(near) < 0.12 and len(found) >= 2
+    doc = json.loads((out / "score.json").read_text())
+    assert doc["qr_mapping"]["fiducials_reported"] == len(found)
+    assert doc["qr_mapping"]["fiducials_paired"] == len(found)
+    assert "QR mapping by fiducials" in capsys.readouterr().out
