@@ -9,6 +9,9 @@ settings ``best.yaml`` (the ``--set`` items and the whole pipeline config they
 give), plots ``history.png`` (score by trial, best so far) and, with two or
 more parameters, ``importance.png``.
 
+With ``cache`` (a folder) each scenario is rendered and detected once for the whole study
+and every trial replays it (:mod:`eval.trial.perception_cache`).
+
 A parameter is ``key=float:LOW:HIGH``, ``key=int:LOW:HIGH``, ``key=log:LOW:HIGH``
 (float on a log scale) or ``key=choice:A,B,C``.
 """
@@ -97,6 +100,7 @@ def run_tune(
     backend: str = "local",
     address: str | None = None,
     progress: Callable[[int], None] | None = None,
+    cache: str | None = None,
 ) -> dict:
     try:
         import optuna
@@ -122,6 +126,7 @@ def run_tune(
             workers=workers,
             backend=backend,
             address=address,
+            cache=cache,
         )
         tasks = make_tasks(suite, spec, out / f"study_{trial.number:04d}")
         rows = list(run_ray(tasks, workers, address) if backend == "ray" else run_local(tasks, workers))

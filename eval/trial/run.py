@@ -169,6 +169,24 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
     return dets, oracle
 
 
+def _with_default_label_model(cfg, detector: str):
+    """The shipped label classifier with the shipped detector, unless the config names one."""
+    from poi.config import apply_overrides
+
+    if detector == "default" and cfg.detector.label_model is None and DEFAULT_LABEL_MODEL.exists():
+        return apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"])
+    return cfg
+
+
+def onnx_model_file(choice: str) -> Path | None:
+    """The ONNX file a detector choice runs (None: the oracle, or a team's Python detector)."""
+    if choice == "default":
+        return DEFAULT_MODEL if DEFAULT_MODEL.exists() else None
+    if choice.endswith(".onnx"):
+        return Path(choice)
+    return None
+
+
 def planar_pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """Distance on the floor (m) and absolute heading difference (degrees) of two poses."""
     est, true = planar_pose(T_est), planar_pose(T_true)
@@ -207,7 +225,15 @@ def run_trial(
     on_frame=None,
     live_server=None,
     record_live: bool = True,
+    perception_cache=None,
 ) -> TrialResult:
+    """Run one trial into ``out_dir`` (module docstring).
+
+    With ``perception_cache`` (an :class:`eval.trial.perception_cache.PerceptionCache`) the
+    trial's perception is recorded once, or taken from the cache, and the pipeline after
+    detection replays it (no video, live view or ``on_frame``: those need the pixels); a
+    detector the cache cannot cover, or ``detector.conf`` below its floor, runs in full.
+    """
     from tqdm import tqdm
 
     from poi.annotate import annotate
@@ -221,25 +247,40 @@ def run_trial(
     outputs = TrialOutputs(out)
     notes: list[str] = []
     clock = CostClock.start()
-    sim = Simulation(sc)
+    record = None
+    if perception_cache is not None:
+        if video or record_live or live_server is not None or on_frame is not None:
+            raise ValueError("run_trial: a perception cache replays trials without video, live view or on_frame")
+        from eval.trial.perception_cache import cached_perception
+
+        key_cfg = _with_default_label_model(apply_overrides(load_config(), list(pipeline_sets)), detector)
+        record = cached_perception(perception_cache, sc, key_cfg, detector, max_frames, onnx_model_file(detector))
+    sim = Simulation(sc) if record is None else None
     try:
         cfg = load_config()
         # the pipeline is given the nominal camera mount, the simulator uses the true one
-        T = sim.T_tracker_optical_nominal
+        T = sim.T_tracker_optical_nominal if record is None else record.T_tracker_optical_nominal
         q = matrix_to_quat_wxyz(T[:3, :3])
         mount_sets = [
             f"mount.T_tracker_camera.translation_m=[{T[0, 3]:.6f}, {T[1, 3]:.6f}, {T[2, 3]:.6f}]",
             f"mount.T_tracker_camera.quaternion_wxyz=[{q[0]:.9f}, {q[1]:.9f}, {q[2]:.9f}, {q[3]:.9f}]",
         ]
-        cfg = apply_overrides(cfg, mount_sets + list(pipeline_sets))
-        if detector == "default" and cfg.detector.label_model is None and DEFAULT_LABEL_MODEL.exists():
-            cfg = apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"])
-        detectors, oracle = make_detectors(detector, cfg, sim, notes)
-        if detector == "default" and oracle is None and cfg.calibration is None and DEFAULT_CALIBRATION.exists():
+        cfg = _with_default_label_model(apply_overrides(cfg, mount_sets + list(pipeline_sets)), detector)
+        replay = None
+        if record is None:
+            detectors, oracle = make_detectors(detector, cfg, sim, notes)
+            uses_oracle = oracle is not None
+        else:
+            from eval.trial.perception_cache import ReplayDetector
+
+            oracle, replay = None, ReplayDetector(record, cfg.detector.conf)
+            detectors, uses_oracle = [replay], record.uses_oracle
+            notes.extend(record.notes)
+        if detector == "default" and not uses_oracle and cfg.calibration is None and DEFAULT_CALIBRATION.exists():
             # the shipped model's own error model ([Avevor2022] 2.1.4-2.1.5), unless the config names one
             cfg = apply_overrides(cfg, [f"calibration={DEFAULT_CALIBRATION}"])
-        pipe = Pipeline(cfg, detectors)
-        rows = truth_rows(sim)
+        pipe = Pipeline(cfg, detectors, qr_reader=replay.read_qr if replay and record.qr_read else None)
+        rows = truth_rows(sim) if record is None else record.truth_rows
         outputs.write("truth.csv", lambda path: write_truth_csv(path, rows, sc.name))
         outputs.check()  # no trial without its truth
         header = ReportHeader(
@@ -250,7 +291,12 @@ def run_trial(
             version=cfg.report.poi_version,
         )
         writer = PoiWriter(out / "pois.csv", header, robot=cfg.report.robot, mode=cfg.report.mode)
-        n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
+        if record is None:
+            n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
+            frames = ((f, t, t.T_map_tracker) for f, t in sim.frames(0, n))
+        else:
+            n = record.n_frames
+            frames = ((f, None, T_true) for f, T_true in record.replay_frames())
         vid = (
             H264Writer(out / "trial.mp4", sim.intrinsics.width, sim.intrinsics.height, sc.sensors.fps)
             if video
@@ -276,8 +322,8 @@ def run_trial(
                 record=record_live,
             )
         try:
-            for frame, truth in tqdm(
-                sim.frames(0, n),
+            for frame, truth, T_true in tqdm(
+                frames,
                 total=n,
                 desc="trial",
                 unit="frame",
@@ -290,7 +336,7 @@ def run_trial(
                 if res.skipped_reason:
                     skipped += 1
                 if res.pose_map is not None:
-                    pose_errors.append(planar_pose_error(res.pose_map, truth.T_map_tracker))
+                    pose_errors.append(planar_pose_error(res.pose_map, T_true))
                 for snap in res.newly_confirmed:
                     if streaming:
                         try:
@@ -322,7 +368,8 @@ def run_trial(
         final = pipe.confirmed()
         # the file as it is on disk is scored (if this rewrite failed: the rows streamed so far)
         outputs.write("pois.csv", lambda _: writer.finalize(final))
-        sim_duration = float(sim.times_s[n - 1]) if n else 0.0
+        times_s = sim.times_s if record is None else record.times_s
+        sim_duration = float(times_s[n - 1]) if n else 0.0
         result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
         doc = to_json_dict(result)
         pose_error = pose_error_summary(pose_errors)
@@ -362,14 +409,15 @@ def run_trial(
             "map.png",
             lambda path: draw_map(
                 path,
-                walls=sim.walls_in_map(),
-                robot_path=sim.robot_path_map()[:n],
+                walls=sim.walls_in_map() if record is None else record.walls_map,
+                robot_path=sim.robot_path_map()[:n] if record is None else record.robot_path_map,
                 **score_layers(result),
                 title=f"{sc.name} (seed {sc.seed}): {result.headline()}",
             ),
         )
     finally:
-        sim.close()
+        if sim is not None:
+            sim.close()
     outputs.check()
     cost = clock.read(sim_duration)
     return TrialResult(
