@@ -4,8 +4,8 @@ A sweep or a tuning study runs the same scenarios again and again with settings 
 the stages after detection read (``tracker.*``, ``slam.*``, ``localize.*``, ``visibility.*``,
 ``detector.conf`` at or above :data:`CONF_FLOOR`, ``calibration``). Rendering and detection,
 about 90% of a trial's CPU, give the same result each time, so they run once per scenario:
-:func:`record_perception` runs the simulator and the detectors and keeps, per frame, what the
-pipeline after detection reads (:class:`FrameRecord`):
+:func:`eval.trial.run.record_perception` runs the simulator and the detectors and keeps, per
+frame, what the pipeline after detection reads (:class:`FrameRecord`):
 
 * the detections of every detector, the ONNX detector's down to :data:`CONF_FLOOR`;
 * the depth image, exact, in zlib-compressed 32 x 32 tiles (:class:`TiledDepth`):
@@ -410,81 +410,13 @@ def _suppress_os():
     return contextlib.suppress(OSError)
 
 
-# ----------------------------------------------------------------------------- record
-
-
-def record_perception(sc, cfg, detector: str, max_frames: int | None, key: str) -> PerceptionRecord:
-    """Simulate the scenario and run its detectors (the ONNX one at :data:`CONF_FLOOR`) on every
-    frame, keeping what the pipeline after detection reads (module docstring)."""
-    from eval.scoring.truth import truth_rows
-    from eval.trial.run import make_detectors
-    from poi.config import apply_overrides
-    from poi.pipeline import find_qr_reader
-    from sim.simulator import Simulation
-
-    rec_cfg = apply_overrides(cfg, [f"detector.conf={CONF_FLOOR}"])
-    sim = Simulation(sc)
-    try:
-        notes: list[str] = []
-        detectors, oracle = make_detectors(detector, rec_cfg, sim, notes)
-        labelled = any(getattr(d, "label_model", None) is not None for d in detectors)
-        reader: Callable | None = find_qr_reader()
-        n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
-        frames = []
-        for frame, truth in sim.frames(0, n):
-            if oracle is not None:
-                oracle.set_truth(truth)
-            dets: list[Detection] = []
-            for det in detectors:
-                dets.extend(det.detect(frame))
-            texts = {}
-            if reader is not None:
-                unread = [d for d in dets if d.type == "qr" and not d.text]
-                if unread:
-                    for d, r in zip(unread, reader(frame.rgb, unread), strict=True):
-                        texts[tuple(d.box_xyxy)] = r.text
-            frames.append(
-                FrameRecord(
-                    index=frame.index,
-                    timestamp_s=frame.timestamp_s,
-                    pose=None if frame.pose is None else np.array(frame.pose),
-                    pose_confidence=frame.pose_confidence,
-                    depth=None if frame.depth_m is None else TiledDepth.from_array(frame.depth_m),
-                    detections=dets,
-                    qr_texts=texts,
-                    T_map_tracker_true=np.array(truth.T_map_tracker),
-                )
-            )
-        return PerceptionRecord(
-            key=key,
-            intrinsics=sim.intrinsics,
-            T_tracker_optical_nominal=np.array(sim.T_tracker_optical_nominal),
-            truth_rows=truth_rows(sim),
-            walls_map=sim.walls_in_map(),
-            robot_path_map=np.array(sim.robot_path_map()[:n]),
-            times_s=np.array(sim.times_s),
-            n_frames=n,
-            notes=notes,
-            uses_oracle=oracle is not None,
-            labelled=labelled,
-            qr_read=reader is not None,
-            floor=CONF_FLOOR,
-            frames=frames,
-        )
-    finally:
-        sim.close()
-
-
-def cached_perception(
-    cache: PerceptionCache, sc, cfg, detector: str, max_frames: int | None, model: Path | None
-) -> PerceptionRecord | None:
-    """The trial's record from ``cache``, recorded and stored first when missing or unusable;
-    None when the trial cannot be replayed (:func:`perception_key`)."""
-    key = perception_key(sc, detector, cfg, max_frames, model)
-    if key is None:
-        return None
+def load_or_record(
+    cache: PerceptionCache, key: str, record: Callable[[str], PerceptionRecord]
+) -> PerceptionRecord:
+    """The record of ``key`` from ``cache``; when missing, torn, corrupt or stale, ``record(key)``
+    makes it and it is stored (eval.trial.run.cached_perception)."""
     rec = cache.load(key)
     if rec is None:
-        rec = record_perception(sc, cfg, detector, max_frames, key)
+        rec = record(key)
         cache.store(key, rec)
     return rec

@@ -12,6 +12,10 @@
                  annotated camera view; ``config.yaml`` everything needed to rerun;
                  ``live/`` the record ``poibench view`` replays.
 
+With a perception cache (sweeps, tune, regress and suite run: ``--cache``) the trial's
+perception is recorded once per scenario and detector and replayed for every setting read
+only after detection (:mod:`eval.trial.perception_cache`); the files are the same.
+
 A write that fails (a full disk) does not stop the others: the trial goes on without its
 video or live record, the end writes every file it still can (the small ones first) and
 then raises :class:`eval.trial.outputs.TrialOutputError` naming the file that failed.
@@ -211,6 +215,78 @@ def pose_error_summary(errors: list[tuple[float, float]]) -> dict[str, float]:
     }
 
 
+def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, key: str):
+    """Simulate the scenario and run its detectors (the ONNX one at the cache's floor) on every
+    frame, keeping what the pipeline after detection reads (eval.trial.perception_cache)."""
+    from eval.trial.perception_cache import CONF_FLOOR, FrameRecord, PerceptionRecord, TiledDepth
+    from poi.config import apply_overrides
+    from poi.pipeline import find_qr_reader
+    from sim.simulator import Simulation
+
+    rec_cfg = apply_overrides(cfg, [f"detector.conf={CONF_FLOOR}"])
+    sim = Simulation(sc)
+    try:
+        notes: list[str] = []
+        detectors, oracle = make_detectors(detector, rec_cfg, sim, notes)
+        labelled = any(getattr(d, "label_model", None) is not None for d in detectors)
+        reader = find_qr_reader()
+        n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
+        frames = []
+        for frame, truth in sim.frames(0, n):
+            if oracle is not None:
+                oracle.set_truth(truth)
+            dets = []
+            for det in detectors:
+                dets.extend(det.detect(frame))
+            texts = {}
+            unread = [d for d in dets if d.type == "qr" and not d.text]
+            if reader is not None and unread:  # every QR box: a replay may ask for any of them
+                for d, r in zip(unread, reader(frame.rgb, unread), strict=True):
+                    texts[tuple(d.box_xyxy)] = r.text
+            frames.append(
+                FrameRecord(
+                    index=frame.index,
+                    timestamp_s=frame.timestamp_s,
+                    pose=None if frame.pose is None else np.array(frame.pose),
+                    pose_confidence=frame.pose_confidence,
+                    depth=None if frame.depth_m is None else TiledDepth.from_array(frame.depth_m),
+                    detections=dets,
+                    qr_texts=texts,
+                    T_map_tracker_true=np.array(truth.T_map_tracker),
+                )
+            )
+        return PerceptionRecord(
+            key=key,
+            intrinsics=sim.intrinsics,
+            T_tracker_optical_nominal=np.array(sim.T_tracker_optical_nominal),
+            truth_rows=truth_rows(sim),
+            walls_map=sim.walls_in_map(),
+            robot_path_map=np.array(sim.robot_path_map()[:n]),
+            times_s=np.array(sim.times_s),
+            n_frames=n,
+            notes=notes,
+            uses_oracle=oracle is not None,
+            labelled=labelled,
+            qr_read=reader is not None,
+            floor=CONF_FLOOR,
+            frames=frames,
+        )
+    finally:
+        sim.close()
+
+
+def cached_perception(perception_cache, sc: Scenario, cfg, detector: str, max_frames: int | None):
+    """The trial's perception record from the cache, recorded and stored first when missing or
+    unusable; None when the trial cannot be replayed (eval.trial.perception_cache.perception_key).
+    ``cfg`` is the pipeline config with the trial's settings."""
+    from eval.trial.perception_cache import load_or_record, perception_key
+
+    key = perception_key(sc, detector, cfg, max_frames, onnx_model_file(detector))
+    if key is None:
+        return None
+    return load_or_record(perception_cache, key, lambda k: record_perception(sc, cfg, detector, max_frames, k))
+
+
 def run_trial(
     sc: Scenario,
     out_dir: str | Path,
@@ -251,10 +327,8 @@ def run_trial(
     if perception_cache is not None:
         if video or record_live or live_server is not None or on_frame is not None:
             raise ValueError("run_trial: a perception cache replays trials without video, live view or on_frame")
-        from eval.trial.perception_cache import cached_perception
-
         key_cfg = _with_default_label_model(apply_overrides(load_config(), list(pipeline_sets)), detector)
-        record = cached_perception(perception_cache, sc, key_cfg, detector, max_frames, onnx_model_file(detector))
+        record = cached_perception(perception_cache, sc, key_cfg, detector, max_frames)
     sim = Simulation(sc) if record is None else None
     try:
         cfg = load_config()

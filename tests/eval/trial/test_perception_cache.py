@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import eval.trial.perception_cache as pc
+import eval.trial.run as trial_run
 from eval.cli.main import main
 from eval.experiments.suites import load_suite
 from eval.experiments.sweep import read_rows
@@ -22,10 +22,9 @@ from eval.trial.perception_cache import (
     CONF_FLOOR,
     PerceptionCache,
     TiledDepth,
-    cached_perception,
     perception_key,
 )
-from eval.trial.run import run_trial
+from eval.trial.run import cached_perception, run_trial
 from poi.config import apply_overrides, load_config
 from sim.scenario import apply_settings
 
@@ -82,13 +81,13 @@ def test_a_torn_corrupt_or_foreign_record_is_recomputed_never_trusted(tmp_path, 
     sc, cfg = apply_settings(_smoke(0), ["robot.max_duration_s=1"]), load_config()
     cache = PerceptionCache(tmp_path / "c")
     made = []
-    real = pc.record_perception
-    monkeypatch.setattr(pc, "record_perception", lambda *a: made.append(1) or real(*a))
-    rec = cached_perception(cache, sc, cfg, "oracle", None, None)
+    real = trial_run.record_perception
+    monkeypatch.setattr(trial_run, "record_perception", lambda *a: made.append(1) or real(*a))
+    rec = cached_perception(cache, sc, cfg, "oracle", None)
     assert len(made) == 1 and rec.n_frames == 11 and len(rec.frames) == 11  # 1 s at 10 frames per second
     path = cache.path(rec.key)
     good = path.read_bytes()
-    again = cached_perception(cache, sc, cfg, "oracle", None, None)
+    again = cached_perception(cache, sc, cfg, "oracle", None)
     assert len(made) == 1 and [len(f.detections) for f in again.frames] == [len(f.detections) for f in rec.frames]
     assert np.array_equal(again.frames[5].depth[0:480, 0:640], rec.frames[5].depth[0:480, 0:640])
     flipped = bytearray(good)
@@ -96,7 +95,7 @@ def test_a_torn_corrupt_or_foreign_record_is_recomputed_never_trusted(tmp_path, 
     for bad in (good[: len(good) // 3], b"POIBPCR\x00" + good[8:12], bytes(flipped)):
         path.write_bytes(bad)
         assert cache.load(rec.key) is None
-    cached_perception(cache, sc, cfg, "oracle", None, None)
+    cached_perception(cache, sc, cfg, "oracle", None)
     assert len(made) == 2 and path.read_bytes() == good  # recorded again, the same bytes
     n = len(made)
     other = cache.path("0" * 40)
@@ -119,7 +118,7 @@ def test_a_replayed_trial_writes_the_full_trials_files_byte_for_byte(tmp_path, m
     def no_recording(*a):
         raise AssertionError("the record was made again")
 
-    monkeypatch.setattr(pc, "record_perception", no_recording)
+    monkeypatch.setattr(trial_run, "record_perception", no_recording)
     replay = run_trial(sc, tmp_path / "replay", pipeline_sets=sets, perception_cache=cache, **kw)
     assert len(full.score.reports) > 0  # objects were found and reported
     for name in ("pois.csv", "score.json", "truth.csv", "config.yaml"):
