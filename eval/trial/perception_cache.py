@@ -36,6 +36,7 @@ joblib's ``Memory`` trusts its cache.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
@@ -405,8 +406,6 @@ class PerceptionCache:
 
 
 def _suppress_os():
-    import contextlib
-
     return contextlib.suppress(OSError)
 
 
@@ -414,9 +413,12 @@ def load_or_record(
     cache: PerceptionCache, key: str, record: Callable[[str], PerceptionRecord]
 ) -> PerceptionRecord:
     """The record of ``key`` from ``cache``; when missing, torn, corrupt or stale, ``record(key)``
-    makes it and it is stored (eval.trial.run.cached_perception)."""
+    makes it and it is stored (eval.trial.run.cached_perception). A cache that cannot be
+    written (a full disk, a Ray node without the folder) costs the next trial its record,
+    never this trial its result."""
     rec = cache.load(key)
     if rec is None:
         rec = record(key)
-        cache.store(key, rec)
+        with contextlib.suppress(OSError, PerceptionCacheError):
+            cache.store(key, rec)
     return rec
