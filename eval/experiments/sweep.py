@@ -358,16 +358,31 @@ def read_rows(path: Path):
 # --------------------------------------------------------------------------- backends
 
 
-def run_local(tasks: list[TrialTask], workers: int) -> Iterator[dict]:
-    """Rows as trials finish, in a pool of ``workers`` processes (spawned: no GL state is forked)."""
+def local_pool(workers: int):
+    """A pool of ``workers`` spawned processes (no GL state is forked), or None for one worker.
+
+    ``tune`` keeps one for the whole study: a replayed trial costs a second or two of CPU,
+    a fresh worker's imports about as much again."""
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import ProcessPoolExecutor
 
     if workers <= 1:
+        return None
+    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+
+
+def run_local(tasks: list[TrialTask], workers: int, pool=None) -> Iterator[dict]:
+    """Rows as trials finish, in ``pool`` or a pool of ``workers`` processes of its own."""
+    from concurrent.futures import as_completed
+
+    if pool is None and workers <= 1:
         for t in tasks:
             yield run_task(t)
         return
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
+    own = pool is None
+    if own:
+        pool = local_pool(workers)
+    try:
         futures = [pool.submit(run_task, t) for t in tasks]
         try:
             for f in as_completed(futures):
@@ -375,6 +390,9 @@ def run_local(tasks: list[TrialTask], workers: int) -> Iterator[dict]:
         finally:
             for f in futures:
                 f.cancel()
+    finally:
+        if own:
+            pool.shutdown()
 
 
 def run_ray(tasks: list[TrialTask], workers: int, address: str | None) -> Iterator[dict]:

@@ -30,6 +30,7 @@ from eval.experiments.sweep import (
     RowWriter,
     SweepError,
     SweepSpec,
+    local_pool,
     make_tasks,
     read_rows,
     row_fields,
@@ -129,7 +130,7 @@ def run_tune(
             cache=cache,
         )
         tasks = make_tasks(suite, spec, out / f"study_{trial.number:04d}")
-        rows = list(run_ray(tasks, workers, address) if backend == "ray" else run_local(tasks, workers))
+        rows = list(run_ray(tasks, workers, address) if backend == "ray" else run_local(tasks, workers, pool))
         for r in rows:
             writer.write(r)
         ok = [float(r["fraction"]) for r in rows if not r["error"]]
@@ -138,10 +139,13 @@ def run_tune(
         # a setting that breaks trials scores as if those trials scored nothing
         return sum(ok) / len(rows) if rows else 0.0
 
+    pool = local_pool(workers) if backend == "local" else None  # one pool for the whole study
     try:
         study.optimize(objective, n_trials=n_trials)
     finally:
         writer.close()
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
     table = study.trials_dataframe(attrs=("number", "value", "params", "duration"))
     table.to_csv(out / "study.csv", index=False)
     best = study.best_trial
