@@ -83,10 +83,26 @@ def _find_qr_reader() -> tuple[Callable | None, str | None]:
     return fn, None
 
 
-class Pipeline:
-    """Frames in, tracked objects out; ``detectors`` have ``detect(frame) -> list[Detection]``."""
+def find_qr_reader() -> Callable | None:
+    """The QR reader the pipeline uses (``attach_qr_text``), None when it cannot be imported."""
+    return _find_qr_reader()[0]
 
-    def __init__(self, cfg: PipelineConfig, detectors: Sequence, calibration: Calibration | None = None) -> None:
+
+class Pipeline:
+    """Frames in, tracked objects out; ``detectors`` have ``detect(frame) -> list[Detection]``.
+
+    ``qr_reader`` (``reader(rgb, detections) -> detections``, as ``attach_qr_text``) replaces
+    the QR module's reader when ``qr.enabled``: a replay (eval.trial.perception_cache) gives
+    the texts read when its frames were recorded.
+    """
+
+    def __init__(
+        self,
+        cfg: PipelineConfig,
+        detectors: Sequence,
+        calibration: Calibration | None = None,
+        qr_reader: Callable | None = None,
+    ) -> None:
         self.cfg = cfg
         self.detectors = list(detectors)
         if calibration is None and cfg.calibration is not None:
@@ -98,7 +114,9 @@ class Pipeline:
         self.notes: list[str] = []
         self.fiducials = FiducialMapper(cfg.fiducials) if cfg.fiducials.enabled else None
         self._qr_reader: Callable | None = None
-        if cfg.qr.enabled:
+        if cfg.qr.enabled and qr_reader is not None:
+            self._qr_reader = qr_reader
+        elif cfg.qr.enabled:
             self._qr_reader, note = _find_qr_reader()
             if note:
                 self.notes.append(note)

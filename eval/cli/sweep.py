@@ -20,6 +20,25 @@ def _common(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--rules", default="ex3", help="ex3, rmrc2025 or a rules file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--cache",
+        metavar="DIR",
+        help="perception cache: each scenario is rendered and detected once, every trial replays it "
+        "(default: $XDG_CACHE_HOME/poibench/perception or ~/.cache/poibench/perception)",
+    )
+    p.add_argument("--no-cache", action="store_true", help="render and detect every trial")
+
+
+def cache_dir(args) -> str | None:
+    """The perception cache folder ``--cache`` and ``--no-cache`` choose (None: no cache)."""
+    from eval.experiments.sweep import SweepError
+    from eval.trial.perception_cache import default_cache_dir
+
+    if args.no_cache and args.cache:
+        raise SweepError("--cache and --no-cache: choose one")
+    if args.no_cache:
+        return None
+    return str(Path(args.cache) if args.cache else default_cache_dir())
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -84,6 +103,7 @@ def _spec(args, suite: str, grid):
         backend=args.backend,
         address=args.address,
         resume=getattr(args, "resume", False),
+        cache=cache_dir(args),
     )
 
 
@@ -213,6 +233,7 @@ def cmd_tune(args) -> int:
             backend=args.backend,
             address=args.address,
             progress=bar.update,
+            cache=cache_dir(args),
         )
     best = res["best"]
     print(f"best mean score fraction {best['best_mean_fraction']:.4f} (trial {best['best_trial']}) with:")

@@ -9,6 +9,10 @@ torn last line (a row cut short), then skips trials already recorded without
 error (failed and torn ones are run again). A trial
 that raises is recorded with its error and the sweep goes on.
 
+With ``SweepSpec.cache`` (a folder) each scenario's perception is recorded once and
+every trial replays it (:mod:`eval.trial.perception_cache`): the same rows, a fraction
+of the CPU.
+
 The aggregate (``aggregate.csv``) has, per setting combination, the number of
 trials, the mean score fraction with its 95% confidence interval (Student t
 over scenarios), and the means of false reports, misses, localisation
@@ -128,6 +132,7 @@ class TrialTask:
     detector: str
     rules: str
     out_dir: str
+    cache: str | None = None  # perception cache folder (eval.trial.perception_cache); None: every trial in full
 
 
 @dataclass(kw_only=True)
@@ -141,6 +146,7 @@ class SweepSpec:
     address: str | None = None
     resume: bool = False
     keep_trials: bool = True  # keep each trial's folder (pois.csv, score.json, map.png)
+    cache: str | None = None  # perception cache folder; None: render and detect every trial
 
     def identity(self) -> dict:
         """What must match for --resume to continue a sweep."""
@@ -192,6 +198,7 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
                     detector=spec.detector,
                     rules=spec.rules,
                     out_dir=str(out_dir / "trials" / tid),
+                    cache=None if spec.cache is None else str(spec.cache),
                 )
             )
     return tasks
@@ -212,6 +219,7 @@ def run_task(task: TrialTask) -> dict:
     }
     try:
         from eval.scoring.rules import load_rules
+        from eval.trial.perception_cache import PerceptionCache
         from eval.trial.run import run_trial
         from sim.scenario import parse_scenario
 
@@ -226,6 +234,7 @@ def run_task(task: TrialTask) -> dict:
             video=False,
             progress=False,
             record_live=False,
+            perception_cache=PerceptionCache(task.cache) if task.cache else None,
         )
         errs = [o.distance_m for o in res.score.objects if o.found_by is not None and o.distance_m is not None]
         row.update(
@@ -349,16 +358,31 @@ def read_rows(path: Path):
 # --------------------------------------------------------------------------- backends
 
 
-def run_local(tasks: list[TrialTask], workers: int) -> Iterator[dict]:
-    """Rows as trials finish, in a pool of ``workers`` processes (spawned: no GL state is forked)."""
+def local_pool(workers: int):
+    """A pool of ``workers`` spawned processes (no GL state is forked), or None for one worker.
+
+    ``tune`` keeps one for the whole study: a replayed trial costs a second or two of CPU,
+    a fresh worker's imports about as much again."""
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import ProcessPoolExecutor
 
     if workers <= 1:
+        return None
+    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+
+
+def run_local(tasks: list[TrialTask], workers: int, pool=None) -> Iterator[dict]:
+    """Rows as trials finish, in ``pool`` or a pool of ``workers`` processes of its own."""
+    from concurrent.futures import as_completed
+
+    if pool is None and workers <= 1:
         for t in tasks:
             yield run_task(t)
         return
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
+    own = pool is None
+    if own:
+        pool = local_pool(workers)
+    try:
         futures = [pool.submit(run_task, t) for t in tasks]
         try:
             for f in as_completed(futures):
@@ -366,6 +390,9 @@ def run_local(tasks: list[TrialTask], workers: int) -> Iterator[dict]:
         finally:
             for f in futures:
                 f.cancel()
+    finally:
+        if own:
+            pool.shutdown()
 
 
 def run_ray(tasks: list[TrialTask], workers: int, address: str | None) -> Iterator[dict]:

@@ -9,6 +9,9 @@ settings ``best.yaml`` (the ``--set`` items and the whole pipeline config they
 give), plots ``history.png`` (score by trial, best so far) and, with two or
 more parameters, ``importance.png``.
 
+With ``cache`` (a folder) each scenario is rendered and detected once for the whole study
+and every trial replays it (:mod:`eval.trial.perception_cache`).
+
 A parameter is ``key=float:LOW:HIGH``, ``key=int:LOW:HIGH``, ``key=log:LOW:HIGH``
 (float on a log scale) or ``key=choice:A,B,C``.
 """
@@ -27,6 +30,7 @@ from eval.experiments.sweep import (
     RowWriter,
     SweepError,
     SweepSpec,
+    local_pool,
     make_tasks,
     read_rows,
     row_fields,
@@ -97,6 +101,7 @@ def run_tune(
     backend: str = "local",
     address: str | None = None,
     progress: Callable[[int], None] | None = None,
+    cache: str | None = None,
 ) -> dict:
     try:
         import optuna
@@ -122,9 +127,10 @@ def run_tune(
             workers=workers,
             backend=backend,
             address=address,
+            cache=cache,
         )
         tasks = make_tasks(suite, spec, out / f"study_{trial.number:04d}")
-        rows = list(run_ray(tasks, workers, address) if backend == "ray" else run_local(tasks, workers))
+        rows = list(run_ray(tasks, workers, address) if backend == "ray" else run_local(tasks, workers, pool))
         for r in rows:
             writer.write(r)
         ok = [float(r["fraction"]) for r in rows if not r["error"]]
@@ -133,10 +139,13 @@ def run_tune(
         # a setting that breaks trials scores as if those trials scored nothing
         return sum(ok) / len(rows) if rows else 0.0
 
+    pool = local_pool(workers) if backend == "local" else None  # one pool for the whole study
     try:
         study.optimize(objective, n_trials=n_trials)
     finally:
         writer.close()
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
     table = study.trials_dataframe(attrs=("number", "value", "params", "duration"))
     table.to_csv(out / "study.csv", index=False)
     best = study.best_trial

@@ -12,6 +12,10 @@
                  annotated camera view; ``config.yaml`` everything needed to rerun;
                  ``live/`` the record ``poibench view`` replays.
 
+With a perception cache (sweeps, tune, regress and suite run: ``--cache``) the trial's
+perception is recorded once per scenario and detector and replayed for every setting read
+only after detection (:mod:`eval.trial.perception_cache`); the files are the same.
+
 A write that fails (a full disk) does not stop the others: the trial goes on without its
 video or live record, the end writes every file it still can (the small ones first) and
 then raises :class:`eval.trial.outputs.TrialOutputError` naming the file that failed.
@@ -169,6 +173,24 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
     return dets, oracle
 
 
+def _with_default_label_model(cfg, detector: str):
+    """The shipped label classifier with the shipped detector, unless the config names one."""
+    from poi.config import apply_overrides
+
+    if detector == "default" and cfg.detector.label_model is None and DEFAULT_LABEL_MODEL.exists():
+        return apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"])
+    return cfg
+
+
+def onnx_model_file(choice: str) -> Path | None:
+    """The ONNX file a detector choice runs (None: the oracle, or a team's Python detector)."""
+    if choice == "default":
+        return DEFAULT_MODEL if DEFAULT_MODEL.exists() else None
+    if choice.endswith(".onnx"):
+        return Path(choice)
+    return None
+
+
 def planar_pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """Distance on the floor (m) and absolute heading difference (degrees) of two poses."""
     est, true = planar_pose(T_est), planar_pose(T_true)
@@ -193,6 +215,78 @@ def pose_error_summary(errors: list[tuple[float, float]]) -> dict[str, float]:
     }
 
 
+def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, key: str):
+    """Simulate the scenario and run its detectors (the ONNX one at the cache's floor) on every
+    frame, keeping what the pipeline after detection reads (eval.trial.perception_cache)."""
+    from eval.trial.perception_cache import CONF_FLOOR, FrameRecord, PerceptionRecord, TiledDepth
+    from poi.config import apply_overrides
+    from poi.pipeline import find_qr_reader
+    from sim.simulator import Simulation
+
+    rec_cfg = apply_overrides(cfg, [f"detector.conf={CONF_FLOOR}"])
+    sim = Simulation(sc)
+    try:
+        notes: list[str] = []
+        detectors, oracle = make_detectors(detector, rec_cfg, sim, notes)
+        labelled = any(getattr(d, "label_model", None) is not None for d in detectors)
+        reader = find_qr_reader()
+        n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
+        frames = []
+        for frame, truth in sim.frames(0, n):
+            if oracle is not None:
+                oracle.set_truth(truth)
+            dets = []
+            for det in detectors:
+                dets.extend(det.detect(frame))
+            texts = {}
+            unread = [d for d in dets if d.type == "qr" and not d.text]
+            if reader is not None and unread:  # every QR box: a replay may ask for any of them
+                for d, r in zip(unread, reader(frame.rgb, unread), strict=True):
+                    texts[tuple(d.box_xyxy)] = r.text
+            frames.append(
+                FrameRecord(
+                    index=frame.index,
+                    timestamp_s=frame.timestamp_s,
+                    pose=None if frame.pose is None else np.array(frame.pose),
+                    pose_confidence=frame.pose_confidence,
+                    depth=None if frame.depth_m is None else TiledDepth.from_array(frame.depth_m),
+                    detections=dets,
+                    qr_texts=texts,
+                    T_map_tracker_true=np.array(truth.T_map_tracker),
+                )
+            )
+        return PerceptionRecord(
+            key=key,
+            intrinsics=sim.intrinsics,
+            T_tracker_optical_nominal=np.array(sim.T_tracker_optical_nominal),
+            truth_rows=truth_rows(sim),
+            walls_map=sim.walls_in_map(),
+            robot_path_map=np.array(sim.robot_path_map()[:n]),
+            times_s=np.array(sim.times_s),
+            n_frames=n,
+            notes=notes,
+            uses_oracle=oracle is not None,
+            labelled=labelled,
+            qr_read=reader is not None,
+            floor=CONF_FLOOR,
+            frames=frames,
+        )
+    finally:
+        sim.close()
+
+
+def cached_perception(perception_cache, sc: Scenario, cfg, detector: str, max_frames: int | None):
+    """The trial's perception record from the cache, recorded and stored first when missing or
+    unusable; None when the trial cannot be replayed (eval.trial.perception_cache.perception_key).
+    ``cfg`` is the pipeline config with the trial's settings."""
+    from eval.trial.perception_cache import load_or_record, perception_key
+
+    key = perception_key(sc, detector, cfg, max_frames, onnx_model_file(detector))
+    if key is None:
+        return None
+    return load_or_record(perception_cache, key, lambda k: record_perception(sc, cfg, detector, max_frames, k))
+
+
 def run_trial(
     sc: Scenario,
     out_dir: str | Path,
@@ -207,7 +301,15 @@ def run_trial(
     on_frame=None,
     live_server=None,
     record_live: bool = True,
+    perception_cache=None,
 ) -> TrialResult:
+    """Run one trial into ``out_dir`` (module docstring).
+
+    With ``perception_cache`` (an :class:`eval.trial.perception_cache.PerceptionCache`) the
+    trial's perception is recorded once, or taken from the cache, and the pipeline after
+    detection replays it (no video, live view or ``on_frame``: those need the pixels); a
+    detector the cache cannot cover, or ``detector.conf`` below its floor, runs in full.
+    """
     from tqdm import tqdm
 
     from poi.annotate import annotate
@@ -221,11 +323,17 @@ def run_trial(
     outputs = TrialOutputs(out)
     notes: list[str] = []
     clock = CostClock.start()
-    sim = Simulation(sc)
+    record = None
+    if perception_cache is not None:
+        if video or record_live or live_server is not None or on_frame is not None:
+            raise ValueError("run_trial: a perception cache replays trials without video, live view or on_frame")
+        key_cfg = _with_default_label_model(apply_overrides(load_config(), list(pipeline_sets)), detector)
+        record = cached_perception(perception_cache, sc, key_cfg, detector, max_frames)
+    sim = Simulation(sc) if record is None else None
     try:
         cfg = load_config()
         # the pipeline is given the nominal camera mount, the simulator uses the true one
-        T = sim.T_tracker_optical_nominal
+        T = sim.T_tracker_optical_nominal if record is None else record.T_tracker_optical_nominal
         q = matrix_to_quat_wxyz(T[:3, :3])
         mount_sets = [
             f"mount.T_tracker_camera.translation_m=[{T[0, 3]:.6f}, {T[1, 3]:.6f}, {T[2, 3]:.6f}]",
@@ -233,15 +341,23 @@ def run_trial(
         ]
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
-        cfg = apply_overrides(cfg, mount_sets + ["fiducials.enabled=true"] * wants_fiducials + list(pipeline_sets))
-        if detector == "default" and cfg.detector.label_model is None and DEFAULT_LABEL_MODEL.exists():
-            cfg = apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"])
-        detectors, oracle = make_detectors(detector, cfg, sim, notes)
-        if detector == "default" and oracle is None and cfg.calibration is None and DEFAULT_CALIBRATION.exists():
+        sets = mount_sets + ["fiducials.enabled=true"] * wants_fiducials + list(pipeline_sets)
+        cfg = _with_default_label_model(apply_overrides(cfg, sets), detector)
+        replay = None
+        if record is None:
+            detectors, oracle = make_detectors(detector, cfg, sim, notes)
+            uses_oracle = oracle is not None
+        else:
+            from eval.trial.perception_cache import ReplayDetector
+
+            oracle, replay = None, ReplayDetector(record, cfg.detector.conf)
+            detectors, uses_oracle = [replay], record.uses_oracle
+            notes.extend(record.notes)
+        if detector == "default" and not uses_oracle and cfg.calibration is None and DEFAULT_CALIBRATION.exists():
             # the shipped model's own error model ([Avevor2022] 2.1.4-2.1.5), unless the config names one
             cfg = apply_overrides(cfg, [f"calibration={DEFAULT_CALIBRATION}"])
-        pipe = Pipeline(cfg, detectors)
-        rows = truth_rows(sim)
+        pipe = Pipeline(cfg, detectors, qr_reader=replay.read_qr if replay and record.qr_read else None)
+        rows = truth_rows(sim) if record is None else record.truth_rows
         outputs.write("truth.csv", lambda path: write_truth_csv(path, rows, sc.name))
         outputs.check()  # no trial without its truth
         header = ReportHeader(
@@ -252,7 +368,12 @@ def run_trial(
             version=cfg.report.poi_version,
         )
         writer = PoiWriter(out / "pois.csv", header, robot=cfg.report.robot, mode=cfg.report.mode)
-        n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
+        if record is None:
+            n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
+            frames = ((f, t, t.T_map_tracker) for f, t in sim.frames(0, n))
+        else:
+            n = record.n_frames
+            frames = ((f, None, T_true) for f, T_true in record.replay_frames())
         vid = (
             H264Writer(out / "trial.mp4", sim.intrinsics.width, sim.intrinsics.height, sc.sensors.fps)
             if video
@@ -278,8 +399,8 @@ def run_trial(
                 record=record_live,
             )
         try:
-            for frame, truth in tqdm(
-                sim.frames(0, n),
+            for frame, truth, T_true in tqdm(
+                frames,
                 total=n,
                 desc="trial",
                 unit="frame",
@@ -292,7 +413,7 @@ def run_trial(
                 if res.skipped_reason:
                     skipped += 1
                 if res.pose_map is not None:
-                    pose_errors.append(planar_pose_error(res.pose_map, truth.T_map_tracker))
+                    pose_errors.append(planar_pose_error(res.pose_map, T_true))
                 for snap in res.newly_confirmed:
                     if streaming:
                         try:
@@ -324,7 +445,8 @@ def run_trial(
         final = pipe.confirmed() + pipe.landmarks()
         # the file as it is on disk is scored (if this rewrite failed: the rows streamed so far)
         outputs.write("pois.csv", lambda _: writer.finalize(final))
-        sim_duration = float(sim.times_s[n - 1]) if n else 0.0
+        times_s = sim.times_s if record is None else record.times_s
+        sim_duration = float(times_s[n - 1]) if n else 0.0
         result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
         doc = to_json_dict(result)
         pose_error = pose_error_summary(pose_errors)
@@ -364,14 +486,15 @@ def run_trial(
             "map.png",
             lambda path: draw_map(
                 path,
-                walls=sim.walls_in_map(),
-                robot_path=sim.robot_path_map()[:n],
+                walls=sim.walls_in_map() if record is None else record.walls_map,
+                robot_path=sim.robot_path_map()[:n] if record is None else record.robot_path_map,
                 **score_layers(result),
                 title=f"{sc.name} (seed {sc.seed}): {result.headline()}",
             ),
         )
     finally:
-        sim.close()
+        if sim is not None:
+            sim.close()
     outputs.check()
     cost = clock.read(sim_duration)
     return TrialResult(

@@ -196,8 +196,22 @@ def test_ctrl_c_leaves_a_complete_poi_file_and_one_line(tmp_path):
     """Ctrl-C (SIGINT to the whole process group, the encoder included) once an object is
     confirmed: exit 130, one line on stderr, every row of pois.csv whole."""
     out = tmp_path / "interrupted"
+    # a robot at a third of the speed: the route lasts three times as long, so the run is still
+    # going when the first confirmed object's row appears, however busy the machine
+    slow = ["--set", "robot.speed_mps=0.1"]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "eval.cli.main", "run", "--out", str(out), "--detector", "oracle", "--quiet"],
+        [
+            sys.executable,
+            "-m",
+            "eval.cli.main",
+            "run",
+            "--out",
+            str(out),
+            "--detector",
+            "oracle",
+            "--quiet",
+            *slow,
+        ],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,

@@ -1,0 +1,431 @@
+"""The perception cache: a trial's perception recorded once and replayed for every downstream setting.
+
+A sweep or a tuning study runs the same scenarios again and again with settings that only
+the stages after detection read (``tracker.*``, ``slam.*``, ``localize.*``, ``visibility.*``,
+``detector.conf`` at or above :data:`CONF_FLOOR`, ``calibration``). Rendering and detection,
+about 90% of a trial's CPU, give the same result each time, so they run once per scenario:
+:func:`eval.trial.run.record_perception` runs the simulator and the detectors and keeps, per
+frame, what the pipeline after detection reads (:class:`FrameRecord`):
+
+* the detections of every detector, the ONNX detector's down to :data:`CONF_FLOOR`;
+* the depth image, exact, in zlib-compressed 32 x 32 tiles (:class:`TiledDepth`):
+  localisation reads each box's crop and the pixels round its centre, the in-view test
+  one pixel per track, so a replay decompresses a few tiles a frame;
+* the pose (and the true pose, for the pose error of ``score.json``);
+* the text the QR reader gives every QR box that has none (``attach_qr_text`` reads
+  each box on its own, so a replay asks for any subset of them).
+
+A replay (:meth:`PerceptionRecord.frames`, :class:`ReplayDetector`,
+:meth:`PerceptionRecord.qr_reader`) feeds those inputs to the same
+:class:`poi.pipeline.Pipeline`; ``run_trial`` writes the same ``pois.csv`` and
+``score.json`` as a trial that renders every frame (tests/eval/trial/test_perception_cache.py).
+
+Records are keyed (:func:`perception_key`) by everything that changes them: the scenario
+(its YAML: seed, sensors, robot, maze), the detector choice and the SHA-256 of its model
+files, the detector settings other than ``conf``, ``thermal.*``, the frame count, the
+floor, the versions of the libraries that render and detect, and a hash of the source
+that simulates and detects (so a code change never replays an old record). A record is
+one file, written to a temporary name and renamed over the final one (``os.replace``,
+atomic on POSIX and Windows), so parallel workers and Ray tasks never read a half-written
+one; its header holds a format number, the payload length and its CRC-32, and a record
+whose header, length, checksum or key does not match is recomputed, never trusted.
+
+Records are Python pickles: the cache folder is trusted like the user's own files, as
+joblib's ``Memory`` trusts its cache.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import functools
+import hashlib
+import json
+import os
+import pickle
+import struct
+import tempfile
+import time
+import zlib
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from poi.core.types import Detection, Frame, Intrinsics
+
+CACHE_FORMAT = 1
+CONF_FLOOR = 0.05  # ONNX detections are recorded down to this score; detector.conf below it runs in full
+TILE_PX = 32
+MAGIC = b"POIBPCR\x00"
+HEADER = struct.Struct("<8sIQI")  # magic, format, payload length, CRC-32 of the payload
+SUFFIX = ".pcache"
+STALE_TEMP_S = 3600.0  # a temporary file this old was left by a killed writer
+EMPTY_RGB = np.zeros((0, 0, 3), np.uint8)  # a replayed frame has no pixels; nothing after detection reads them
+ONNX_SOURCE = "onnx"  # Detection.source of the ONNX detector, the one detector.conf filters
+ROOT = Path(__file__).resolve().parents[2]
+# the source that simulates and detects: a change in any of it makes every record stale
+FINGERPRINT_DIRS = ("sim", "maze_assets", "poi/detectors", "poi/core")
+FINGERPRINT_FILES = ("eval/trial/perception_cache.py", "eval/trial/run.py", "eval/scoring/truth.py")
+
+
+class PerceptionCacheError(ValueError):
+    """A cache folder that cannot be used (one line)."""
+
+
+def default_cache_dir() -> Path:
+    """``$XDG_CACHE_HOME/poibench/perception``, or ``~/.cache/poibench/perception``."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "poibench" / "perception"
+
+
+# ------------------------------------------------------------------------------ depth
+
+
+@dataclass(frozen=True)
+class TiledDepth:
+    """A depth image kept as zlib-compressed ``tile`` x ``tile`` tiles, read like an ndarray.
+
+    Supports what the pipeline does with ``Frame.depth_m``: ``.shape``, ``.dtype``,
+    ``d[row, col]`` (a scalar of the image's dtype), ``d[r0:r1, c0:c1]`` (a new array) and
+    ``np.asarray(d)`` (the whole image); only the tiles read are decompressed. Values are exact.
+
+    >>> a = np.arange(70 * 50, dtype=np.float32).reshape(70, 50)
+    >>> t = TiledDepth.from_array(a, tile=32)
+    >>> t.shape, float(t[69, 49]), bool(np.array_equal(t[30:40, 5:45], a[30:40, 5:45]))
+    ((70, 50), 3499.0, True)
+    >>> bool(np.array_equal(np.asarray(t, dtype=np.float64), a))
+    True
+    """
+
+    shape: tuple[int, int]
+    dtype: str
+    tile: int
+    blob: bytes
+    offsets: np.ndarray  # (n_tiles + 1,) start of each compressed tile in blob, row-major tiles
+    _decoded: dict = field(default_factory=dict, compare=False, repr=False)
+
+    @classmethod
+    def from_array(cls, a: np.ndarray, tile: int = TILE_PX) -> TiledDepth:
+        if a.ndim != 2:
+            raise ValueError(f"depth: expected an (H, W) image, got shape {a.shape}")
+        H, W = a.shape
+        parts, offsets = [], [0]
+        for r in range(0, H, tile):
+            for c in range(0, W, tile):
+                z = zlib.compress(np.ascontiguousarray(a[r : r + tile, c : c + tile]).tobytes(), 1)
+                parts.append(z)
+                offsets.append(offsets[-1] + len(z))
+        return cls(
+            shape=(H, W), dtype=a.dtype.str, tile=tile, blob=b"".join(parts), offsets=np.asarray(offsets, np.int64)
+        )
+
+    def __getstate__(self) -> dict:
+        return {k: getattr(self, k) for k in ("shape", "dtype", "tile", "blob", "offsets")}
+
+    def __setstate__(self, state: dict) -> None:
+        for k, v in state.items():
+            object.__setattr__(self, k, v)
+        object.__setattr__(self, "_decoded", {})
+
+    @property
+    def ndim(self) -> int:
+        return 2
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        """The whole image (the fiducial mapper reads all of it, subsampled)."""
+        a = self[:, :]
+        return a if dtype is None else a.astype(dtype)
+
+    def _tile(self, i: int, j: int) -> np.ndarray:
+        got = self._decoded.get((i, j))
+        if got is None:
+            H, W = self.shape
+            t = self.tile
+            n_cols = -(-W // t)
+            k = i * n_cols + j
+            raw = zlib.decompress(self.blob[int(self.offsets[k]) : int(self.offsets[k + 1])])
+            h, w = min(t, H - i * t), min(t, W - j * t)
+            got = np.frombuffer(raw, dtype=np.dtype(self.dtype)).reshape(h, w)
+            self._decoded[(i, j)] = got
+        return got
+
+    def _span(self, key, n: int) -> tuple[int, int] | int:
+        if isinstance(key, slice):
+            start, stop, step = key.indices(n)
+            if step != 1:
+                raise IndexError("TiledDepth: slices with a step are not supported")
+            return start, max(stop, start)
+        i = int(key)
+        if i < -n or i >= n:
+            raise IndexError(f"index {i} is out of bounds for axis with size {n}")
+        return i + n if i < 0 else i
+
+    def __getitem__(self, key):
+        if not (isinstance(key, tuple) and len(key) == 2):
+            raise IndexError("TiledDepth: index with [row, col] (integers or slices)")
+        rows, cols = self._span(key[0], self.shape[0]), self._span(key[1], self.shape[1])
+        t = self.tile
+        if isinstance(rows, int) and isinstance(cols, int):
+            return self._tile(rows // t, cols // t)[rows % t, cols % t]
+        r0, r1 = (rows, rows + 1) if isinstance(rows, int) else rows
+        c0, c1 = (cols, cols + 1) if isinstance(cols, int) else cols
+        out = np.empty((r1 - r0, c1 - c0), dtype=np.dtype(self.dtype))
+        for i in range(r0 // t, -(-r1 // t)):
+            for j in range(c0 // t, -(-c1 // t)):
+                a, b = max(r0, i * t), min(r1, (i + 1) * t)
+                c, d = max(c0, j * t), min(c1, (j + 1) * t)
+                tile = self._tile(i, j)
+                out[a - r0 : b - r0, c - c0 : d - c0] = tile[a - i * t : b - i * t, c - j * t : d - j * t]
+        if isinstance(rows, int):
+            return out[0]
+        if isinstance(cols, int):
+            return out[:, 0]
+        return out
+
+
+# ---------------------------------------------------------------------------- records
+
+
+@dataclass(kw_only=True)
+class FrameRecord:
+    """What the pipeline after detection reads of one frame."""
+
+    index: int
+    timestamp_s: float
+    pose: np.ndarray | None
+    pose_confidence: str
+    depth: TiledDepth | None
+    detections: list[Detection]  # every detector's, in order; the ONNX detector's down to the floor
+    qr_texts: dict[tuple[float, float, float, float], str]  # box -> text read, for QR boxes without text
+    T_map_tracker_true: np.ndarray
+
+
+@dataclass(kw_only=True)
+class PerceptionRecord:
+    """A scenario's perception for one detector, and what a trial needs of its simulation."""
+
+    key: str
+    intrinsics: Intrinsics
+    T_tracker_optical_nominal: np.ndarray
+    truth_rows: list  # eval.scoring.truth rows (PoiRow)
+    walls_map: list
+    robot_path_map: np.ndarray
+    times_s: np.ndarray
+    n_frames: int
+    notes: list[str]  # what choosing the detectors said (make_detectors)
+    uses_oracle: bool
+    labelled: bool  # the ONNX detector had a label classifier (its second conf test)
+    qr_read: bool  # the QR reader could be imported, and read every QR box without text
+    floor: float
+    frames: list[FrameRecord]
+
+    def replay_frames(self) -> Iterator[tuple[Frame, np.ndarray]]:
+        """(frame as the pipeline sees it, true tracker pose) per recorded frame."""
+        for f in self.frames:
+            frame = Frame(
+                index=f.index,
+                timestamp_s=f.timestamp_s,
+                rgb=EMPTY_RGB,
+                intrinsics=self.intrinsics,
+                depth_m=f.depth,
+                pose=None if f.pose is None else f.pose.copy(),
+                pose_confidence=f.pose_confidence,
+            )
+            yield frame, f.T_map_tracker_true
+
+
+class ReplayDetector:
+    """The recorded detections of each frame, the ONNX detector's filtered by ``conf`` as it
+    filters them itself: its float32 score test (``top_score >= conf``), and with a label
+    classifier the float64 test of the named score (poi.detectors.onnx_yolo ``_postprocess``).
+    Greedy NMS keeps a box whatever the lower-scored boxes are, so the boxes at or above
+    ``conf`` among those kept at the floor are those a run at ``conf`` keeps."""
+
+    name = "replay"
+
+    def __init__(self, record: PerceptionRecord, conf: float) -> None:
+        if conf < record.floor:
+            raise ValueError(f"detector.conf {conf} is below the recorded floor {record.floor}")
+        self._by_index = {f.index: f for f in record.frames}
+        self._conf32 = np.float32(conf)
+        self._conf = float(conf)
+        self._labelled = record.labelled
+        self.current: FrameRecord | None = None
+
+    def _keeps(self, d: Detection) -> bool:
+        if d.source != ONNX_SOURCE:
+            return True
+        if not np.float32(d.confidence) >= self._conf32:
+            return False
+        return not self._labelled or d.confidence >= self._conf
+
+    def detect(self, frame: Frame) -> list[Detection]:
+        self.current = self._by_index[frame.index]
+        # copies: the pipeline writes track ids into the detections it is given
+        return [dataclasses.replace(d) for d in self.current.detections if self._keeps(d)]
+
+    def read_qr(self, rgb: np.ndarray, detections: list[Detection]) -> list[Detection]:
+        """``attach_qr_text`` for the current frame, from the texts recorded."""
+        texts = self.current.qr_texts if self.current is not None else {}
+        return [dataclasses.replace(d, text=texts[tuple(d.box_xyxy)]) if d.type == "qr" else d for d in detections]
+
+
+# -------------------------------------------------------------------------------- key
+
+
+@functools.lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """SHA-256 over the source (and data) that simulates and detects."""
+    h = hashlib.sha256()
+    paths = [ROOT / p for p in FINGERPRINT_FILES]
+    for d in FINGERPRINT_DIRS:
+        paths += [p for p in (ROOT / d).rglob("*") if p.is_file() and "__pycache__" not in p.parts]
+    for p in sorted(paths):
+        h.update(str(p.relative_to(ROOT)).encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=16)
+def _file_sha256(path: str, mtime_ns: int, size: int) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def file_sha256(path: str | Path) -> str | None:
+    """SHA-256 of a file (remembered by path, mtime and size), None when there is none."""
+    p = Path(path)
+    if not p.is_file():
+        return None
+    st = p.stat()
+    return _file_sha256(str(p.resolve()), st.st_mtime_ns, st.st_size)
+
+
+def _library_versions() -> dict[str, str]:
+    import cv2
+    import mujoco
+    import onnxruntime
+
+    return {
+        "numpy": np.__version__,
+        "mujoco": mujoco.__version__,
+        "onnxruntime": onnxruntime.__version__,
+        "cv2": cv2.__version__,
+    }
+
+
+def perception_key(sc, detector: str, cfg, max_frames: int | None, model: Path | None) -> str | None:
+    """The cache key of a trial's perception, or None when it cannot be replayed (a team's
+    Python detector, whose code the key cannot cover, or ``detector.conf`` below the floor).
+
+    ``cfg`` is the pipeline config with the trial's settings; ``model`` the ONNX file the
+    detector choice names (None for the oracle)."""
+    from poi.config import config_to_dict
+
+    if detector not in ("default", "oracle") and not detector.endswith(".onnx"):
+        return None
+    if cfg.detector.conf < CONF_FLOOR:
+        return None
+    det = {k: v for k, v in config_to_dict(cfg)["detector"].items() if k != "conf"}
+    label = cfg.detector.label_model
+    doc = {
+        "format": CACHE_FORMAT,
+        "code": code_fingerprint(),
+        "libraries": _library_versions(),
+        "scenario": sc.to_yaml(),
+        "detector": detector,
+        "model": None if model is None else file_sha256(model),
+        "label_model": None if label is None else file_sha256(label),
+        "detector_settings": det,
+        "thermal": config_to_dict(cfg)["thermal"],
+        "max_frames": max_frames,
+        "floor": CONF_FLOOR,
+        "tile": TILE_PX,
+    }
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:40]
+
+
+# ------------------------------------------------------------------------------ store
+
+
+class PerceptionCache:
+    """A folder of records, one file per key (see the module docstring)."""
+
+    def __init__(self, folder: str | Path) -> None:
+        self.folder = Path(folder)
+
+    def path(self, key: str) -> Path:
+        return self.folder / f"{key}{SUFFIX}"
+
+    def load(self, key: str) -> PerceptionRecord | None:
+        """The record of ``key``, or None when there is none or it is torn, corrupt or stale."""
+        try:
+            data = self.path(key).read_bytes()
+        except OSError:
+            return None
+        if len(data) < HEADER.size:
+            return None
+        magic, fmt, length, crc = HEADER.unpack_from(data)
+        payload = memoryview(data)[HEADER.size :]
+        if magic != MAGIC or fmt != CACHE_FORMAT or length != len(payload) or zlib.crc32(payload) != crc:
+            return None
+        try:
+            rec = pickle.loads(payload)
+        except Exception:  # a record from another version of the classes: recompute it
+            return None
+        if not isinstance(rec, PerceptionRecord) or rec.key != key:
+            return None
+        return rec
+
+    def store(self, key: str, record: PerceptionRecord) -> None:
+        """Write the record atomically: a temporary file in the folder, synced, renamed over the final name."""
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise PerceptionCacheError(f"--cache {self.folder}: cannot create the folder ({e.strerror})") from None
+        payload = pickle.dumps(record, protocol=pickle.HIGHEST_PROTOCOL)
+        header = HEADER.pack(MAGIC, CACHE_FORMAT, len(payload), zlib.crc32(payload))
+        fd, tmp = tempfile.mkstemp(dir=self.folder, prefix=f".{key}.", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(header)
+                f.write(payload)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, self.path(key))
+        except BaseException:
+            with _suppress_os():
+                os.unlink(tmp)
+            raise
+        self._drop_stale_temps()
+
+    def _drop_stale_temps(self) -> None:
+        now = time.time()
+        for p in self.folder.glob(".*.tmp"):
+            with _suppress_os():
+                if now - p.stat().st_mtime > STALE_TEMP_S:
+                    p.unlink()
+
+
+def _suppress_os():
+    return contextlib.suppress(OSError)
+
+
+def load_or_record(
+    cache: PerceptionCache, key: str, record: Callable[[str], PerceptionRecord]
+) -> PerceptionRecord:
+    """The record of ``key`` from ``cache``; when missing, torn, corrupt or stale, ``record(key)``
+    makes it and it is stored (eval.trial.run.cached_perception). A cache that cannot be
+    written (a full disk, a Ray node without the folder) costs the next trial its record,
+    never this trial its result."""
+    rec = cache.load(key)
+    if rec is None:
+        rec = record(key)
+        with contextlib.suppress(OSError, PerceptionCacheError):
+            cache.store(key, rec)
+    return rec
