@@ -44,8 +44,14 @@ class SceneAssets:
     def has(self, name: str) -> bool:
         return name in self._names
 
-    def texture(self, name: str, rgb: np.ndarray) -> str:
-        """Register an RGB uint8 image (H, W, 3) as a 2D texture named ``name``."""
+    def texture(self, name: str, rgb: np.ndarray, kind: str = "2d") -> str:
+        """Register an RGB uint8 image (H, W, 3) as a texture named ``name``.
+
+        ``kind`` ``2d`` is mapped by the geom's local x and y (planes, meshes with texcoords);
+        ``cube`` puts the image on each face of a box, fitted to the face.
+        """
+        if kind not in ("2d", "cube"):
+            raise ValueError(f"texture {name!r}: kind must be 2d or cube, got {kind!r}")
         if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
             raise ValueError(f"texture {name!r}: expected uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}")
         self._claim(name)
@@ -54,7 +60,7 @@ class SceneAssets:
             raise RuntimeError(f"texture {name!r}: PNG encoding failed")
         fname = f"{name}.png"
         self.files[fname] = png.tobytes()
-        ET.SubElement(self.asset, "texture", name=name, type="2d", file=fname)
+        ET.SubElement(self.asset, "texture", name=name, type=kind, file=fname)
         return name
 
     def material(

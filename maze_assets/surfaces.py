@@ -1,11 +1,14 @@
-"""Wall and floor textures: oriented strand board (OSB) walls and a plywood floor.
+"""Wall, floor and hall textures: the sheets an arena is built from, and the hall around it.
 
-RoboCupRescue arenas are built from OSB and plywood sheets. The wall texture is
-a mid-light tan with overlapping wood flakes and fine grain, so a stereo depth
-camera (docs/FACTS.md "D435 depth": low-texture surfaces read 0) would find matches on it; the
-floor is plywood with long grain bands, a little darker. Both are drawn from an
-explicit ``rng`` (same generator state, same image) and tile seamlessly
-(everything wraps around the edges).
+RoboCupRescue arenas are built from OSB and plywood sheets, some painted. A wall sheet
+(:func:`draw_wall`) is OSB (overlapping wood flakes and fine grain), sanded plywood (long
+wavy grain) or painted board; each gets the joints between sheets, rows of screw heads and
+the marks of use (pencil lines, tape, scuffs low on the wall, now and then soot). The
+textures have detail for a stereo depth camera to match (docs/FACTS.md "D435 depth":
+low-texture surfaces read 0). Floors (:func:`draw_floor_kind`) are plywood, OSB or painted
+grey; :func:`draw_hall_wall` is the hall seen past the arena (blockwork under windows).
+All are drawn from an explicit ``rng`` (same generator state, same image) and tile
+seamlessly (everything wraps around the edges); sim/world.py picks the kinds per scenario.
 
 >>> w = draw_plywood(64, np.random.default_rng(1))
 >>> w.shape, w.dtype.name
@@ -82,4 +85,142 @@ def draw_floor(size_px: int, rng: np.random.Generator) -> np.ndarray:
     speckle = rng.normal(0.0, 0.035, (n, n)).astype(np.float32)
     lum = 1.0 + bands + streaks + speckle
     img = np.array(FLOOR_BASE_RGB, np.float32) * lum[..., None]
+    return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
+# --- arena variety: wall and floor kinds, sheet seams, screws, marks, tape, scuffs ----------
+
+WALL_KINDS = ("osb", "plywood", "painted")
+FLOOR_KINDS = ("plywood", "osb", "painted")
+SHEET_M = 1.22  # an OSB or plywood sheet is 1.22 m x 2.44 m (4 x 8 ft): one texture tile across
+PAINT_RGB = ((232, 232, 226), (196, 198, 196), (52, 54, 58), (120, 140, 160), (170, 60, 50))
+PLYWOOD_RGB = (214, 186, 140)
+TAPE_RGB = ((160, 164, 170), (40, 90, 190), (25, 25, 25), (230, 200, 40), (230, 230, 225))
+
+
+def _plywood_sheet(n: int, rng: np.random.Generator, base=PLYWOOD_RGB) -> np.ndarray:
+    """Sanded plywood: a light face veneer with long wavy grain along y (the sheet's length)."""
+    yy = np.arange(n, dtype=np.float32)[:, None]
+    xx = np.arange(n, dtype=np.float32)[None, :]
+    phase = _wrap_blur(rng.normal(0.0, 1.0, (n, 1)).astype(np.float32), 0.1, n / 10) * 10.0
+    cycles = int(rng.integers(6, 14))
+    bands = np.sin(2 * np.pi * cycles * xx / n + phase + 0.4 * np.sin(2 * np.pi * yy / n)) * 0.05
+    streaks = _wrap_blur(rng.normal(0.0, 1.0, (n, n)).astype(np.float32), 0.5, 5.0) * 0.08
+    lum = 1.0 + bands + streaks + rng.normal(0.0, 0.02, (n, n)).astype(np.float32)
+    return np.array(base, np.float32) * lum[..., None]
+
+
+def _painted(n: int, rng: np.random.Generator, rgb) -> np.ndarray:
+    """Roller-painted board: a flat colour with a fine stipple and faint roller streaks."""
+    stipple = _wrap_blur(rng.normal(0.0, 1.0, (n, n)).astype(np.float32), 0.8, 0.8) * 0.035
+    streaks = _wrap_blur(rng.normal(0.0, 1.0, (n, n)).astype(np.float32), 1.5, 12.0) * 0.03
+    return np.array(rgb, np.float32) * (1.0 + stipple + streaks)[..., None]
+
+
+def _seams_and_screws(img: np.ndarray, rng: np.random.Generator) -> None:
+    """A dark gap along the tile's left and top edges (sheets butt there when tiled) and rows
+    of screw heads 2 cm in from them and down the middle stud, every 15-25 cm."""
+    n = img.shape[0]
+    px_m = n / SHEET_M
+    gap = max(1, int(round(0.003 * px_m)))
+    img[:, :gap] *= 0.45
+    img[:gap, :] *= 0.45
+    step = rng.uniform(0.15, 0.25) * px_m
+    inset = 0.02 * px_m
+    r = max(1.0, 0.005 * px_m)
+    for x in (inset, n / 2, n - inset):
+        for y in np.arange(inset, n, step):
+            c = (int(round(x)), int(round(y + rng.normal(0, 0.1 * r))))
+            cv2.circle(img, c, int(round(r * 1.4)), tuple(float(v) * 0.95 for v in img[c[1] % n, c[0] % n]), -1)
+            cv2.circle(img, c, int(round(r)), (70.0, 70.0, 72.0), -1, cv2.LINE_AA)
+
+
+def _marks(img: np.ndarray, rng: np.random.Generator) -> None:
+    """What an arena's walls collect: pencil lines, tape, scuffs and a sooty patch."""
+    n = img.shape[0]
+    for _ in range(int(rng.integers(0, 4))):  # pencil lines and ticks
+        p0 = rng.uniform(0, n, 2)
+        p1 = p0 + rng.normal(0, 0.15 * n, 2)
+        cv2.line(img, tuple(int(v) for v in p0), tuple(int(v) for v in p1), (90.0, 88.0, 86.0), 1, cv2.LINE_AA)
+    for _ in range(int(rng.choice([0, 0, 1, 1, 2]))):  # tape strips
+        colour = TAPE_RGB[int(rng.integers(len(TAPE_RGB)))]
+        w = rng.uniform(0.025, 0.05) * n
+        c = rng.uniform(0, n, 2)
+        length = rng.uniform(0.1, 0.5) * n
+        ang = float(rng.choice([0.0, 90.0, rng.uniform(0, 180)]))
+        box = cv2.boxPoints(((float(c[0]), float(c[1])), (length, w), ang))
+        cv2.fillPoly(img, [np.round(box).astype(np.int32)], tuple(float(v) for v in colour), cv2.LINE_AA)
+    scuff = np.zeros((n, n), np.float32)
+    for _ in range(int(rng.integers(2, 10))):  # scuffs: short dark smears, low on the wall
+        c = (int(rng.uniform(0, n)), int(rng.uniform(0.55, 1.0) * n))
+        axes = (int(rng.uniform(0.01, 0.06) * n), int(rng.uniform(0.003, 0.015) * n))
+        cv2.ellipse(scuff, c, axes, float(rng.uniform(-20, 20)), 0, 360, float(rng.uniform(0.15, 0.4)), -1)
+    scuff = cv2.GaussianBlur(scuff, (0, 0), max(1.0, n / 150))
+    if rng.random() < 0.3:  # soot: a large soft dark patch
+        soot = np.zeros((n, n), np.float32)
+        r = rng.uniform(0.05, 0.15) * n
+        c = (int(rng.uniform(0, n)), int(rng.uniform(0, n)))
+        cv2.circle(soot, c, int(r), float(rng.uniform(0.3, 0.6)), -1)
+        scuff += cv2.GaussianBlur(soot, (0, 0), r / 2)
+    img *= (1.0 - np.clip(scuff, 0, 0.8))[..., None]
+
+
+def draw_wall(kind: str, size_px: int, rng: np.random.Generator) -> np.ndarray:
+    """One arena wall sheet, RGB uint8 (size_px, size_px, 3), SHEET_M across.
+
+    ``kind``: ``osb`` (oriented strands, :func:`draw_plywood`), ``plywood`` (sanded veneer)
+    or ``painted`` (one of ``PAINT_RGB``); every kind gets seams, screw rows and the marks
+    of use. A tile's edges are sheet joints, so the texture tiles as sheets do.
+    """
+    n = _check("draw_wall", size_px)
+    if kind == "osb":
+        img = draw_plywood(n, rng).astype(np.float32) * rng.uniform(0.85, 1.1)
+    elif kind == "plywood":
+        img = _plywood_sheet(n, rng)
+    elif kind == "painted":
+        img = _painted(n, rng, PAINT_RGB[int(rng.integers(len(PAINT_RGB)))])
+    else:
+        raise SurfaceSizeError(f"draw_wall: kind must be one of {', '.join(WALL_KINDS)}, got {kind!r}")
+    _seams_and_screws(img, rng)
+    _marks(img, rng)
+    return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
+def draw_floor_kind(kind: str, size_px: int, rng: np.random.Generator) -> np.ndarray:
+    """A floor: ``plywood`` (:func:`draw_floor`), ``osb`` (darker strands) or ``painted`` grey."""
+    n = _check("draw_floor_kind", size_px)
+    if kind == "plywood":
+        return draw_floor(n, rng)
+    if kind == "osb":
+        img = draw_plywood(n, rng).astype(np.float32) * 0.85
+    elif kind == "painted":
+        img = _painted(n, rng, (118, 120, 122))
+    else:
+        raise SurfaceSizeError(f"draw_floor_kind: kind must be one of {', '.join(FLOOR_KINDS)}, got {kind!r}")
+    _marks(img, rng)
+    return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
+def draw_hall_wall(size_px: int, rng: np.random.Generator) -> np.ndarray:
+    """A sports-hall wall seen past the arena: painted blockwork below a band of windows.
+
+    The top third is windows (bright sky-grey panes in dark frames); below, light painted
+    concrete blocks (39 x 19 cm) with mortar lines.
+    """
+    n = _check("draw_hall_wall", size_px)
+    img = _painted(n, rng, (200, 200, 194))
+    block_h, block_w = n / 24, n / 12
+    for k, y in enumerate(np.arange(0, n, block_h)):
+        cv2.line(img, (0, int(y)), (n, int(y)), (150.0, 150.0, 146.0), 1)
+        off = (k % 2) * block_w / 2
+        for x in np.arange(off, n, block_w):
+            cv2.line(img, (int(x), int(y)), (int(x), int(y + block_h)), (150.0, 150.0, 146.0), 1)
+    top = int(n / 3)
+    img[:top] = (60.0, 62.0, 66.0)
+    panes = int(rng.integers(3, 6))
+    pw = n / panes
+    sky = np.array(rng.choice([(225, 232, 240), (190, 200, 210), (250, 250, 250)]), np.float32)
+    for i in range(panes):
+        x0, x1 = int(i * pw + 0.06 * pw), int((i + 1) * pw - 0.06 * pw)
+        img[int(0.05 * top) : int(0.92 * top), x0:x1] = sky
     return np.clip(np.round(img), 0, 255).astype(np.uint8)

@@ -521,6 +521,9 @@ class Scenario:
     objects: ObjectsSpec | None = None
     arena: ArenaSpec | None = None
     lighting: Literal["bright", "dim", "uneven"] = "bright"
+    # distractors (crates, buckets, pipes, cables, boxes, debris; maze_assets/clutter.py) per
+    # maze cell, against the walls; never objects of interest, never reported
+    clutter_per_cell: float = number(0.3, lo=0.0, hi=2.0)
     robot: RobotSpec = field(default_factory=RobotSpec)
     sensors: SensorsSpec = field(default_factory=SensorsSpec)
     rules: str | None = None

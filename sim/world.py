@@ -19,10 +19,17 @@ import mujoco  # noqa: E402
 import numpy as np
 
 import sim.gl  # noqa: F401  (must precede the mujoco import)
+from maze_assets.clutter import build_clutter, place_clutter  # noqa: E402
 from maze_assets.mjcf import SceneAssets, fmt  # noqa: E402
 from maze_assets.models import build_object, build_page, door_frame_extent_m  # noqa: E402
 from maze_assets.objects import PlacedObject  # noqa: E402
-from maze_assets.surfaces import draw_floor, draw_plywood  # noqa: E402
+from maze_assets.surfaces import (  # noqa: E402
+    FLOOR_KINDS,
+    WALL_KINDS,
+    draw_floor_kind,
+    draw_hall_wall,
+    draw_wall,
+)
 from poi.core.types import Intrinsics  # noqa: E402
 from sim.camera import mujoco_camera_attrs  # noqa: E402
 
@@ -119,6 +126,76 @@ def _lights(
         raise ValueError(f"lighting: expected bright, dim or uneven, got {lighting!r}")
 
 
+WALL_MATERIALS = 3  # wall sheet looks per scenario, each wall piece takes one
+WALL_KIND_SHARES = (0.5, 0.3, 0.2)  # osb, plywood, painted
+FLOOR_KIND_SHARES = (0.5, 0.3, 0.2)  # plywood, osb, painted
+HALL_MARGIN_M = (3.0, 8.0)  # the hall's walls stand this far beyond the arena
+HALL_HEIGHT_M = (6.0, 9.0)
+
+
+def _hall(world: ET.Element, assets: SceneAssets, maze, rng: np.random.Generator) -> None:
+    """The hall an arena stands in, seen above and beyond its walls: blockwork walls with a
+    band of windows, a ceiling with rows of lamps and roof trusses (geoms named ``hall_*``).
+
+    Lamps are emissive panels, not light sources: the scene's light comes from its preset.
+    """
+    w, h = maze.size_m
+    m = float(rng.uniform(*HALL_MARGIN_M))
+    top = float(rng.uniform(*HALL_HEIGHT_M))
+    x0, y0, x1, y1 = -m, -m, w + m, h + m
+    assets.texture("tex_hall", draw_hall_wall(TEXTURE_PX, rng), kind="cube")
+    assets.material("hall_wall", texture="tex_hall")
+    ceiling = tuple(float(v) for v in rng.uniform(0.35, 0.6, 3).round(2)) + (1.0,)
+    ET.SubElement(assets.asset, "material", name="hall_ceiling", rgba=fmt(ceiling))
+    ET.SubElement(assets.asset, "material", name="hall_lamp", rgba="1 1 0.96 1", emission="1")
+    ET.SubElement(assets.asset, "material", name="hall_steel", rgba="0.3 0.32 0.35 1")
+    common = {"contype": "0", "conaffinity": "0", "group": "1"}
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    half = [(x1 - x0) / 2, (y1 - y0) / 2]
+    for name, pos, size in (
+        ("hall_wall_s", [cx, y0, top / 2], [half[0], 0.1, top / 2]),
+        ("hall_wall_n", [cx, y1, top / 2], [half[0], 0.1, top / 2]),
+        ("hall_wall_w", [x0, cy, top / 2], [0.1, half[1], top / 2]),
+        ("hall_wall_e", [x1, cy, top / 2], [0.1, half[1], top / 2]),
+    ):
+        ET.SubElement(
+            world, "geom", name=name, type="box", material="hall_wall", pos=fmt(pos), size=fmt(size), **common
+        )
+    ET.SubElement(
+        world,
+        "geom",
+        name="hall_ceiling",
+        type="box",
+        material="hall_ceiling",
+        pos=fmt([cx, cy, top + 0.1]),
+        size=fmt([half[0], half[1], 0.1]),
+        **common,
+    )
+    span = float(rng.uniform(4.0, 7.0))  # trusses and lamp rows across the hall's width
+    for k, x in enumerate(np.arange(x0 + span / 2, x1, span)):
+        ET.SubElement(
+            world,
+            "geom",
+            name=f"hall_truss_{k}",
+            type="box",
+            material="hall_steel",
+            pos=fmt([x, cy, top - 0.4]),
+            size=fmt([0.08, half[1], 0.25]),
+            **common,
+        )
+        for j, y in enumerate(np.arange(y0 + span / 2, y1, span)):
+            ET.SubElement(
+                world,
+                "geom",
+                name=f"hall_lamp_{k}_{j}",
+                type="box",
+                material="hall_lamp",
+                pos=fmt([x + span / 2, y, top - 0.05]),
+                size=fmt([0.6, 0.15, 0.03]),
+                **common,
+            )
+
+
 def door_gap_m(length_m: float, door: PlacedObject, wall_height_m: float) -> tuple[float, float, float]:
     """(a, b, top): a door's frame spans [a, b] along its wall piece (centred) and rises to ``top``."""
     fw, fh = door_frame_extent_m(door.size_m, wall_height_m)
@@ -134,11 +211,13 @@ def build_world_xml(
     *,
     obstacles: Sequence[Obstacle] = (),
     light_height_m: float | None = None,
+    clutter_per_cell: float = 0.0,
 ) -> tuple[str, dict[str, bytes]]:
     """The MJCF text and its in-memory assets (PNG textures).
 
     ``obstacles`` (the goal arena's cubes, not POIs) are plywood boxes named by their
-    ``name``; ``light_height_m``: see :func:`_lights`.
+    ``name``; ``light_height_m``: see :func:`_lights`; ``clutter_per_cell``: distractors
+    (``clutter_*`` geoms) a maze cell on average.
     """
     root = ET.Element("mujoco", model="poibench")
     ET.SubElement(root, "compiler", angle="radian")
@@ -165,7 +244,8 @@ def build_world_xml(
 
     w, h = maze.size_m
     s = maze.settings
-    assets.texture("tex_floor", draw_floor(TEXTURE_PX, rng))
+    floor_kind = FLOOR_KINDS[int(rng.choice(len(FLOOR_KINDS), p=FLOOR_KIND_SHARES))]
+    assets.texture("tex_floor", draw_floor_kind(floor_kind, TEXTURE_PX, rng))
     assets.material(
         "floor",
         texture="tex_floor",
@@ -183,10 +263,17 @@ def build_world_xml(
         contype="0",
         conaffinity="0",
     )
-    assets.texture("tex_plywood", draw_plywood(TEXTURE_PX, rng))
-    assets.material("wall", texture="tex_plywood", texrepeat=[1, 1], texuniform=True)
+    wall_materials = []
+    for k in range(WALL_MATERIALS):
+        kind = WALL_KINDS[int(rng.choice(len(WALL_KINDS), p=WALL_KIND_SHARES))]
+        # a cube texture fits the image to each face of a wall piece: one sheet per piece (a
+        # 2D texture is mapped by the box's local x and y and streaks down a vertical face)
+        assets.texture(f"tex_wall_{k}", draw_wall(kind, TEXTURE_PX, rng), kind="cube")
+        assets.material(f"wall_{k}", texture=f"tex_wall_{k}")
+        wall_materials.append(f"wall_{k}")
     doors = {o.wall: o for o in objects if o.type == "door" and o.wall}
     for seg in maze.wall_segments():
+        material = wall_materials[int(rng.integers(len(wall_materials)))]
         p0, p1 = np.array([seg.x0, seg.y0]), np.array([seg.x1, seg.y1])
         length = float(np.linalg.norm(p1 - p0))
         d = (p1 - p0) / length
@@ -211,7 +298,7 @@ def build_world_xml(
                 "geom",
                 name=name,
                 type="box",
-                material="wall",
+                material=material,
                 pos=fmt([mid[0], mid[1], (z0 + z1) / 2]),
                 euler=fmt([0, 0, yaw]),
                 size=fmt([(u1 - u0) / 2, t2, (z1 - z0) / 2]),
@@ -224,12 +311,15 @@ def build_world_xml(
             "geom",
             name=ob.name,
             type="box",
-            material="wall",
+            material=wall_materials[0],
             pos=fmt([ob.center_xy[0], ob.center_xy[1], ob.size_m / 2]),
             size=fmt([ob.size_m / 2] * 3),
             contype="0",
             conaffinity="0",
         )
+    _hall(world, assets, maze, rng)
+    for el in build_clutter(place_clutter(maze, objects, rng, clutter_per_cell), assets):
+        world.append(el)
     for obj in objects:
         world.append(build_object(obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m))
         page = build_page(obj, assets)  # the A4 sheet of a QR page (sim/placement.py)
@@ -251,9 +341,17 @@ def build_world(
     *,
     obstacles: Sequence[Obstacle] = (),
     light_height_m: float | None = None,
+    clutter_per_cell: float = 0.0,
 ) -> World:
     xml, files = build_world_xml(
-        maze, objects, intr, lighting, rng, obstacles=obstacles, light_height_m=light_height_m
+        maze,
+        objects,
+        intr,
+        lighting,
+        rng,
+        obstacles=obstacles,
+        light_height_m=light_height_m,
+        clutter_per_cell=clutter_per_cell,
     )
     model = mujoco.MjModel.from_xml_string(xml, files)
     data = mujoco.MjData(model)
