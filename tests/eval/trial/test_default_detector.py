@@ -7,7 +7,7 @@ import yaml
 from eval.cli.main import main
 from eval.detector.quality import EVAL_SEED, model_training_seeds
 from eval.trial.run import DEFAULT_CALIBRATION, DEFAULT_LABEL_MODEL, DEFAULT_MODEL
-from poi.core.names import CLASSES, HAZMAT_LABELS, RESCUE_CLASSES
+from poi.core.names import CLASSES, HAZMAT_LABELS, RESCUE_CLASSES, RESCUE_TYPES
 from poi.detectors import OnnxYoloDetector
 from poi.estimation.covariance import load_calibration
 
@@ -18,12 +18,14 @@ def test_shipped_files_load_and_fit_together():
     size = DEFAULT_MODEL.stat().st_size + DEFAULT_LABEL_MODEL.stat().st_size
     assert size <= MAX_SHIPPED_BYTES, size
     det = OnnxYoloDetector(model=DEFAULT_MODEL, label_model=DEFAULT_LABEL_MODEL)
-    assert det.model_names == list(RESCUE_CLASSES) and det.input_hw == (320, 320)
+    # one class finds the placards (the label classifier names them), one class per other type
+    assert det.model_names == ["hazmat", *RESCUE_CLASSES[len(HAZMAT_LABELS) :]] and det.input_hw == (320, 320)
+    assert det.known_types == set(RESCUE_TYPES)
     cal = load_calibration(DEFAULT_CALIBRATION)
     assert cal.confusion.shape == (len(CLASSES), len(CLASSES))
-    # a default fit, a door fit and fits for hazmat labels (classes with 30 or more pairs)
-    assert {"default", "door"} <= set(cal.center_variance)
-    assert set(cal.center_variance) & set(HAZMAT_LABELS)
+    # a default fit and fits for the types with 30 or more pairs (the placards, 8-23 pairs a
+    # label, take the default)
+    assert {"default", "door", "qr", "fire-extinguisher"} <= set(cal.center_variance)
     # trained on scenes other than the evaluation seed's, and says which
     seeds = model_training_seeds(DEFAULT_MODEL) | model_training_seeds(DEFAULT_LABEL_MODEL)
     assert seeds and EVAL_SEED not in seeds
