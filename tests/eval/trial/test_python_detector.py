@@ -11,7 +11,15 @@ from eval.cli.main import main
 from poi.core.poi_file import read_poi_file
 
 DETECTORS = Path(__file__).resolve().parents[2] / "poi" / "detectors"  # red_detector.py
-SCENE = ["--set", "maze.file=rrl_small", "--set", "objects.generate.counts={fire-extinguisher: 2, valve: 1}"]
+# no distractors: the toy detector takes any red blob (an orange bucket too) for an extinguisher
+SCENE = [
+    "--set",
+    "maze.file=rrl_small",
+    "--set",
+    "objects.generate.counts={fire-extinguisher: 2, valve: 1}",
+    "--set",
+    "clutter_per_cell=0",
+]
 RED = "python:red_detector:RedBlobDetector"
 
 
