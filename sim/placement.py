@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from maze_assets.models import ARENA_SIZE_M, FIDUCIAL_DIAMETER_M, FIDUCIAL_LENGTH_M, qr_side_m
+from maze_assets.models import ARENA_SIZE_M, BACKING_M, FIDUCIAL_DIAMETER_M, FIDUCIAL_LENGTH_M, qr_side_m
 from maze_assets.objects import PlacedObject, fiducial_text
 from poi.core.names import ARENA_TYPES, HAZMAT_LABELS
 from sim.scenario import ObjectsGenerate, ObjectSpec, QrSheets, Scenario
@@ -420,8 +420,6 @@ def lay_placards_on_floor(objects: list[PlacedObject], share: float, seed: int, 
     the wall and its in-plane turn stay. The reference point is the face's centre, just
     above the floor. One that would lie against another object stays on its wall.
     """
-    from maze_assets.models import BACKING_M
-
     if not 0.0 <= share <= 1.0:
         raise PlacementError(f"hazmat_on_floor must be in [0, 1], got {share}")
     if share == 0.0:

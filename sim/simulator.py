@@ -251,8 +251,7 @@ class Simulation:
             )
         self._temp_of_geom = self._geom_temperatures()
         col = sc.sensors.d435.colour
-        lux = col.lux if col.lux is not None else LIGHT_LEVEL_LUX[sc.lighting]
-        self.colour_lux = lux_of_decoded_one(sc.lighting, lux, col.gamma)  # of a decoded render 1
+        self.colour_lux = self._decoded_one_lux(col)
         self._camera = ColourCamera(col, d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
         self._meters: dict[int, float] = {}  # frame index -> auto-exposure meter of its render
         self._tilt_rad = tilt
@@ -462,9 +461,15 @@ class Simulation:
         if colour is None:
             return self._camera, self.colour_lux
         i = self.intrinsics
-        lux = colour.lux if colour.lux is not None else LIGHT_LEVEL_LUX[self.scenario.lighting]
-        lux = lux_of_decoded_one(self.scenario.lighting, lux, colour.gamma)
-        return ColourCamera(colour, i.width, i.height, i.fx, i.fy, i.ppx, i.ppy), lux
+        return ColourCamera(colour, i.width, i.height, i.fx, i.fy, i.ppx, i.ppy), self._decoded_one_lux(colour)
+
+    def _decoded_one_lux(self, colour: ColourSpec) -> float:
+        """The illuminance a decoded render value of 1 stands for with ``colour``: its ``lux``
+        (default: the lighting preset's level) scaled by the preset's shading
+        (:func:`sim.world.lux_of_decoded_one`)."""
+        lighting = self.scenario.lighting
+        lux = colour.lux if colour.lux is not None else LIGHT_LEVEL_LUX[lighting]
+        return lux_of_decoded_one(lighting, lux, colour.gamma)
 
     def _steady_exposure(self, rgb: np.ndarray, spec: ColourSpec, lux: float) -> Exposure:
         if not spec.auto_exposure:

@@ -8,8 +8,9 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from eval.detector.dataset import HAZMAT_PER_SCENARIO
+from eval.detector.dataset import HAZMAT_PER_SCENARIO, DatasetSpec
 from eval.detector.quality import EVAL_SEED
+from eval.detector.train import PLACARD_MODES
 from poi.config import DetectorConfig
 
 OPERATING_CONF = DetectorConfig().conf
@@ -31,8 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument(
         "--hazmat-on-floor",
         type=float,
-        default=0.25,
-        help="share of the placards laid face up on the floor (default 0.25; trials keep theirs on walls)",
+        default=DatasetSpec.hazmat_on_floor,
+        help=f"share of the placards laid face up on the floor (default {DatasetSpec.hazmat_on_floor}; "
+        "trials keep theirs on walls)",
     )
     d.add_argument(
         "--camera",
@@ -64,7 +66,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     t.add_argument(
         "--placards",
-        choices=("named", "one"),
+        choices=PLACARD_MODES,
         default="named",
         help="named: a class per hazmat label (default); one: one class 'hazmat' that finds placards, "
         "named by the label classifier (train-labels)",
