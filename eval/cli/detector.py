@@ -8,7 +8,7 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from eval.detector.dataset import HAZMAT_PER_SCENARIO, DatasetSpec
+from eval.detector.dataset import DISTANCE_DRAWS, HAZMAT_PER_SCENARIO, DatasetSpec
 from eval.detector.quality import EVAL_SEED
 from eval.detector.train import PLACARD_MODES
 from poi.config import DetectorConfig
@@ -35,6 +35,20 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=DatasetSpec.hazmat_on_floor,
         help=f"share of the placards laid face up on the floor (default {DatasetSpec.hazmat_on_floor}; "
         "trials keep theirs on walls)",
+    )
+    d.add_argument(
+        "--distance",
+        choices=DISTANCE_DRAWS,
+        default=DatasetSpec.distance_draw,
+        help="how the camera's distance to its target is drawn over 0.3-5 m: uniform (default), or "
+        "log-uniform (log: about 4 views in 10 closer than 1 m, as in hand-held photos)",
+    )
+    d.add_argument(
+        "--free-roll",
+        type=float,
+        default=DatasetSpec.free_roll,
+        help=f"share of views with the camera rolled anywhere in +-180 deg instead of +-5 deg "
+        f"(default {DatasetSpec.free_roll}; hand-held photos show placards at any angle)",
     )
     d.add_argument(
         "--camera",
@@ -231,6 +245,8 @@ def cmd_dataset(args) -> int:
         val_every=args.val_every,
         counts={**DatasetSpec.default_counts(), "hazmat": args.hazmat},
         hazmat_on_floor=args.hazmat_on_floor,
+        distance_draw=args.distance,
+        free_roll=args.free_roll,
         **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),
     )
     with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:

@@ -54,6 +54,7 @@ FLOOR_MOUNTS = ("floor",)
 HAZMAT_PER_SCENARIO = 8
 SCENARIO_TRIES = 10
 RESCUE_CLASS_INDEX: dict[str, int] = {c: i for i, c in enumerate(RESCUE_CLASSES)}
+DISTANCE_DRAWS = ("uniform", "log")
 VIEW_TRIES = 120  # viewpoint draws per image before the target is given up for another
 
 
@@ -74,6 +75,8 @@ class DatasetSpec:
     blur_fraction: float = 0.3
     rmrc_fraction: float = 0.25  # scenarios on the smaller RMRC lane preset
     hazmat_on_floor: float = 0.25  # placards laid on the floor (real photos show many there)
+    distance_draw: str = "uniform"  # "log": log-uniform over distance_m, more close-ups
+    free_roll: float = 0.0  # share of views with any camera roll (hand-held photos), not +-5 deg
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
     jpeg_quality: int = 95
     camera: CameraRandomisation | None = field(default_factory=lambda: CameraRandomisation())
@@ -96,6 +99,12 @@ class DatasetSpec:
             raise DatasetError(f"max_angle_deg must be in [0, 90), got {self.max_angle_deg}")
         if not 0.0 <= self.hazmat_on_floor <= 1.0:
             raise DatasetError(f"--hazmat-on-floor must be in [0, 1], got {self.hazmat_on_floor}")
+        if self.distance_draw not in DISTANCE_DRAWS:
+            raise DatasetError(
+                f"--distance must be one of {', '.join(DISTANCE_DRAWS)}, got {self.distance_draw!r}"
+            )
+        if not 0.0 <= self.free_roll <= 1.0:
+            raise DatasetError(f"--free-roll must be in [0, 1], got {self.free_roll}")
         bad = {k: v for k, v in self.counts.items() if not isinstance(v, int) or v < 0}
         if bad:
             raise DatasetError(f"object counts must be whole numbers >= 0, got {bad}")
@@ -190,11 +199,12 @@ def _in_sight(maze, cam_xy: np.ndarray, target, doors: set[str]) -> bool:
 def sample_view(sim, target, spec: DatasetSpec, rng: np.random.Generator) -> tuple[np.ndarray, dict] | None:
     """T_map_rig looking at ``target`` from a free, in-sight viewpoint, and the view's numbers.
 
-    Distance uniform in ``spec.distance_m`` (the far end drawn in after half the
-    tries fail, for lack of room),
+    Distance uniform (or log-uniform, ``distance_draw: log``) in ``spec.distance_m`` (the far
+    end drawn in after half the tries fail, for lack of room),
     angle from the face normal uniform within ``max_angle_deg`` (any angle for
     free-standing objects), camera height uniform over the robot's range, and
-    the target offset from the image centre by up to 70% of the half field of view.
+    the target offset from the image centre by up to 70% of the half field of view, and a
+    camera roll within +-5 deg (a robot's camera) or, on ``free_roll`` of the views, anywhere.
     """
     maze = sim.maze
     s = maze.settings.cell_size_m / 1.2
@@ -211,7 +221,12 @@ def sample_view(sim, target, spec: DatasetSpec, rng: np.random.Generator) -> tup
         # the first half of the draws use the whole range; then the far end comes in, since
         # corridors rarely leave 5 m of room in sight of a wall sign
         shrink = max(0.0, attempt / VIEW_TRIES - 0.5) * 1.6
-        d = float(rng.uniform(lo, lo + (hi - lo) * (1.0 - shrink)))
+        far = lo + (hi - lo) * (1.0 - shrink)
+        d = float(
+            rng.uniform(lo, far)
+            if spec.distance_draw == "uniform"
+            else math.exp(rng.uniform(math.log(lo), math.log(far)))
+        )
         ang = (
             float(rng.uniform(-np.pi, np.pi))
             if free_standing
@@ -224,13 +239,15 @@ def sample_view(sim, target, spec: DatasetSpec, rng: np.random.Generator) -> tup
         delta = np.array([*(target.position[:2] - cam_xy), target.position[2] - z])
         yaw = math.atan2(delta[1], delta[0]) + float(rng.uniform(-0.7, 0.7)) * half_h
         pitch = math.atan2(-delta[2], float(np.hypot(delta[0], delta[1]))) + float(rng.uniform(-0.7, 0.7)) * half_v
-        roll = math.radians(float(rng.uniform(-5.0, 5.0)))
+        roll_max = 180.0 if rng.random() < spec.free_roll else 5.0
+        roll = math.radians(float(rng.uniform(-roll_max, roll_max)))
         T_world_rig = make_transform(rot_z(yaw) @ rot_y(pitch) @ rot_x(roll), [cam_xy[0], cam_xy[1], z])
         T_map_rig = sim.T_map_world @ T_world_rig
         info = {
             "distance_m": float(np.linalg.norm(delta)),
             "angle_deg": float(math.degrees(ang)) if not free_standing else float("nan"),
             "camera_height_m": z,
+            "roll_deg": math.degrees(roll),
         }
         return T_map_rig, info
     return None

@@ -8,7 +8,16 @@ import pytest
 import yaml
 
 from eval.cli.main import main
-from eval.detector.dataset import DatasetError, DatasetSpec, _crosses, scenario_for, write_dataset, yolo_labels
+from eval.detector.dataset import (
+    DatasetError,
+    DatasetSpec,
+    _build,
+    _crosses,
+    sample_view,
+    scenario_for,
+    write_dataset,
+    yolo_labels,
+)
 from eval.detector.train import TrainError, TrainSpec, data_yaml
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 from sim.simulator import FrameTruth, VisibleObject
@@ -191,3 +200,28 @@ def test_trial_camera_dataset_is_still_and_unblurred(tmp_path):
     assert len(rows) == 3 and all(r.split(",")[col] == "" for r in rows[1:])
     with pytest.raises(DatasetError, match=r"--hazmat-on-floor must be in \[0, 1\], got 2"):
         DatasetSpec(images=1, hazmat_on_floor=2)
+
+
+def test_log_distance_and_free_roll_views():
+    """--distance log puts more views close (log-uniform over 0.3-5 m: P(d < 1 m) = ln(1/0.3)/ln(5/0.3)
+    = 0.43 where room allows, against 0.15 uniform); --free-roll 1 rolls anywhere, 0 keeps +-5 deg."""
+    base = DatasetSpec(images=1, seed=3)
+    _, sim = _build(base, 1)  # an RRL maze (1.2 m cells): room for far views
+    targets = [o for o in sim.objects if o.type == "hazmat"]
+
+    def views(spec, n=100):
+        rng = np.random.default_rng(5)
+        out = [sample_view(sim, targets[k % len(targets)], spec, rng) for k in range(n)]
+        return [info for v in out if v is not None for info in [v[1]]]
+
+    uni = views(base)
+    log = views(DatasetSpec(images=1, seed=3, distance_draw="log", free_roll=1.0))
+    near = lambda vs: np.mean([v["distance_m"] < 1.0 for v in vs])  # noqa: E731
+    assert near(log) > near(uni) + 0.15
+    assert max(abs(v["roll_deg"]) for v in uni) <= 5.0
+    rolls = np.array([v["roll_deg"] for v in log])
+    assert np.mean(np.abs(rolls) > 90) > 0.3 and rolls.min() < -90 < 90 < rolls.max()
+    with pytest.raises(DatasetError, match=r"--distance must be one of uniform, log, got 'near'"):
+        DatasetSpec(images=1, distance_draw="near")
+    with pytest.raises(DatasetError, match=r"--free-roll must be in \[0, 1\], got -0.5"):
+        DatasetSpec(images=1, free_roll=-0.5)
