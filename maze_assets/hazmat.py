@@ -135,7 +135,8 @@ class PlacardStyle:
     allows for most classes). ``number``: the class number in the bottom corner.
     ``division``/``compat``: explosives' division ("1.4") and compatibility letter
     ("S"). ``flame``: the organic-peroxide flame's colour. ``omit``: parts left out
-    (any of ``PARTS``), used to draw the placard without words.
+    (any of ``PARTS``), used to draw the placard without words. ``notice``: small lines
+    under the words (the infectious-substance label's leakage notice).
     """
 
     words: tuple[str, ...]
@@ -144,6 +145,7 @@ class PlacardStyle:
     compat: str = ""
     flame: Color = WHITE
     omit: frozenset[str] = frozenset()
+    notice: tuple[str, ...] = ()
     look: PrintLook = field(default_factory=PrintLook)
 
 
@@ -188,6 +190,12 @@ EXPLOSIVE_DIVISIONS = (
     ("1.4", "C"),
     ("1.6", "N"),
 )
+# The infectious-substance label as shipped on packages carries a notice under its words
+# (172.432 allows it: "IN CASE OF DAMAGE OR LEAKAGE IMMEDIATELY NOTIFY PUBLIC HEALTH
+# AUTHORITY"); arenas print both that label and the plain one.
+INFECTIOUS_NOTICE = ("IN CASE OF DAMAGE", "OR LEAKAGE IMMEDIATELY", "NOTIFY PUBLIC", "HEALTH AUTHORITY")
+INFECTIOUS_NOTICE_SHARE = 0.5
+NOTICE_CAP, NOTICE_GAP = 0.022, 0.008
 TEXT_OPTIONAL = frozenset(HAZMAT_LABELS) - {"radioactive", "fuel-oil", "blasting-agent"}
 
 
@@ -234,7 +242,12 @@ def placard_style(label: str, seed: int) -> PlacardStyle:
         style = replace(style, flame=BLACK if rng.random() < 0.75 else WHITE)
     if label in TEXT_OPTIONAL and rng.random() < 0.2:
         style = replace(style, omit=frozenset({"text"}))
-    return replace(style, look=random_look(rng))
+    look = random_look(rng)
+    # its own stream, so adding the notice left every other draw as it was
+    notice_draw = np.random.default_rng([int(seed) & 0xFFFFFFFF, 432]).random()
+    if label == "infectious-substance" and not style.omit and notice_draw < INFECTIOUS_NOTICE_SHARE:
+        style = replace(style, notice=INFECTIOUS_NOTICE)
+    return replace(style, look=look)
 
 
 # --- drawing primitives -------------------------------------------------------------------
@@ -611,6 +624,8 @@ def _words_layout(label: str, st: PlacardStyle) -> tuple[float, float]:
         cy = 0.53 if lines == 2 else 0.50
     if label in ("explosive", "blasting-agent") and st.division in ("1.4", "1.5", "1.6"):
         cy, cap = (0.62, 0.075) if lines == 1 else (0.635, 0.07)
+    if st.notice:  # words raised and smaller, the notice between them and the number
+        cy, cap = 0.52, 0.08
     return cy, cap
 
 
@@ -622,6 +637,10 @@ def _draw_words(label: str, c: _Canvas, st: PlacardStyle) -> None:
     for line in st.words:
         c.text(line, 0.5, y, cap, 2 * _half_width(y + cap / 2), ink)
         y += cap + gap
+    y += -gap - cap / 2 + NOTICE_GAP + NOTICE_CAP / 2  # from the next word line's centre
+    for line in st.notice:
+        c.text(line, 0.5, y, NOTICE_CAP, 2 * _half_width(y + NOTICE_CAP / 2), ink)
+        y += NOTICE_CAP + NOTICE_GAP
     if label == "explosive" and st.division in ("1.1", "1.2", "1.3"):
         c.text(f"{st.division}{st.compat}", 0.5, cy + cap + 0.03, 0.07, 0.4, ink)
 

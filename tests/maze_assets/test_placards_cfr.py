@@ -190,3 +190,26 @@ def test_print_look_keeps_paper_and_ink_off_the_extremes():
     img = draw_hazmat("corrosive", 128, st)
     assert img.min() >= st.look.ink_black - 2
     assert img.max() <= max(st.look.paper) + 2
+
+
+def test_infectious_label_with_its_leakage_notice():
+    """Half the worded infectious-substance labels carry the notice; it is black on white,
+    under the words and above the number, and no other label gets one."""
+    styles = [placard_style("infectious-substance", s) for s in range(400)]
+    share = np.mean([bool(st.notice) for st in styles if not st.omit])
+    assert 0.42 < share < 0.58
+    assert not any(
+        placard_style(lab, s).notice for lab in HAZMAT_LABELS if lab != "infectious-substance" for s in range(30)
+    )
+    plain = replace(canonical_style("infectious-substance"), notice=())
+    noticed = replace(
+        plain, notice=("IN CASE OF DAMAGE", "OR LEAKAGE IMMEDIATELY", "NOTIFY PUBLIC", "HEALTH AUTHORITY")
+    )
+    a, b = draw_hazmat("infectious-substance", N, plain), draw_hazmat("infectious-substance", N, noticed)
+    rows = np.nonzero(np.any(np.abs(a.astype(int) - b.astype(int)).sum(axis=2) > 60, axis=1))[0]
+    # the words move up and the notice lies between them and the class number (centre 0.81 N)
+    notice_rows = [r for r in rows if r > 0.61 * N]
+    assert notice_rows and max(notice_rows) < 0.75 * N
+    band = b[int(0.62 * N) : int(0.73 * N), int(0.35 * N) : int(0.65 * N)].reshape(-1, 3)
+    dark = band[band.max(axis=1) < 100]
+    assert len(dark) > 50 and np.all(np.ptp(dark, axis=1) < 20)  # black ink, not coloured
