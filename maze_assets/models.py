@@ -126,6 +126,24 @@ def door_frame_extent_m(size_m: float, wall_height_m: float) -> tuple[float, flo
     return (size_m + 2 * DOOR_FRAME_M, round(door_height_m(wall_height_m) + DOOR_FRAME_M, 9))
 
 
+DOOR_PANELS = ((0.10, 0.45), (0.55, 0.92))  # raised panels, as fractions of the leaf height
+DOOR_PANEL_PROUD_M = 0.006  # a panel stands this far out of the leaf
+
+
+def door_leaf_half_thickness_m(wall_thickness_m: float) -> float:
+    """Half the thickness of a door leaf: 40 mm thick, or 0.8 of a thinner wall.
+
+    >>> door_leaf_half_thickness_m(0.1), door_leaf_half_thickness_m(0.02)
+    (0.02, 0.008)
+    """
+    return min(0.04, 0.8 * wall_thickness_m) / 2
+
+
+def door_panel_face_m(wall_thickness_m: float) -> float:
+    """Distance from the wall line to the face of a door's raised panels (where a sign sticks)."""
+    return door_leaf_half_thickness_m(wall_thickness_m) + DOOR_PANEL_PROUD_M
+
+
 def flat_extent_m(type_: str, size_m: float) -> tuple[float, float]:
     """(width, height) of a flat item's image, metres.
 
@@ -382,7 +400,7 @@ def _door(b: _Body, wall_height_m: float, wall_thickness_m: float) -> None:
     steel = _material(a, "steel", (0.72, 0.72, 0.74, 1.0), specular=0.8, shininess=0.8)
     fw = DOOR_FRAME_M
     fd = wall_thickness_m / 2 + 0.005  # frame half depth: 5 mm proud of each wall face
-    t = min(0.04, 0.8 * wall_thickness_m) / 2  # leaf half thickness
+    t = door_leaf_half_thickness_m(wall_thickness_m)
     gap = 0.003
     z0 = -H / 2
     for side, s in (("left", 1), ("right", -1)):
@@ -392,10 +410,10 @@ def _door(b: _Body, wall_height_m: float, wall_thickness_m: float) -> None:
     b.box("leaf", wood, (-t, -W / 2 + gap, z0 + gap), (t, W / 2 - gap, H / 2 - gap))
     # two raised panels on each face
     mw = 0.12 * W
-    zs = [(z0 + 0.10 * H, z0 + 0.45 * H), (z0 + 0.55 * H, z0 + 0.92 * H)]
+    zs = [(z0 + a * H, z0 + b * H) for a, b in DOOR_PANELS]
     for face, sx in (("front", 1), ("back", -1)):
         for k, (za, zb) in enumerate(zs):
-            x0, x1 = sorted((sx * (t - 0.002), sx * (t + 0.006)))  # embedded: no z-fighting
+            x0, x1 = sorted((sx * (t - 0.002), sx * (t + DOOR_PANEL_PROUD_M)))  # embedded: no z-fighting
             b.box(f"panel_{face}_{k}", panel, (x0, -W / 2 + mw, za), (x1, W / 2 - mw, zb))
     # lever handles on both faces, on the side away from the hinges (+y jamb holds the hinges)
     zh = z0 + min(1.0, 0.5 * H)

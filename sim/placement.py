@@ -26,7 +26,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from maze_assets.models import ARENA_SIZE_M, BACKING_M, FIDUCIAL_DIAMETER_M, FIDUCIAL_LENGTH_M, qr_side_m
+from maze_assets.models import (
+    ARENA_SIZE_M,
+    BACKING_M,
+    DOOR_PANELS,
+    FIDUCIAL_DIAMETER_M,
+    FIDUCIAL_LENGTH_M,
+    door_height_m,
+    door_panel_face_m,
+    qr_side_m,
+)
 from maze_assets.objects import PlacedObject, fiducial_text
 from poi.core.names import ARENA_TYPES, HAZMAT_LABELS
 from sim.scenario import ObjectsGenerate, ObjectSpec, QrSheets, Scenario
@@ -440,6 +449,46 @@ def lay_placards_on_floor(objects: list[PlacedObject], share: float, seed: int, 
         o.mount = "floor"
         o.tilt = float(np.pi / 2)
         o.wall = None
+
+
+def hang_placards_on_doors(objects: list[PlacedObject], count: int, seed: int, maze) -> None:
+    """Move ``count`` wall placards onto doors: on the upper raised panel of a door face.
+
+    Real arenas stick placards on doors as well as on walls. Door faces (two a door) are
+    taken in an order drawn from the scenario seed; each takes one placard, the wall
+    placards being taken in an order drawn from the same seed, so the stream that placed
+    the objects is untouched. The placard keeps its in-plane turn; it is centred on the
+    panel, 1 mm proud of it, facing out of the door.
+    """
+    if count < 0:
+        raise PlacementError(f"hazmat_on_doors must be >= 0, got {count}")
+    if count == 0:
+        return
+    doors = [o for o in objects if o.type == "door"]
+    wall_placards = [o for o in objects if o.type == "hazmat" and o.mount == "wall"]
+    if count > 2 * len(doors):
+        raise PlacementError(
+            f"hazmat_on_doors: {count} placards need {count} door faces, the maze has {2 * len(doors)} "
+            f"({len(doors)} doors)"
+        )
+    if count > len(wall_placards):
+        raise PlacementError(f"hazmat_on_doors: {count} placards asked, only {len(wall_placards)} hang on walls")
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 175]))
+    faces = [(d, side) for d in doors for side in (1.0, -1.0)]
+    face_order = rng.permutation(len(faces))[:count]
+    placard_order = rng.permutation(len(wall_placards))[:count]
+    H = door_height_m(maze.settings.wall_height_m)
+    out = door_panel_face_m(maze.settings.wall_thickness_m) + 0.001
+    a, b = DOOR_PANELS[1]
+    for fi, pi in zip(face_order, placard_order, strict=True):
+        door, side = faces[int(fi)]
+        o = wall_placards[int(pi)]
+        normal = side * np.array([np.cos(door.yaw), np.sin(door.yaw)])
+        xy = door.position[:2] + normal * out
+        o.position = np.array([xy[0], xy[1], 0.5 * (a + b) * H])
+        o.yaw = float(np.arctan2(normal[1], normal[0]))
+        o.size_m = min(o.size_m, (b - a) * H / np.sqrt(2.0))  # the diamond fits the panel
+        o.wall = door.wall
 
 
 def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedObject]:

@@ -172,6 +172,8 @@ class ObjectsGenerate:
     # share of the placards laid face up on the floor in front of their wall (sim.placement.
     # lay_placards_on_floor); the dataset generator lays some there, trials keep them on walls
     hazmat_on_floor: float = number(0.0, lo=0.0, hi=1.0)
+    # wall placards moved onto doors, one per door face (sim.placement.hang_placards_on_doors)
+    hazmat_on_doors: int = number(0, lo=0, hi=100)
     qr_sheets: QrSheets | None = None
 
     def __post_init__(self) -> None:

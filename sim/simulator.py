@@ -56,7 +56,7 @@ from sim.maze import (
     load_maze,
 )
 from sim.maze_gen import generate_maze
-from sim.placement import assign_placard_looks, lay_placards_on_floor, place_objects
+from sim.placement import assign_placard_looks, hang_placards_on_doors, lay_placards_on_floor, place_objects
 from sim.render import SceneRenderer
 from sim.route import Route, load_route_csv, rig_pose, route_from_tour
 from sim.scenario import TURTLEBOT_CAMERA_HEIGHT_M, ColourSpec, MountSpec, Scenario
@@ -189,6 +189,7 @@ class Simulation:
             if sc.objects.generate is not None:
                 generated = self.objects[len(sc.objects.explicit) :]
                 lay_placards_on_floor(generated, sc.objects.generate.hazmat_on_floor, sc.seed, self.maze)
+                hang_placards_on_doors(generated, sc.objects.generate.hazmat_on_doors, sc.seed, self.maze)
             start_xy, start_yaw = self.maze.cell_center(*self.maze.start_cell), self.maze.start_heading_rad
         assign_placard_looks(self.objects, sc.seed)
         d = sc.sensors.d435

@@ -37,6 +37,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         "trials keep theirs on walls)",
     )
     d.add_argument(
+        "--hazmat-on-doors",
+        type=int,
+        default=DatasetSpec.hazmat_on_doors,
+        help=f"placards per scenario stuck on door faces, "
+        f"two a door at most (default {DatasetSpec.hazmat_on_doors})",
+    )
+    d.add_argument(
         "--distance",
         choices=DISTANCE_DRAWS,
         default=DatasetSpec.distance_draw,
@@ -245,6 +252,7 @@ def cmd_dataset(args) -> int:
         val_every=args.val_every,
         counts={**DatasetSpec.default_counts(), "hazmat": args.hazmat},
         hazmat_on_floor=args.hazmat_on_floor,
+        hazmat_on_doors=args.hazmat_on_doors,
         distance_draw=args.distance,
         free_roll=args.free_roll,
         **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),

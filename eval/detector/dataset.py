@@ -75,6 +75,7 @@ class DatasetSpec:
     blur_fraction: float = 0.3
     rmrc_fraction: float = 0.25  # scenarios on the smaller RMRC lane preset
     hazmat_on_floor: float = 0.25  # placards laid on the floor (real photos show many there)
+    hazmat_on_doors: int = 0  # placards moved onto door faces (at most two a door)
     distance_draw: str = "uniform"  # "log": log-uniform over distance_m, more close-ups
     free_roll: float = 0.0  # share of views with any camera roll (hand-held photos), not +-5 deg
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
@@ -99,6 +100,8 @@ class DatasetSpec:
             raise DatasetError(f"max_angle_deg must be in [0, 90), got {self.max_angle_deg}")
         if not 0.0 <= self.hazmat_on_floor <= 1.0:
             raise DatasetError(f"--hazmat-on-floor must be in [0, 1], got {self.hazmat_on_floor}")
+        if not isinstance(self.hazmat_on_doors, int) or self.hazmat_on_doors < 0:
+            raise DatasetError(f"--hazmat-on-doors must be a whole number >= 0, got {self.hazmat_on_doors}")
         if self.distance_draw not in DISTANCE_DRAWS:
             raise DatasetError(
                 f"--distance must be one of {', '.join(DISTANCE_DRAWS)}, got {self.distance_draw!r}"
@@ -152,6 +155,7 @@ def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
                 counts=dict(spec.counts),
                 labels=sorted(set(labels)) if n else None,
                 hazmat_on_floor=spec.hazmat_on_floor,
+                hazmat_on_doors=min(spec.hazmat_on_doors, 2 * spec.counts.get("door", 0)),
             )
         ),
         lighting=lighting,

@@ -223,5 +223,9 @@ def test_log_distance_and_free_roll_views():
     assert np.mean(np.abs(rolls) > 90) > 0.3 and rolls.min() < -90 < 90 < rolls.max()
     with pytest.raises(DatasetError, match=r"--distance must be one of uniform, log, got 'near'"):
         DatasetSpec(images=1, distance_draw="near")
+    with pytest.raises(DatasetError, match=r"--hazmat-on-doors must be a whole number >= 0, got -1"):
+        DatasetSpec(images=1, hazmat_on_doors=-1)
+    sc = scenario_for(DatasetSpec(images=1, seed=3, hazmat_on_doors=5), 1)
+    assert sc.objects.generate.hazmat_on_doors == 2  # one door: two faces
     with pytest.raises(DatasetError, match=r"--free-roll must be in \[0, 1\], got -0.5"):
         DatasetSpec(images=1, free_roll=-0.5)
