@@ -161,7 +161,6 @@ class SlamConfig:
     associate_m: float = number(0.5, lo=0.0, lo_open=True)
     n_min: int = number(5, lo=1)
     t_max_s: float = number(3.0, lo=0.0, lo_open=True)
-    landmark_sigma_m: float = number(0.3, lo=0.0, lo_open=True)
     max_range_m: float = number(4.0, lo=0.0, lo_open=True)
     landmark_types: list[str] = field(
         default_factory=lambda: [

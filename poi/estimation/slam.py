@@ -15,8 +15,8 @@ landmark's class is kept beside the state (2.2.2). One step:
   others go to the candidate map (2.2.5): a candidate seen again is moved to the
   weighted mean with weight ``1 / (1 + n)`` for the new sighting, is dropped
   ``t_max_s`` after its last sighting, and once seen ``n_min`` times is appended
-  to the state with ``P = blkdiag(P, P_ln)``; the sigma-point parameters and
-  weights are then recomputed for the new dimension (2.2.1).
+  to the state (see the departures below for its covariance); the sigma-point
+  parameters and weights are then recomputed for the new dimension (2.2.1).
 
 Sigma points and weights are filterpy's ``MerweScaledSigmaPoints``, whose
 ``lambda = alpha^2 (n + kappa) - n`` and weights are eq. 2-5; ``kappa`` is
@@ -41,6 +41,19 @@ Where this departs from the document, on purpose:
   is the special case of equal, independent errors.
 * The update draws fresh sigma points from the predicted (x, P), which carry
   ``Q``; the document reuses the propagated points.
+* A promoted landmark is not added with ``P = blkdiag(P, P_ln)`` and a fixed
+  ``P_ln``. (The document's ``P_ln = diag(sigma_x, sigma_y)`` also writes standard
+  deviations where a covariance holds variances.) A landmark placed by the current
+  pose, ``l = g(x, z) = (x, y) + R(theta) z`` (eq. 16), carries that pose's error, so it
+  gets the standard EKF/UKF-SLAM augmentation ([Bailey2006]_, [BarShalom2001]_):
+  ``P_new = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]]`` with ``J_x = dg/dx``
+  (``[I_2, dR(theta)/dtheta z, 0]``), ``J_z = R(theta)``, ``z`` the candidate's mean
+  in the robot frame and ``R`` its latest sighting's covariance. The mean of n sightings
+  is at least as good as one, so R is an upper bound on its noise; the sightings, all
+  within ``t_max_s`` of each other, are taken to share the current pose's error. Without
+  the cross-covariance a landmark's pose error is counted as independent information,
+  and the map and pose become over-confident (measured with ``poibench consistency``:
+  README, "Covariance consistency").
 
 References
 ----------
@@ -48,6 +61,10 @@ Full entries in docs/SOURCES.md.
 
 .. [Avevor2022] E. Avevor, "Proposed solution to RoboCupRescue EX3", University of Cambridge,
    2022.
+.. [Bailey2006] T. Bailey, J. Nieto, J. Guivant, M. Stevens, E. Nebot, "Consistency of the
+   EKF-SLAM algorithm", IEEE/RSJ IROS 2006.
+.. [BarShalom2001] Y. Bar-Shalom, X. R. Li, T. Kirubarajan, "Estimation with Applications to
+   Tracking and Navigation", Wiley, 2001.
 .. [Bouda2025] M. Bouda, E. Doležal, O. Váňa, "Řešení úkolu pro TurtleBot s detekcí objektů
    a SLAM" ("A solution of the TurtleBot task with object detection and SLAM"), 2025.
 .. [T265Issues] Users' reports of T265 drift in the librealsense issue tracker (#3970, #4288,
@@ -356,32 +373,52 @@ class UkfSlam:
         self.candidates = [cd for cd in self.candidates if t_s - cd.last_seen_s <= p.t_max_s]
         pts = [self.to_map(o.xy) for o in observations]
         pairs = self._associate(pts, [o.class_name for o in observations], self.candidates)
+        latest: dict[int, LandmarkObservation] = {}  # id(candidate) -> this frame's sighting
         for i, o in enumerate(observations):
             j = pairs.get(i)
             if j is None:
-                self.candidates.append(Candidate(class_name=o.class_name, xy=pts[i], n_seen=1, last_seen_s=t_s))
+                cd = Candidate(class_name=o.class_name, xy=pts[i], n_seen=1, last_seen_s=t_s)
+                self.candidates.append(cd)
+                latest[id(cd)] = o
                 continue
             cd = self.candidates[j]
             w = 1.0 / (1.0 + cd.n_seen)  # weight of the new sighting
             cd.xy = (1.0 - w) * cd.xy + w * pts[i]
             cd.n_seen += 1
             cd.last_seen_s = t_s
+            latest[id(cd)] = o
         keep = []
         for cd in self.candidates:
-            if cd.n_seen >= p.n_min:
-                result.promoted.append(self._augment(cd, t_s))
+            # only a candidate seen this frame can have crossed the threshold
+            if cd.n_seen >= p.n_min and id(cd) in latest:
+                result.promoted.append(self._augment(cd, latest[id(cd)].R, t_s))
             else:
                 keep.append(cd)
         self.candidates = keep
 
-    def _augment(self, cd: Candidate, t_s: float) -> int:
-        """Append a promoted candidate to the state: x = [x; xy], P = blkdiag(P, P_ln), and
-        new sigma-point weights for the new dimension."""
+    def augmentation_jacobians(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """J_x (2, n) and J_z (2, 2) of the inverse observation g(x, z) = (x, y) + R(theta) z
+        (eq. 16) at the current state, for a landmark at ``z`` in the robot frame."""
+        c, s = np.cos(self.x[2]), np.sin(self.x[2])
+        Jx = np.zeros((2, self.n))
+        Jx[:, :2] = np.eye(2)
+        Jx[:, 2] = (-s * z[0] - c * z[1], c * z[0] - s * z[1])  # d(R(theta) z) / d theta
+        return Jx, rot2(self.x[2])
+
+    def _augment(self, cd: Candidate, R: np.ndarray, t_s: float) -> int:
+        """Append a promoted candidate to the state with the standard augmentation (see the
+        module docstring): x = [x; g(x, z)], P = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]]
+        with z the candidate's mean in the robot frame and R its latest sighting's covariance;
+        then new sigma-point weights for the new dimension."""
+        z = rot2(self.x[2]).T @ (cd.xy - self.x[:2])  # so that g(x, z) = cd.xy
+        Jx, Jz = self.augmentation_jacobians(z)
         n = self.n
-        s2 = self.params.landmark_sigma_m**2
+        PJ = self.P @ Jx.T  # (n, 2): the landmark's cross-covariance with the state
         P = np.zeros((n + 2, n + 2))
         P[:n, :n] = self.P
-        P[n:, n:] = s2 * np.eye(2)
+        P[:n, n:] = PJ
+        P[n:, :n] = PJ.T
+        P[n:, n:] = _symmetric(Jx @ PJ + Jz @ R @ Jz.T)
         self.x = np.concatenate([self.x, cd.xy])
         self.P = P
         self._points = sigma_points(self.n, self.params)

@@ -230,3 +230,21 @@ def test_structured_prediction_equals_the_full_unscented_transform():
     slam.predict(delta)
     np.testing.assert_allclose(slam.x, x_ref, rtol=0, atol=1e-10)
     np.testing.assert_allclose(slam.P, P_ref, rtol=0, atol=1e-10)
+
+
+def test_augmentation_carries_the_pose_cross_covariance_by_hand():
+    """P_new = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]] ([Bouda2025]_ eq. 16 as g)."""
+    slam = UkfSlam(SlamConfig(n_min=1), pose0=(1.0, 2.0, math.pi / 2))
+    slam.P = np.diag([0.01, 0.04, 0.0025])
+    R = np.diag([0.0009, 0.0004])  # robot frame
+    # facing +y, 2 m ahead: the landmark is at (1, 4) in the map
+    res = slam.observe([LandmarkObservation(class_name="valve", xy=np.array([2.0, 0.0]), R=R)], 0.0)
+    assert res.promoted == [0]
+    assert slam.landmark_xy(0) == pytest.approx([1.0, 4.0])
+    # J_x = [[1, 0, -2], [0, 1, 0]] (d(R(theta) z)/d theta at theta = 90 deg, z = (2, 0)),
+    # J_z = R(90 deg): P J_x^T = [[0.01, 0], [0, 0.04], [-0.005, 0]];
+    # J_x P J_x^T = diag(0.01 + 4 * 0.0025, 0.04), J_z R J_z^T = diag(0.0004, 0.0009)
+    np.testing.assert_allclose(slam.P[:3, 3:], [[0.01, 0.0], [0.0, 0.04], [-0.005, 0.0]], atol=1e-12)
+    np.testing.assert_allclose(slam.P[3:, :3], slam.P[:3, 3:].T, atol=0)
+    np.testing.assert_allclose(slam.landmark_covariance(0), np.diag([0.0204, 0.0409]), atol=1e-12)
+    assert np.linalg.eigvalsh(slam.P).min() > 0.0
