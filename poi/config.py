@@ -159,7 +159,7 @@ class SlamConfig:
     sigma_theta_per_rad: float = number(0.02, lo=0.0)
     sigma_theta_per_m: float = number(0.02, lo=0.0)
     associate_m: float = number(0.5, lo=0.0, lo_open=True)
-    n_min: int = number(5, lo=1)
+    n_min: int = number(4, lo=0)
     t_max_s: float = number(3.0, lo=0.0, lo_open=True)
     max_range_m: float = number(4.0, lo=0.0, lo_open=True)
     landmark_types: list[str] = field(

@@ -14,7 +14,7 @@ landmark's class is kept beside the state (2.2.2). One step:
   here each observation's own propagated covariance, see below) by eq. 8; the
   others go to the candidate map (2.2.5): a candidate seen again is moved to the
   weighted mean with weight ``1 / (1 + n)`` for the new sighting, is dropped
-  ``t_max_s`` after its last sighting, and once seen ``n_min`` times is appended
+  ``t_max_s`` after its last sighting, and once seen more than ``n_min`` times is appended
   to the state (see the departures below for its covariance); the sigma-point
   parameters and weights are then recomputed for the new dimension (2.2.1).
 
@@ -389,8 +389,9 @@ class UkfSlam:
             latest[id(cd)] = o
         keep = []
         for cd in self.candidates:
-            # only a candidate seen this frame can have crossed the threshold
-            if cd.n_seen >= p.n_min and id(cd) in latest:
+            # "seen more than n_min times" ([Bouda2025]_ 2.2.5); only a candidate seen this frame
+            # can have crossed the threshold
+            if cd.n_seen > p.n_min and id(cd) in latest:
                 result.promoted.append(self._augment(cd, latest[id(cd)].R, t_s))
             else:
                 keep.append(cd)

@@ -86,8 +86,9 @@ def _observe(slam: UkfSlam, truth_xy: dict[str, np.ndarray], robot: np.ndarray, 
     return slam.observe(obs, t)
 
 
-def test_landmark_promoted_only_after_n_min_sightings():
-    slam = UkfSlam(SlamConfig(n_min=4))
+def test_landmark_promoted_only_after_more_than_n_min_sightings():
+    # [Bouda2025] 2.2.5: added once "seen more than n_min times": n_min = 3 -> the 4th sighting
+    slam = UkfSlam(SlamConfig(n_min=3))
     rng = np.random.default_rng(0)
     truth = {"valve": np.array([2.0, 0.5])}
     for k in range(3):
@@ -110,7 +111,7 @@ def test_candidate_weighted_mean_and_t_max():
 
 
 def test_association_is_per_class_and_mutual_nearest():
-    slam = UkfSlam(SlamConfig(n_min=1, associate_m=0.5))
+    slam = UkfSlam(SlamConfig(n_min=0, associate_m=0.5))
     slam.observe(
         [
             LandmarkObservation(class_name="qr", xy=np.array([2.0, 0.0]), R=0.01 * np.eye(2)),
@@ -209,7 +210,7 @@ def test_structured_prediction_equals_the_full_unscented_transform():
     from filterpy.kalman import unscented_transform
 
     rng = np.random.default_rng(4)
-    slam = UkfSlam(SlamConfig(n_min=1))
+    slam = UkfSlam(SlamConfig(n_min=0))
     R = 0.02 * np.eye(2)
     seen = [LandmarkObservation(class_name=f"c{i}", xy=rng.uniform(-3, 3, 2), R=R) for i in range(6)]
     slam.observe(seen, 0.0)
@@ -234,7 +235,7 @@ def test_structured_prediction_equals_the_full_unscented_transform():
 
 def test_augmentation_carries_the_pose_cross_covariance_by_hand():
     """P_new = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]] ([Bouda2025]_ eq. 16 as g)."""
-    slam = UkfSlam(SlamConfig(n_min=1), pose0=(1.0, 2.0, math.pi / 2))
+    slam = UkfSlam(SlamConfig(n_min=0), pose0=(1.0, 2.0, math.pi / 2))
     slam.P = np.diag([0.01, 0.04, 0.0025])
     R = np.diag([0.0009, 0.0004])  # robot frame
     # facing +y, 2 m ahead: the landmark is at (1, 4) in the map
