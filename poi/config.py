@@ -152,7 +152,7 @@ class SlamConfig:
 
     alpha: float = number(1.0, lo=0.0, lo_open=True)
     beta: float = number(2.0, lo=0.0)
-    kappa: float | None = None
+    kappa: float | None = 0.0
     sigma_xy_m: float = number(0.002, lo=0.0)
     sigma_xy_per_m: float = number(0.1, lo=0.0)
     sigma_theta_rad: float = number(0.001, lo=0.0)

@@ -19,8 +19,9 @@ landmark's class is kept beside the state (2.2.2). One step:
   parameters and weights are then recomputed for the new dimension (2.2.1).
 
 Sigma points and weights are filterpy's ``MerweScaledSigmaPoints``, whose
-``lambda = alpha^2 (n + kappa) - n`` and weights are eq. 2-5; ``kappa`` is
-``3 - n`` as the document sets it unless configured. The transform itself is
+``lambda = alpha^2 (n + kappa) - n`` and weights are eq. 2-5. The defaults are
+``alpha = 1``, ``beta = 2``, ``kappa = 0`` (see the departures below); ``kappa: null``
+gives the document's ``3 - n``. The transform itself is
 filterpy's ``unscented_transform`` (eq. 6) on sigma points whose heading has been
 unwrapped about the first point, so angle means and residuals are right across
 +-pi.
@@ -39,6 +40,18 @@ Where this departs from the document, on purpose:
   observation is the covariance propagated from the detection ([Avevor2022]_ 2.2), so
   near and far landmarks are weighted as they deserve; eq. 19's fixed diagonal
   is the special case of equal, independent errors.
+* ``kappa = 0``, not the document's ``3 - n``. With ``kappa = 3 - n`` and ``alpha = 1``,
+  ``lambda = 3 - n`` and ``W_0 = (3 - n) / 3``: -13 with 20 landmarks, so the
+  predicted covariance is a difference of large terms and can turn indefinite (the
+  negative-weight problem of [JulierUhlmann2004]_ with n > 3). With ``kappa = 0``,
+  ``lambda = 0``: ``W_0^m = 0``, ``W_0^c = beta = 2`` and ``W_i = 1 / (2n)``, all >= 0, so
+  every unscented covariance is a sum of positive semidefinite terms ([vanderMerwe2004]_);
+  the price is sigma points at ``sqrt(n)`` standard deviations (the robot's
+  heading spread widens with the map), measured with ``poibench consistency`` (README,
+  "Covariance consistency"). Should rounding still leave P indefinite (no Cholesky
+  factor), it is repaired by raising its eigenvalues to ``START_POSE_SIGMA^2``, and every
+  repair is counted (:attr:`UkfSlam.repairs`) and logged as a warning; nothing is
+  clipped silently.
 * The update draws fresh sigma points from the predicted (x, P), which carry
   ``Q``; the document reuses the propagated points.
 * A promoted landmark is not added with ``P = blkdiag(P, P_ln)`` and a fixed
@@ -67,12 +80,17 @@ Full entries in docs/SOURCES.md.
    Tracking and Navigation", Wiley, 2001.
 .. [Bouda2025] M. Bouda, E. Doležal, O. Váňa, "Řešení úkolu pro TurtleBot s detekcí objektů
    a SLAM" ("A solution of the TurtleBot task with object detection and SLAM"), 2025.
+.. [JulierUhlmann2004] S. J. Julier, J. K. Uhlmann, "Unscented filtering and nonlinear
+   estimation", Proceedings of the IEEE 92(3), 2004.
+.. [vanderMerwe2004] R. van der Merwe, "Sigma-point Kalman filters for probabilistic
+   inference in dynamic state-space models", PhD thesis, OHSU, 2004.
 .. [T265Issues] Users' reports of T265 drift in the librealsense issue tracker (#3970, #4288,
    #6256, #7616).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -85,6 +103,9 @@ ROBOT_DIM = 3  # x, y, theta
 # The map frame is the robot's start pose (docs/DESIGN.md), so the first pose is known; a tiny
 # variance keeps P positive definite for the Cholesky factor of the sigma points.
 START_POSE_SIGMA = 1e-4
+
+
+LOG = logging.getLogger(__name__)
 
 
 class SlamError(ValueError):
@@ -147,7 +168,7 @@ def odometry_increment(pose_prev: np.ndarray, pose_now: np.ndarray) -> np.ndarra
 
 
 def sigma_points(n: int, params: SlamConfig) -> MerweScaledSigmaPoints:
-    """Sigma points and weights for dimension n (eq. 1-5), kappa = 3 - n unless set."""
+    """Sigma points and weights for dimension n (eq. 1-5); ``kappa: null`` is the document's 3 - n."""
     kappa = 3.0 - n if params.kappa is None else params.kappa
     return MerweScaledSigmaPoints(n, alpha=params.alpha, beta=params.beta, kappa=kappa)
 
@@ -175,6 +196,7 @@ class UkfSlam:
         self.landmarks: list[Landmark] = []
         self.candidates: list[Candidate] = []
         self._points: MerweScaledSigmaPoints = sigma_points(ROBOT_DIM, params)
+        self.repairs = 0  # times P had no Cholesky factor and was repaired (see the module docstring)
 
     # --- state ---------------------------------------------------------------------------
     @property
@@ -202,12 +224,22 @@ class UkfSlam:
         try:
             return self._points.sigma_points(self.x, self.P)
         except np.linalg.LinAlgError:
-            self._clip_covariance()
+            self._repair_covariance()
             return self._points.sigma_points(self.x, self.P)
 
-    def _clip_covariance(self) -> None:
-        """Rounding left P marginally indefinite: clip its eigenvalues (the caller retries)."""
+    def _repair_covariance(self) -> None:
+        """P has no Cholesky factor: raise its eigenvalues to START_POSE_SIGMA^2, count the
+        repair and log it (the caller retries)."""
         w, V = np.linalg.eigh(self.P)
+        self.repairs += 1
+        LOG.warning(
+            "UKF-SLAM: covariance not positive definite (smallest eigenvalue %.3g, n = %d); "
+            "eigenvalues raised to %.3g (repair %d)",
+            float(w[0]),
+            self.n,
+            START_POSE_SIGMA**2,
+            self.repairs,
+        )
         self.P = _symmetric((V * np.maximum(w, START_POSE_SIGMA**2)) @ V.T)
 
     # --- prediction (2.2.3) --------------------------------------------------------------
@@ -285,7 +317,7 @@ class UkfSlam:
         try:
             U_rr = np.linalg.cholesky(A_rr).T
         except np.linalg.LinAlgError:
-            self._clip_covariance()
+            self._repair_covariance()
             return self._robot_rows(scale)
         U_rl = np.linalg.solve(U_rr.T, A_rl)
         return np.hstack([U_rr, U_rl])

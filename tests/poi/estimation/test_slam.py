@@ -31,7 +31,7 @@ from poi.estimation.slam import (
 def test_weights_match_eq_2_to_5_by_hand():
     # n = 5, alpha = 0.5, beta = 2, kappa = 3 - n = -2 (the document's choice)
     # lambda = 0.25 * (5 - 2) - 5 = -4.25; n + lambda = 0.75
-    pts = sigma_points(5, SlamConfig(alpha=0.5, beta=2.0))
+    pts = sigma_points(5, SlamConfig(alpha=0.5, beta=2.0, kappa=None))
     assert pts.Wm[0] == pytest.approx(-4.25 / 0.75)
     assert pts.Wc[0] == pytest.approx(-4.25 / 0.75 + 1 - 0.25 + 2)
     assert np.allclose(pts.Wm[1:], 1 / (2 * 0.75))
@@ -45,7 +45,7 @@ def test_weights_match_eq_2_to_5_by_hand():
 
 def test_sigma_points_eq_1():
     # n = 2, alpha = 1, kappa = 3 - n = 1 -> lambda = 1, n + lambda = 3
-    pts = sigma_points(2, SlamConfig())
+    pts = sigma_points(2, SlamConfig(kappa=None))
     x = np.array([1.0, -2.0])
     P = np.array([[4.0, 0.0], [0.0, 9.0]])
     chi = pts.sigma_points(x, P)
@@ -248,4 +248,26 @@ def test_augmentation_carries_the_pose_cross_covariance_by_hand():
     np.testing.assert_allclose(slam.P[:3, 3:], [[0.01, 0.0], [0.0, 0.04], [-0.005, 0.0]], atol=1e-12)
     np.testing.assert_allclose(slam.P[3:, :3], slam.P[:3, 3:].T, atol=0)
     np.testing.assert_allclose(slam.landmark_covariance(0), np.diag([0.0204, 0.0409]), atol=1e-12)
+    assert np.linalg.eigvalsh(slam.P).min() > 0.0
+
+
+def test_default_weights_are_non_negative_with_many_landmarks():
+    # kappa = 0, alpha = 1: lambda = 0 -> W_0^m = 0, W_0^c = beta = 2, W_i = 1 / (2n)
+    for n in (3, 23, 83):
+        pts = sigma_points(n, SlamConfig())
+        assert pts.Wm[0] == pytest.approx(0.0) and pts.Wc[0] == pytest.approx(2.0)
+        assert np.allclose(pts.Wm[1:], 1 / (2 * n)) and np.all(pts.Wc >= 0)
+    # the document's kappa = 3 - n: W_0 = (3 - n) / 3, -26 with 40 landmarks
+    assert sigma_points(83, SlamConfig(kappa=None)).Wm[0] == pytest.approx(-80 / 3)
+
+
+def test_an_indefinite_covariance_is_repaired_counted_and_logged(caplog):
+    slam = UkfSlam(SlamConfig(n_min=0))
+    slam.observe([LandmarkObservation(class_name="qr", xy=np.array([2.0, 0.0]), R=0.01 * np.eye(2))], 0.0)
+    slam.P[3, 3] = -1e-3  # what rounding could leave
+    with caplog.at_level("WARNING", logger="poi.estimation.slam"):
+        slam.predict(np.array([0.1, 0.0, 0.0]))
+        slam.observe([LandmarkObservation(class_name="qr", xy=np.array([1.9, 0.0]), R=0.01 * np.eye(2))], 0.1)
+    assert slam.repairs == 1
+    assert "not positive definite" in caplog.text
     assert np.linalg.eigvalsh(slam.P).min() > 0.0
