@@ -152,16 +152,15 @@ class SlamConfig:
 
     alpha: float = number(1.0, lo=0.0, lo_open=True)
     beta: float = number(2.0, lo=0.0)
-    kappa: float | None = None
+    kappa: float | None = 0.0
     sigma_xy_m: float = number(0.002, lo=0.0)
     sigma_xy_per_m: float = number(0.1, lo=0.0)
     sigma_theta_rad: float = number(0.001, lo=0.0)
     sigma_theta_per_rad: float = number(0.02, lo=0.0)
     sigma_theta_per_m: float = number(0.02, lo=0.0)
     associate_m: float = number(0.5, lo=0.0, lo_open=True)
-    n_min: int = number(5, lo=1)
+    n_min: int = number(4, lo=0)
     t_max_s: float = number(3.0, lo=0.0, lo_open=True)
-    landmark_sigma_m: float = number(0.3, lo=0.0, lo_open=True)
     max_range_m: float = number(4.0, lo=0.0, lo_open=True)
     landmark_types: list[str] = field(
         default_factory=lambda: [

@@ -37,6 +37,7 @@ def _command_modules() -> list:
         "eval.cli.replay",
         "eval.cli.detector",
         "eval.cli.sweep",
+        "eval.cli.consistency",
     ):
         try:
             mods.append(importlib.import_module(name))

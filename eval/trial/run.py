@@ -191,6 +191,15 @@ def onnx_model_file(choice: str) -> Path | None:
     return None
 
 
+def mount_settings(T: np.ndarray) -> list[str]:
+    """The pipeline settings that give it the camera mount ``T`` (T_tracker_optical)."""
+    q = matrix_to_quat_wxyz(T[:3, :3])
+    return [
+        f"mount.T_tracker_camera.translation_m=[{T[0, 3]:.6f}, {T[1, 3]:.6f}, {T[2, 3]:.6f}]",
+        f"mount.T_tracker_camera.quaternion_wxyz=[{q[0]:.9f}, {q[1]:.9f}, {q[2]:.9f}, {q[3]:.9f}]",
+    ]
+
+
 def planar_pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """Distance on the floor (m) and absolute heading difference (degrees) of two poses."""
     est, true = planar_pose(T_est), planar_pose(T_true)
@@ -334,11 +343,7 @@ def run_trial(
         cfg = load_config()
         # the pipeline is given the nominal camera mount, the simulator uses the true one
         T = sim.T_tracker_optical_nominal if record is None else record.T_tracker_optical_nominal
-        q = matrix_to_quat_wxyz(T[:3, :3])
-        mount_sets = [
-            f"mount.T_tracker_camera.translation_m=[{T[0, 3]:.6f}, {T[1, 3]:.6f}, {T[2, 3]:.6f}]",
-            f"mount.T_tracker_camera.quaternion_wxyz=[{q[0]:.9f}, {q[1]:.9f}, {q[2]:.9f}, {q[3]:.9f}]",
-        ]
+        mount_sets = mount_settings(T)
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
         sets = mount_sets + ["fiducials.enabled=true"] * wants_fiducials + list(pipeline_sets)

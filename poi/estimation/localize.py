@@ -124,6 +124,19 @@ def project_point_to_pixel(intr: Intrinsics, point: np.ndarray) -> np.ndarray:
     return np.array([x * intr.fx + intr.ppx, y * intr.fy + intr.ppy])
 
 
+def surface_to_center(p_c: np.ndarray, radius_m: float) -> np.ndarray:
+    """The centre of a round object of radius ``radius_m`` whose surface point ``p_c`` the depth
+    hit: ``p_c (1 + r / |p_c|)``, on the ray one radius further. Its Jacobian,
+    ``(1 + r/|p|) I - r p p^T / |p|^3``, is carried into J2 by :func:`localize`.
+
+    >>> surface_to_center(np.array([0.0, 0.0, 2.0]), 0.1).tolist()
+    [0.0, 0.0, 2.1]
+    """
+    if radius_m <= 0.0:
+        return p_c
+    return p_c * (1.0 + radius_m / float(np.linalg.norm(p_c)))
+
+
 def localize(
     detection: Detection,
     frame: Frame,
@@ -134,7 +147,9 @@ def localize(
     """Place a detection in the map frame with its covariance R ([Avevor2022]_ 2.2-2.3).
 
     p_map = Q (Q0 p_c + t0) + t with (Q, t) = ``frame.pose`` (T_map_tracker) and (Q0, t0)
-    = ``T_tracker_camera``; R = Q Q0 Sigma_c Q0^T Q^T + sigma_eps^2 I. None when the frame
+    = ``T_tracker_camera``; R = Q Q0 Sigma_c Q0^T Q^T + sigma_eps^2 I, with J2 the Jacobian of
+    the deprojection and, for a round object, of its centre offset (:func:`surface_to_center`).
+    None when the frame
     has no pose or no depth, no valid depth lies in the box, or the depth is out of range.
     """
     if frame.pose is None or frame.depth_m is None:
@@ -156,11 +171,13 @@ def localize(
     cx, cy = detection.center_uv
     u, v = cx - BOX_CORNER_TO_CENTER_PX, cy - BOX_CORNER_TO_CENTER_PX
     w, h = detection.size_wh
-    p_c = deproject_pixel_to_point(intr, u, v, d)
     to_center = cfg.localize.surface_to_center_m.get(detection.type, 0.0)
-    if to_center > 0.0:
+
+    def point(a: float, b: float, c: float) -> np.ndarray:
         # a round object: the depth is its front surface, the report names its centre
-        p_c = p_c * (1.0 + to_center / float(np.linalg.norm(p_c)))
+        return surface_to_center(deproject_pixel_to_point(intr, a, b, c), to_center)
+
+    p_c = point(u, v, d)
 
     # Sigma_1 = diag(sigma_u^2, sigma_v^2, sigma_d^2)
     sigma_u, sigma_v = center_sigmas_px(
@@ -174,7 +191,7 @@ def localize(
     sigma_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
     Sigma_1 = np.diag([sigma_u**2, sigma_v**2, sigma_d**2])
     J1 = depth_jacobian(depth, u, v, lc.depth_scale)
-    J2 = deprojection_jacobian(lambda a, b, c: deproject_pixel_to_point(intr, a, b, c), u, v, d)
+    J2 = deprojection_jacobian(point, u, v, d)  # with the centre offset, for a round object
     Sigma_c = camera_covariance(J1, J2, Sigma_1)
 
     pose = np.asarray(frame.pose, dtype=float)

@@ -14,13 +14,14 @@ landmark's class is kept beside the state (2.2.2). One step:
   here each observation's own propagated covariance, see below) by eq. 8; the
   others go to the candidate map (2.2.5): a candidate seen again is moved to the
   weighted mean with weight ``1 / (1 + n)`` for the new sighting, is dropped
-  ``t_max_s`` after its last sighting, and once seen ``n_min`` times is appended
-  to the state with ``P = blkdiag(P, P_ln)``; the sigma-point parameters and
-  weights are then recomputed for the new dimension (2.2.1).
+  ``t_max_s`` after its last sighting, and once seen more than ``n_min`` times is appended
+  to the state (see the departures below for its covariance); the sigma-point
+  parameters and weights are then recomputed for the new dimension (2.2.1).
 
 Sigma points and weights are filterpy's ``MerweScaledSigmaPoints``, whose
-``lambda = alpha^2 (n + kappa) - n`` and weights are eq. 2-5; ``kappa`` is
-``3 - n`` as the document sets it unless configured. The transform itself is
+``lambda = alpha^2 (n + kappa) - n`` and weights are eq. 2-5. The defaults are
+``alpha = 1``, ``beta = 2``, ``kappa = 0`` (see the departures below); ``kappa: null``
+gives the document's ``3 - n``. The transform itself is
 filterpy's ``unscented_transform`` (eq. 6) on sigma points whose heading has been
 unwrapped about the first point, so angle means and residuals are right across
 +-pi.
@@ -39,8 +40,33 @@ Where this departs from the document, on purpose:
   observation is the covariance propagated from the detection ([Avevor2022]_ 2.2), so
   near and far landmarks are weighted as they deserve; eq. 19's fixed diagonal
   is the special case of equal, independent errors.
+* ``kappa = 0``, not the document's ``3 - n``. With ``kappa = 3 - n`` and ``alpha = 1``,
+  ``lambda = 3 - n`` and ``W_0 = (3 - n) / 3``: -13 with 20 landmarks, so the
+  predicted covariance is a difference of large terms and can turn indefinite (the
+  negative-weight problem of [JulierUhlmann2004]_ with n > 3). With ``kappa = 0``,
+  ``lambda = 0``: ``W_0^m = 0``, ``W_0^c = beta = 2`` and ``W_i = 1 / (2n)``, all >= 0, so
+  every unscented covariance is a sum of positive semidefinite terms ([vanderMerwe2004]_);
+  the price is sigma points at ``sqrt(n)`` standard deviations (the robot's
+  heading spread widens with the map), measured with ``poibench consistency`` (README,
+  "Covariance consistency"). Should rounding still leave P indefinite (no Cholesky
+  factor), it is repaired by raising its eigenvalues to ``START_POSE_SIGMA^2``, and every
+  repair is counted (:attr:`UkfSlam.repairs`) and logged as a warning; nothing is
+  clipped silently.
 * The update draws fresh sigma points from the predicted (x, P), which carry
   ``Q``; the document reuses the propagated points.
+* A promoted landmark is not added with ``P = blkdiag(P, P_ln)`` and a fixed
+  ``P_ln``. (The document's ``P_ln = diag(sigma_x, sigma_y)`` also writes standard
+  deviations where a covariance holds variances.) A landmark placed by the current
+  pose, ``l = g(x, z) = (x, y) + R(theta) z`` (eq. 16), carries that pose's error, so it
+  gets the standard EKF/UKF-SLAM augmentation ([Bailey2006]_, [BarShalom2001]_):
+  ``P_new = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]]`` with ``J_x = dg/dx``
+  (``[I_2, dR(theta)/dtheta z, 0]``), ``J_z = R(theta)``, ``z`` the candidate's mean
+  in the robot frame and ``R`` its latest sighting's covariance. The mean of n sightings
+  is at least as good as one, so R is an upper bound on its noise; the sightings, all
+  within ``t_max_s`` of each other, are taken to share the current pose's error. Without
+  the cross-covariance a landmark's pose error is counted as independent information,
+  and the map and pose become over-confident (measured with ``poibench consistency``:
+  README, "Covariance consistency").
 
 References
 ----------
@@ -48,14 +74,23 @@ Full entries in docs/SOURCES.md.
 
 .. [Avevor2022] E. Avevor, "Proposed solution to RoboCupRescue EX3", University of Cambridge,
    2022.
+.. [Bailey2006] T. Bailey, J. Nieto, J. Guivant, M. Stevens, E. Nebot, "Consistency of the
+   EKF-SLAM algorithm", IEEE/RSJ IROS 2006.
+.. [BarShalom2001] Y. Bar-Shalom, X. R. Li, T. Kirubarajan, "Estimation with Applications to
+   Tracking and Navigation", Wiley, 2001.
 .. [Bouda2025] M. Bouda, E. Doležal, O. Váňa, "Řešení úkolu pro TurtleBot s detekcí objektů
    a SLAM" ("A solution of the TurtleBot task with object detection and SLAM"), 2025.
+.. [JulierUhlmann2004] S. J. Julier, J. K. Uhlmann, "Unscented filtering and nonlinear
+   estimation", Proceedings of the IEEE 92(3), 2004.
+.. [vanderMerwe2004] R. van der Merwe, "Sigma-point Kalman filters for probabilistic
+   inference in dynamic state-space models", PhD thesis, OHSU, 2004.
 .. [T265Issues] Users' reports of T265 drift in the librealsense issue tracker (#3970, #4288,
    #6256, #7616).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -68,6 +103,9 @@ ROBOT_DIM = 3  # x, y, theta
 # The map frame is the robot's start pose (docs/DESIGN.md), so the first pose is known; a tiny
 # variance keeps P positive definite for the Cholesky factor of the sigma points.
 START_POSE_SIGMA = 1e-4
+
+
+LOG = logging.getLogger(__name__)
 
 
 class SlamError(ValueError):
@@ -130,7 +168,7 @@ def odometry_increment(pose_prev: np.ndarray, pose_now: np.ndarray) -> np.ndarra
 
 
 def sigma_points(n: int, params: SlamConfig) -> MerweScaledSigmaPoints:
-    """Sigma points and weights for dimension n (eq. 1-5), kappa = 3 - n unless set."""
+    """Sigma points and weights for dimension n (eq. 1-5); ``kappa: null`` is the document's 3 - n."""
     kappa = 3.0 - n if params.kappa is None else params.kappa
     return MerweScaledSigmaPoints(n, alpha=params.alpha, beta=params.beta, kappa=kappa)
 
@@ -158,6 +196,7 @@ class UkfSlam:
         self.landmarks: list[Landmark] = []
         self.candidates: list[Candidate] = []
         self._points: MerweScaledSigmaPoints = sigma_points(ROBOT_DIM, params)
+        self.repairs = 0  # times P had no Cholesky factor and was repaired (see the module docstring)
 
     # --- state ---------------------------------------------------------------------------
     @property
@@ -185,12 +224,22 @@ class UkfSlam:
         try:
             return self._points.sigma_points(self.x, self.P)
         except np.linalg.LinAlgError:
-            self._clip_covariance()
+            self._repair_covariance()
             return self._points.sigma_points(self.x, self.P)
 
-    def _clip_covariance(self) -> None:
-        """Rounding left P marginally indefinite: clip its eigenvalues (the caller retries)."""
+    def _repair_covariance(self) -> None:
+        """P has no Cholesky factor: raise its eigenvalues to START_POSE_SIGMA^2, count the
+        repair and log it (the caller retries)."""
         w, V = np.linalg.eigh(self.P)
+        self.repairs += 1
+        LOG.warning(
+            "UKF-SLAM: covariance not positive definite (smallest eigenvalue %.3g, n = %d); "
+            "eigenvalues raised to %.3g (repair %d)",
+            float(w[0]),
+            self.n,
+            START_POSE_SIGMA**2,
+            self.repairs,
+        )
         self.P = _symmetric((V * np.maximum(w, START_POSE_SIGMA**2)) @ V.T)
 
     # --- prediction (2.2.3) --------------------------------------------------------------
@@ -268,7 +317,7 @@ class UkfSlam:
         try:
             U_rr = np.linalg.cholesky(A_rr).T
         except np.linalg.LinAlgError:
-            self._clip_covariance()
+            self._repair_covariance()
             return self._robot_rows(scale)
         U_rl = np.linalg.solve(U_rr.T, A_rl)
         return np.hstack([U_rr, U_rl])
@@ -356,32 +405,53 @@ class UkfSlam:
         self.candidates = [cd for cd in self.candidates if t_s - cd.last_seen_s <= p.t_max_s]
         pts = [self.to_map(o.xy) for o in observations]
         pairs = self._associate(pts, [o.class_name for o in observations], self.candidates)
+        latest: dict[int, LandmarkObservation] = {}  # id(candidate) -> this frame's sighting
         for i, o in enumerate(observations):
             j = pairs.get(i)
             if j is None:
-                self.candidates.append(Candidate(class_name=o.class_name, xy=pts[i], n_seen=1, last_seen_s=t_s))
+                cd = Candidate(class_name=o.class_name, xy=pts[i], n_seen=1, last_seen_s=t_s)
+                self.candidates.append(cd)
+                latest[id(cd)] = o
                 continue
             cd = self.candidates[j]
             w = 1.0 / (1.0 + cd.n_seen)  # weight of the new sighting
             cd.xy = (1.0 - w) * cd.xy + w * pts[i]
             cd.n_seen += 1
             cd.last_seen_s = t_s
+            latest[id(cd)] = o
         keep = []
         for cd in self.candidates:
-            if cd.n_seen >= p.n_min:
-                result.promoted.append(self._augment(cd, t_s))
+            # "seen more than n_min times" ([Bouda2025]_ 2.2.5); only a candidate seen this frame
+            # can have crossed the threshold
+            if cd.n_seen > p.n_min and id(cd) in latest:
+                result.promoted.append(self._augment(cd, latest[id(cd)].R, t_s))
             else:
                 keep.append(cd)
         self.candidates = keep
 
-    def _augment(self, cd: Candidate, t_s: float) -> int:
-        """Append a promoted candidate to the state: x = [x; xy], P = blkdiag(P, P_ln), and
-        new sigma-point weights for the new dimension."""
+    def augmentation_jacobians(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """J_x (2, n) and J_z (2, 2) of the inverse observation g(x, z) = (x, y) + R(theta) z
+        (eq. 16) at the current state, for a landmark at ``z`` in the robot frame."""
+        c, s = np.cos(self.x[2]), np.sin(self.x[2])
+        Jx = np.zeros((2, self.n))
+        Jx[:, :2] = np.eye(2)
+        Jx[:, 2] = (-s * z[0] - c * z[1], c * z[0] - s * z[1])  # d(R(theta) z) / d theta
+        return Jx, rot2(self.x[2])
+
+    def _augment(self, cd: Candidate, R: np.ndarray, t_s: float) -> int:
+        """Append a promoted candidate to the state with the standard augmentation (see the
+        module docstring): x = [x; g(x, z)], P = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]]
+        with z the candidate's mean in the robot frame and R its latest sighting's covariance;
+        then new sigma-point weights for the new dimension."""
+        z = rot2(self.x[2]).T @ (cd.xy - self.x[:2])  # so that g(x, z) = cd.xy
+        Jx, Jz = self.augmentation_jacobians(z)
         n = self.n
-        s2 = self.params.landmark_sigma_m**2
+        PJ = self.P @ Jx.T  # (n, 2): the landmark's cross-covariance with the state
         P = np.zeros((n + 2, n + 2))
         P[:n, :n] = self.P
-        P[n:, n:] = s2 * np.eye(2)
+        P[:n, n:] = PJ
+        P[n:, :n] = PJ.T
+        P[n:, n:] = _symmetric(Jx @ PJ + Jz @ R @ Jz.T)
         self.x = np.concatenate([self.x, cd.xy])
         self.P = P
         self._points = sigma_points(self.n, self.params)

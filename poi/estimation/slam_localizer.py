@@ -17,6 +17,17 @@ wheel odometry, drift included):
    covariance gets the pose uncertainty: ``R' = Rz R Rz^T + J P_pose J^T`` with
    ``J = d p' / d (x', y', theta')`` (first-order propagation, [Avevor2022]_ 2.2.2's method).
 
+Each measurement is used once. The observations are moved with the filter's pose
+*before* this frame's landmark update (after the prediction, ``(x', y', theta')`` and
+``P_pose`` of the predicted state), and the returned frame pose (:attr:`SlamStep.pose`,
+for the in-view test and the fiducials) is the one after it. Mapping an observation with
+the pose its own landmark update produced would use it twice: the update pulls the pose
+so that the observation agrees with its landmark, and the tracker then fuses the
+observation again as if its error were independent of that pose, so the tracks'
+covariance came out optimistic. What remains (the tracker treats the pose errors of
+successive frames as independent, where drift correlates them) is measured with
+``poibench consistency`` (README, "Covariance consistency").
+
 References
 ----------
 Full entries in docs/SOURCES.md.
@@ -42,10 +53,20 @@ from poi.estimation.slam import LandmarkObservation, UkfSlam, odometry_increment
 
 @dataclass(kw_only=True)
 class SlamStep:
-    """One frame's correction: the corrected pose and the corrected observations (same order)."""
+    """One frame's correction: the corrected pose (after this frame's update) and the
+    observations mapped with the pose before it (same order; module docstring)."""
 
     pose: np.ndarray
     observations: list[Observation]
+
+
+def corrected_pose(T_odom: np.ndarray, odom: np.ndarray, planar: np.ndarray) -> np.ndarray:
+    """The odometry pose with its planar part (x, y, theta) replaced by ``planar``: height,
+    roll and pitch kept, ``Q' = Rz(theta' - theta) Q``, ``t' = (x', y', t_z)``."""
+    T = np.array(T_odom, dtype=float)
+    T[:3, :3] = rot_z(float(wrap_angle(planar[2] - odom[2]))) @ T_odom[:3, :3]
+    T[:2, 3] = planar[:2]
+    return T
 
 
 class SlamLocalizer:
@@ -64,6 +85,7 @@ class SlamLocalizer:
         else:
             self.slam.predict(odometry_increment(self._last_odometry, odom))
         self._last_odometry = odom
+        prior_pose, prior_P = self.slam.pose, self.slam.pose_covariance  # before this frame's update
 
         Rz_T = rot_z(odom[2]).T
         t = T_odom[:3, 3]
@@ -78,23 +100,18 @@ class SlamLocalizer:
             lms.append(LandmarkObservation(class_name=obs.detection.class_name, xy=p_l[:2], R=R_l[:2, :2]))
         self.slam.observe(lms, t_s)
 
-        x, y, theta = self.slam.pose
-        dtheta = float(wrap_angle(theta - odom[2]))
-        Rd = rot_z(dtheta)
-        T = np.array(T_odom, dtype=float)
-        T[:3, :3] = Rd @ T_odom[:3, :3]
-        T[:2, 3] = (x, y)
-        P_pose = self.slam.pose_covariance
+        T_prior = corrected_pose(T_odom, odom, prior_pose)
+        Rd = T_prior[:3, :3] @ T_odom[:3, :3].T  # Rz(theta' - theta)
         corrected = []
         for obs in observations:
             p_rel = Rd @ (obs.position_map - t)  # the point relative to the corrected tracker
-            p = p_rel + T[:3, 3]
+            p = p_rel + T_prior[:3, 3]
             J = np.zeros((3, 3))
             J[0, 0] = J[1, 1] = 1.0
             J[0, 2], J[1, 2] = -p_rel[1], p_rel[0]  # d(Rz(theta) v)/d theta = (-v_y, v_x)
-            R = Rd @ obs.R @ Rd.T + J @ P_pose @ J.T
+            R = Rd @ obs.R @ Rd.T + J @ prior_P @ J.T
             corrected.append(dataclasses.replace(obs, position_map=p, R=R))
-        return SlamStep(pose=T, observations=corrected)
+        return SlamStep(pose=corrected_pose(T_odom, odom, self.slam.pose), observations=corrected)
 
     @property
     def n_landmarks(self) -> int:

@@ -8,7 +8,8 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    same type ([Avevor2022]_ 2.4.3); a QR observation with a decoded text never pairs with a
    QR track that has a different text. Pairs need m^2 < gate (strict).
 2. Pairing: the greedy loop of [Avevor2022]_ 2.4.3, or an optimal (Hungarian) assignment.
-3. Paired tracks get the Kalman update with H = I ([Avevor2022]_ 2.4.4), support + 1 and
+3. Paired tracks get the Kalman update with H = I ([Avevor2022]_ 2.4.4; covariance in Joseph's
+   form, :func:`kalman_update`), support + 1 and
    their class distribution fused. An unpaired observation inside the gate of a
    track already taken this frame (or started by an earlier observation of this
    frame) is a duplicate detection of that object (two detectors, or two boxes on one
@@ -30,6 +31,8 @@ Full entries in docs/SOURCES.md.
 
 .. [Avevor2022] E. Avevor, "Proposed solution to RoboCupRescue EX3", University of Cambridge,
    2022.
+.. [BarShalom2001] Y. Bar-Shalom, X. R. Li, T. Kirubarajan, "Estimation with Applications to
+   Tracking and Navigation", Wiley, 2001.
 .. [Bouda2025] M. Bouda, E. Doležal, O. Váňa, "Řešení úkolu pro TurtleBot s detekcí objektů
    a SLAM" ("A solution of the TurtleBot task with object detection and SLAM"), 2025.
 """
@@ -39,6 +42,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from filterpy.kalman import update as filterpy_update
 
 from poi.config import TrackerConfig
 from poi.core.assignment import optimal_assignment
@@ -47,6 +51,7 @@ from poi.core.types import Observation, TrackSnapshot
 from poi.estimation.covariance import Calibration
 
 N_CLASSES = len(CLASSES)
+IDENTITY3 = np.eye(3)  # H: a track's position is observed directly
 HAZMAT_SLICE = slice(0, len(HAZMAT_LABELS))  # hazmat labels come first in CLASSES
 
 
@@ -57,15 +62,15 @@ class TrackerError(ValueError):
 def kalman_update(
     mu: np.ndarray, Sigma: np.ndarray, o: np.ndarray, R: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """One Kalman update with H = I ([Avevor2022]_ 2.4.4); the same as filterpy's ``update(o, R, H=I)``.
+    """One Kalman update with H = I ([Avevor2022]_ 2.4.4): filterpy's ``update(mu, Sigma, o, R, H=I)``.
 
-    mu+ = mu + Sigma (Sigma + R)^-1 (o - mu),  Sigma+ = Sigma - Sigma (Sigma + R)^-1 Sigma.
+    mu+ = mu + K (o - mu) with K = Sigma (Sigma + R)^-1, and the covariance in Joseph's form
+    ([BarShalom2001]_ 5.2), Sigma+ = (I - K) Sigma (I - K)^T + K R K^T. For this optimal K it
+    equals the document's Sigma - K Sigma, but it is a sum of positive semidefinite terms, so
+    it stays positive definite when R << Sigma (a track started from the prior diag(100, 100, 4)
+    and a centimetre R), where Sigma - K Sigma is a difference of nearly equal numbers.
     """
-    S = Sigma + R
-    # K = Sigma S^-1  (S and Sigma symmetric: K^T = S^-1 Sigma)
-    K = np.linalg.solve(S, Sigma).T
-    mu_new = mu + K @ (o - mu)
-    Sigma_new = Sigma - K @ Sigma
+    mu_new, Sigma_new = filterpy_update(mu, Sigma, o, R, H=IDENTITY3)
     return mu_new, 0.5 * (Sigma_new + Sigma_new.T)
 
 

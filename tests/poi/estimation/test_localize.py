@@ -146,6 +146,12 @@ def test_a_round_object_is_placed_at_its_centre_behind_the_surface_seen():
     assert ball.position_cam.tolist() == pytest.approx([0.2 * scale, 0.0, 2.0 * scale], abs=1e-12)
     flat = localize(det((360.0, 230.0, 380.0, 250.0), class_name="exit-sign"), frame(), cfg, T_tc)
     assert flat.position_cam.tolist() == pytest.approx([0.2, 0.0, 2.0], abs=1e-12)  # flat: no offset
+    # the offset is in J2: Sigma_c(ball) = G Sigma_c(flat) G^T, G = (1 + r/|p|) I - r p p^T / |p|^3
+    p = np.array([0.2, 0.0, 2.0])
+    n = np.linalg.norm(p)
+    G = (1.0 + 0.105 / n) * np.eye(3) - 0.105 * np.outer(p, p) / n**3
+    np.testing.assert_allclose(ball.Sigma_c, G @ flat.Sigma_c @ G.T, rtol=1e-6, atol=1e-12)
+    assert not np.allclose(ball.Sigma_c, flat.Sigma_c, rtol=1e-3)
     with pytest.raises(ConfigError, match="surface_to_center_m.cube: unknown type"):
         apply_overrides(cfg, ["localize.surface_to_center_m={cube: 0.1}"])
 

@@ -31,7 +31,7 @@ from poi.estimation.slam import (
 def test_weights_match_eq_2_to_5_by_hand():
     # n = 5, alpha = 0.5, beta = 2, kappa = 3 - n = -2 (the document's choice)
     # lambda = 0.25 * (5 - 2) - 5 = -4.25; n + lambda = 0.75
-    pts = sigma_points(5, SlamConfig(alpha=0.5, beta=2.0))
+    pts = sigma_points(5, SlamConfig(alpha=0.5, beta=2.0, kappa=None))
     assert pts.Wm[0] == pytest.approx(-4.25 / 0.75)
     assert pts.Wc[0] == pytest.approx(-4.25 / 0.75 + 1 - 0.25 + 2)
     assert np.allclose(pts.Wm[1:], 1 / (2 * 0.75))
@@ -45,7 +45,7 @@ def test_weights_match_eq_2_to_5_by_hand():
 
 def test_sigma_points_eq_1():
     # n = 2, alpha = 1, kappa = 3 - n = 1 -> lambda = 1, n + lambda = 3
-    pts = sigma_points(2, SlamConfig())
+    pts = sigma_points(2, SlamConfig(kappa=None))
     x = np.array([1.0, -2.0])
     P = np.array([[4.0, 0.0], [0.0, 9.0]])
     chi = pts.sigma_points(x, P)
@@ -86,8 +86,9 @@ def _observe(slam: UkfSlam, truth_xy: dict[str, np.ndarray], robot: np.ndarray, 
     return slam.observe(obs, t)
 
 
-def test_landmark_promoted_only_after_n_min_sightings():
-    slam = UkfSlam(SlamConfig(n_min=4))
+def test_landmark_promoted_only_after_more_than_n_min_sightings():
+    # [Bouda2025] 2.2.5: added once "seen more than n_min times": n_min = 3 -> the 4th sighting
+    slam = UkfSlam(SlamConfig(n_min=3))
     rng = np.random.default_rng(0)
     truth = {"valve": np.array([2.0, 0.5])}
     for k in range(3):
@@ -110,7 +111,7 @@ def test_candidate_weighted_mean_and_t_max():
 
 
 def test_association_is_per_class_and_mutual_nearest():
-    slam = UkfSlam(SlamConfig(n_min=1, associate_m=0.5))
+    slam = UkfSlam(SlamConfig(n_min=0, associate_m=0.5))
     slam.observe(
         [
             LandmarkObservation(class_name="qr", xy=np.array([2.0, 0.0]), R=0.01 * np.eye(2)),
@@ -209,7 +210,7 @@ def test_structured_prediction_equals_the_full_unscented_transform():
     from filterpy.kalman import unscented_transform
 
     rng = np.random.default_rng(4)
-    slam = UkfSlam(SlamConfig(n_min=1))
+    slam = UkfSlam(SlamConfig(n_min=0))
     R = 0.02 * np.eye(2)
     seen = [LandmarkObservation(class_name=f"c{i}", xy=rng.uniform(-3, 3, 2), R=R) for i in range(6)]
     slam.observe(seen, 0.0)
@@ -230,3 +231,43 @@ def test_structured_prediction_equals_the_full_unscented_transform():
     slam.predict(delta)
     np.testing.assert_allclose(slam.x, x_ref, rtol=0, atol=1e-10)
     np.testing.assert_allclose(slam.P, P_ref, rtol=0, atol=1e-10)
+
+
+def test_augmentation_carries_the_pose_cross_covariance_by_hand():
+    """P_new = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]] ([Bouda2025]_ eq. 16 as g)."""
+    slam = UkfSlam(SlamConfig(n_min=0), pose0=(1.0, 2.0, math.pi / 2))
+    slam.P = np.diag([0.01, 0.04, 0.0025])
+    R = np.diag([0.0009, 0.0004])  # robot frame
+    # facing +y, 2 m ahead: the landmark is at (1, 4) in the map
+    res = slam.observe([LandmarkObservation(class_name="valve", xy=np.array([2.0, 0.0]), R=R)], 0.0)
+    assert res.promoted == [0]
+    assert slam.landmark_xy(0) == pytest.approx([1.0, 4.0])
+    # J_x = [[1, 0, -2], [0, 1, 0]] (d(R(theta) z)/d theta at theta = 90 deg, z = (2, 0)),
+    # J_z = R(90 deg): P J_x^T = [[0.01, 0], [0, 0.04], [-0.005, 0]];
+    # J_x P J_x^T = diag(0.01 + 4 * 0.0025, 0.04), J_z R J_z^T = diag(0.0004, 0.0009)
+    np.testing.assert_allclose(slam.P[:3, 3:], [[0.01, 0.0], [0.0, 0.04], [-0.005, 0.0]], atol=1e-12)
+    np.testing.assert_allclose(slam.P[3:, :3], slam.P[:3, 3:].T, atol=0)
+    np.testing.assert_allclose(slam.landmark_covariance(0), np.diag([0.0204, 0.0409]), atol=1e-12)
+    assert np.linalg.eigvalsh(slam.P).min() > 0.0
+
+
+def test_default_weights_are_non_negative_with_many_landmarks():
+    # kappa = 0, alpha = 1: lambda = 0 -> W_0^m = 0, W_0^c = beta = 2, W_i = 1 / (2n)
+    for n in (3, 23, 83):
+        pts = sigma_points(n, SlamConfig())
+        assert pts.Wm[0] == pytest.approx(0.0) and pts.Wc[0] == pytest.approx(2.0)
+        assert np.allclose(pts.Wm[1:], 1 / (2 * n)) and np.all(pts.Wc >= 0)
+    # the document's kappa = 3 - n: W_0 = (3 - n) / 3, -26 with 40 landmarks
+    assert sigma_points(83, SlamConfig(kappa=None)).Wm[0] == pytest.approx(-80 / 3)
+
+
+def test_an_indefinite_covariance_is_repaired_counted_and_logged(caplog):
+    slam = UkfSlam(SlamConfig(n_min=0))
+    slam.observe([LandmarkObservation(class_name="qr", xy=np.array([2.0, 0.0]), R=0.01 * np.eye(2))], 0.0)
+    slam.P[3, 3] = -1e-3  # what rounding could leave
+    with caplog.at_level("WARNING", logger="poi.estimation.slam"):
+        slam.predict(np.array([0.1, 0.0, 0.0]))
+        slam.observe([LandmarkObservation(class_name="qr", xy=np.array([1.9, 0.0]), R=0.01 * np.eye(2))], 0.1)
+    assert slam.repairs == 1
+    assert "not positive definite" in caplog.text
+    assert np.linalg.eigvalsh(slam.P).min() > 0.0

@@ -72,6 +72,23 @@ def test_kalman_update_matches_filterpy_and_closed_form():
         assert np.allclose(Sigma1, Sigma - Sigma @ S_inv @ Sigma, atol=1e-10)
 
 
+def test_joseph_form_stays_positive_definite_when_r_is_far_below_sigma():
+    """A track started from the prior diag(100, 100, 4) and a near-exact observation: the
+    difference form Sigma - K Sigma rounds to negative eigenvalues, Joseph's form does not."""
+    rng = np.random.default_rng(0)
+    Sigma = np.diag([100.0, 100.0, 4.0])
+    negative_difference_form = 0
+    for _ in range(500):
+        A = rng.standard_normal((3, 3))
+        R = 1e-12 * A @ A.T + 1e-14 * np.eye(3)
+        K = np.linalg.solve(Sigma + R, Sigma).T
+        difference = Sigma - K @ Sigma
+        negative_difference_form += np.linalg.eigvalsh(0.5 * (difference + difference.T)).min() < 0
+        _, Sigma1 = kalman_update(np.zeros(3), Sigma, np.ones(3), R)
+        assert np.linalg.eigvalsh(Sigma1).min() > 0.0
+    assert negative_difference_form > 0  # the case Joseph's form is for does occur
+
+
 def test_gate_is_strict():
     # a track at the origin with Sigma = 0.5 I; observations with R = 0.5 I: m^2 = x^2
     assert mahalanobis2(np.array([3.0, 0, 0]), np.zeros(3), HALF_I, HALF_I) == 9.0

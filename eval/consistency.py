@@ -1,0 +1,328 @@
+"""Covariance consistency: NEES of the pipeline's R, track Sigma and SLAM pose covariance.
+
+A covariance P is consistent with the errors e it describes when the normalised estimation
+error squared, NEES = e^T P^-1 e, is chi-square with d degrees of freedom (d = dim e)
+([BarShalom2001]_ 5.4). Over N independent samples the sum is chi-square with N d degrees
+of freedom, so the mean NEES lies in ``chi2.ppf([0.005, 0.995], N d) / N`` 99% of the time
+(:func:`chi2_interval`); a mean above it says P is too small (over-confident), below it too
+large.
+
+:func:`run_consistency` runs scenarios through the simulator with their sensor noise on and
+the pipeline behind the oracle detector (ground-truth boxes with the pipeline's own centre
+noise model; no confusions, no false boxes, so detection mistakes do not confound), and
+collects, with the simulator's truth:
+
+* ``R cam <type>``: each observation's camera-frame position against the object's true
+  position in the true camera frame, with Sigma_c + extent^2 I (the detection and depth
+  model, [Avevor2022]_ 2.2.2; d = 3);
+* ``R map <type>``: each observation as the tracker receives it (map frame, after the SLAM
+  correction) against the object's true position, with its R (d = 3);
+* ``track Sigma confirm`` / ``track Sigma end``: each confirmed track's mu and Sigma when it
+  is confirmed and at the end of the run against the true position of the object most of its
+  detections came from (d = 3);
+* ``SLAM pose`` (every frame) and ``SLAM pose end`` (last frame of each run): the filter's
+  (x, y, theta) against the true tracker pose, with the filter's pose covariance (d = 3).
+
+How N is counted: every sample is counted once. Observations in different frames have
+independent pixel and depth noise, but an object's extent error and the pose error repeat
+from frame to frame, so per-frame samples of one object or one run are correlated and their
+interval is too narrow: ``R ...``, ``track Sigma confirm`` and ``SLAM pose`` are therefore
+read as indicative, while ``track Sigma end`` (one sample per object, objects far apart)
+and ``SLAM pose end`` (one sample per run) are the independent counts.
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [Avevor2022] E. Avevor, "Proposed solution to RoboCupRescue EX3", University of Cambridge,
+   2022.
+.. [BarShalom2001] Y. Bar-Shalom, X. R. Li, T. Kirubarajan, "Estimation with Applications to
+   Tracking and Navigation", Wiley, 2001.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter, defaultdict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import chi2
+
+from poi.core.geometry import invert_transform, planar_pose, transform_points, wrap_angle
+
+LEVEL = 0.99  # two-sided: chi2.ppf(0.005) and chi2.ppf(0.995)
+# A detection is the truth object of its type whose box centre is nearest, within this
+# fraction of the box's larger side (the oracle moves centres by ~1 px + 3% of the size).
+MATCH_FRACTION = 0.5
+POSE_DIM = 3
+
+
+class ConsistencyError(ValueError):
+    """Settings of a consistency run that cannot be used (one line)."""
+
+
+def nees(e: np.ndarray, P: np.ndarray) -> float:
+    """e^T P^-1 e.
+
+    >>> nees(np.array([1.0, 2.0]), np.diag([1.0, 4.0]))
+    2.0
+    """
+    e = np.asarray(e, dtype=float)
+    return float(e @ np.linalg.solve(np.asarray(P, dtype=float), e))
+
+
+def chi2_interval(n: int, d: int, level: float = LEVEL) -> tuple[float, float]:
+    """The two-sided ``level`` interval of the mean of n NEES samples of dimension d.
+
+    >>> [round(v, 3) for v in chi2_interval(100, 3)]
+    [2.429, 3.633]
+    """
+    if n < 1 or d < 1:
+        raise ConsistencyError(f"chi2_interval: expected n >= 1 and d >= 1, got n={n}, d={d}")
+    a = 0.5 * (1.0 - level)
+    lo, hi = chi2.ppf([a, 1.0 - a], n * d)
+    return float(lo) / n, float(hi) / n
+
+
+@dataclass(kw_only=True)
+class Row:
+    """One quantity's summary: N samples of dimension d, their mean NEES and its interval."""
+
+    quantity: str
+    n: int
+    d: int
+    mean: float
+    lo: float
+    hi: float
+
+    @property
+    def inside(self) -> bool:
+        return self.lo <= self.mean <= self.hi
+
+    def to_dict(self) -> dict:
+        return {
+            "quantity": self.quantity,
+            "n": self.n,
+            "d": self.d,
+            "mean_nees": round(self.mean, 4),
+            "interval_99": [round(self.lo, 4), round(self.hi, 4)],
+            "inside": self.inside,
+        }
+
+
+@dataclass(kw_only=True)
+class Samples:
+    """NEES samples by quantity (name -> (d, values)) and the per-frame pose NEES of each run."""
+
+    values: dict[str, list[float]] = field(default_factory=lambda: defaultdict(list))
+    dims: dict[str, int] = field(default_factory=dict)
+    pose_series: list[tuple[str, list[float]]] = field(default_factory=list)
+
+    def add(self, quantity: str, d: int, value: float) -> None:
+        self.dims[quantity] = d
+        self.values[quantity].append(float(value))
+
+    def rows(self) -> list[Row]:
+        out = []
+        for q in sorted(self.values, key=_order):
+            v = self.values[q]
+            lo, hi = chi2_interval(len(v), self.dims[q])
+            out.append(Row(quantity=q, n=len(v), d=self.dims[q], mean=float(np.mean(v)), lo=lo, hi=hi))
+        return out
+
+
+def _order(q: str) -> tuple[int, str]:
+    for i, head in enumerate(("R cam", "R map", "track Sigma confirm", "track Sigma end", "SLAM pose")):
+        if q.startswith(head):
+            return i, q
+    return 9, q
+
+
+def match_detections(detections, visible) -> list[int | None]:
+    """For each detection, the id of the visible truth object it boxes: same type, nearest box
+    centre within MATCH_FRACTION of the box's larger side; None when there is none."""
+    out: list[int | None] = []
+    for det in detections:
+        cu, cv = det.center_uv
+        best, best_d = None, np.inf
+        for v in visible:
+            if v.type != det.type:
+                continue
+            x1, y1, x2, y2 = v.box_xyxy
+            dist = float(np.hypot(0.5 * (x1 + x2) - cu, 0.5 * (y1 + y2) - cv))
+            if dist < best_d and dist <= MATCH_FRACTION * max(x2 - x1, y2 - y1, 1.0):
+                best, best_d = v.id, dist
+        out.append(best)
+    return out
+
+
+def pipeline_settings(sim, extra: list[str]) -> list[str]:
+    """The settings a consistency run gives the pipeline: the nominal mount (as a trial does),
+    no thermal detector (the oracle boxes heat sources), then ``extra``."""
+    from eval.trial.run import mount_settings
+
+    return mount_settings(sim.T_tracker_optical_nominal) + ["thermal.enabled=false", *extra]
+
+
+def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list[str] = ()) -> int:
+    """Simulate ``sc`` (its noise as it is set) for up to ``frames`` frames through the pipeline
+    behind a clean oracle and add its NEES samples to ``samples``; returns the frames run."""
+    from poi.config import apply_overrides, load_config
+    from poi.pipeline import Pipeline
+    from sim.oracle import ARENA_MIN_BOX_PX, OracleDetector, OracleSettings
+    from sim.simulator import Simulation
+
+    sim = Simulation(sc)
+    try:
+        cfg = apply_overrides(load_config(), pipeline_settings(sim, list(pipeline_sets)))
+        oracle_kw = {"seed": sc.seed, "confusion_rate": 0.0, "false_positives_per_frame": 0.0}
+        if sim.arena is not None:
+            from poi.core.names import ARENA_TYPES
+
+            oracle_kw.update(classes=ARENA_TYPES, min_box_px=ARENA_MIN_BOX_PX)
+        oracle = OracleDetector(OracleSettings(**oracle_kw))
+        pipe = Pipeline(cfg, [oracle])
+        truth_map = {o.id: np.asarray(o.position_map, dtype=float) for o in sim.truth_objects()}
+        n = sim.n_frames if frames is None else min(frames, sim.n_frames)
+        votes: dict[int, Counter] = defaultdict(Counter)
+        confirmed_at: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        pose_series: list[float] = []
+        last_pose: float | None = None
+        for frame, truth in sim.frames(0, n):
+            oracle.set_truth(truth)
+            res = pipe.process(frame)
+            if res.skipped_reason:
+                continue
+            ids = match_detections([o.detection for o in res.observations], truth.visible)
+            T_cam_map = invert_transform(truth.T_map_camera)
+            for obs, oid in zip(res.observations, ids, strict=True):
+                if oid is None:
+                    continue
+                t = obs.detection.type
+                p_true = truth_map[oid]
+                extent = cfg.localize.extent_sigma_m.get(t, 0.0)
+                e_cam = obs.position_cam - transform_points(T_cam_map, p_true)
+                samples.add(f"R cam {t}", 3, nees(e_cam, obs.Sigma_c + extent**2 * np.eye(3)))
+                samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R))
+            det_ids = match_detections(res.detections, truth.visible)
+            for det, oid in zip(res.detections, det_ids, strict=True):
+                if det.track_id is not None and oid is not None:
+                    votes[det.track_id][oid] += 1
+            for snap in res.newly_confirmed:
+                confirmed_at[snap.track_id] = (snap.position_map.copy(), snap.covariance.copy())
+            if pipe.slam is not None and pipe.slam.slam is not None:
+                s = pipe.slam.slam
+                e = s.pose - planar_pose(truth.T_map_tracker)
+                e[2] = wrap_angle(e[2])
+                last_pose = nees(e, s.pose_covariance)
+                samples.add("SLAM pose", POSE_DIM, last_pose)
+                pose_series.append(last_pose)
+        for tid, (mu, Sigma) in sorted(confirmed_at.items()):
+            if votes[tid]:
+                oid = votes[tid].most_common(1)[0][0]
+                samples.add("track Sigma confirm", 3, nees(mu - truth_map[oid], Sigma))
+        for snap in pipe.confirmed():
+            if votes[snap.track_id]:
+                oid = votes[snap.track_id].most_common(1)[0][0]
+                samples.add("track Sigma end", 3, nees(snap.position_map - truth_map[oid], snap.covariance))
+        if last_pose is not None:
+            samples.add("SLAM pose end", POSE_DIM, last_pose)
+            samples.pose_series.append((f"{sc.name} (seed {sc.seed})", pose_series))
+        return n
+    finally:
+        sim.close()
+
+
+@dataclass(kw_only=True)
+class ConsistencyResult:
+    rows: list[Row]
+    runs: list[str]
+    frames: int
+    samples: Samples
+
+
+def run_consistency(
+    scenarios: list,
+    *,
+    frames: int | None,
+    pipeline_sets: list[str] = (),
+    progress: Callable[[str], None] | None = None,
+) -> ConsistencyResult:
+    """NEES over the runs of ``scenarios`` (each a :class:`sim.scenario.Scenario`, noise on)."""
+    if not scenarios:
+        raise ConsistencyError("consistency: no scenario to run")
+    samples = Samples()
+    total = 0
+    names = []
+    for sc in scenarios:
+        if not sc.sensors.noise:
+            raise ConsistencyError(f"consistency: scenario {sc.name}: sensor noise is off; NEES needs it on")
+        if progress is not None:
+            progress(f"{sc.name} (seed {sc.seed})")
+        total += collect_run(sc, samples, frames=frames, pipeline_sets=list(pipeline_sets))
+        names.append(f"{sc.name}:{sc.seed}")
+    return ConsistencyResult(rows=samples.rows(), runs=names, frames=total, samples=samples)
+
+
+def format_table(rows: list[Row]) -> str:
+    """The table ``poibench consistency`` prints."""
+    head = f"{'quantity':<32} {'N':>6} {'d':>2} {'mean NEES':>10}  {'99% interval':<17} inside"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(
+            f"{r.quantity:<32} {r.n:>6} {r.d:>2} {r.mean:>10.3f}  [{r.lo:6.3f}, {r.hi:6.3f}]  "
+            f"{'yes' if r.inside else 'NO'}"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def write_outputs(result: ConsistencyResult, out: Path, meta: dict) -> list[Path]:
+    """consistency.json (the table and the settings) and consistency.png (the plot)."""
+    out.mkdir(parents=True, exist_ok=True)
+    doc = {
+        "poibench_consistency": 1,
+        **meta,
+        "runs": result.runs,
+        "frames": result.frames,
+        "rows": [r.to_dict() for r in result.rows],
+    }
+    js = out / "consistency.json"
+    js.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    png = out / "consistency.png"
+    plot(result, png, title=str(meta.get("title", "")))
+    return [js, png]
+
+
+def plot(result: ConsistencyResult, path: Path, title: str = "") -> None:
+    """Left: each quantity's mean NEES / d with its 99% interval / d (log scale). Right: the
+    SLAM pose NEES of each run over its frames against the one-sample chi2(3) 99% band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = result.rows
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, max(4.0, 0.3 * len(rows) + 1.5)))
+    y = np.arange(len(rows))[::-1]
+    for yi, r in zip(y, rows, strict=True):
+        ax.plot([r.lo / r.d, r.hi / r.d], [yi, yi], color="0.6", lw=6, solid_capstyle="butt")
+        ax.plot(r.mean / r.d, yi, "o", color="tab:green" if r.inside else "tab:red")
+    ax.axvline(1.0, color="0.3", lw=0.8, ls="--")
+    ax.set_xscale("log")
+    ax.set_yticks(y, [f"{r.quantity} (N={r.n})" for r in rows], fontsize=8)
+    ax.set_xlabel("mean NEES / d (grey: 99% interval)")
+    ax.set_title(title or "NEES against its chi-square interval")
+    lo, hi = chi2.ppf([0.005, 0.995], POSE_DIM)
+    for name, series in result.samples.pose_series:
+        bx.plot(np.arange(len(series)), np.maximum(series, 1e-3), lw=0.8, label=name)
+    bx.axhspan(lo, hi, color="0.85", label="chi2(3) 99% of single samples")
+    bx.set_yscale("log")
+    bx.set_xlabel("frame")
+    bx.set_ylabel("SLAM pose NEES")
+    bx.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

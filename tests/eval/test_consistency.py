@@ -1,0 +1,128 @@
+"""eval.consistency: NEES and its chi-square interval, and Monte Carlo checks that the
+pipeline's observation R and track Sigma are consistent with the noise they describe
+([BarShalom2001]_ 5.4).
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [BarShalom2001] Y. Bar-Shalom, X. R. Li, T. Kirubarajan, "Estimation with Applications to
+   Tracking and Navigation", Wiley, 2001.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from eval.consistency import ConsistencyError, Row, Samples, chi2_interval, format_table, match_detections, nees
+from poi.config import apply_overrides, load_config
+from poi.core.geometry import R_BODY_OPTICAL, make_transform
+from poi.core.sensor_noise import CENTER_SIGMA_A_PX, CENTER_SIGMA_B, center_sigma_px, depth_sigma_m
+from poi.core.types import Frame, Intrinsics
+from poi.detectors.base import make_detection
+from poi.estimation.localize import deproject_pixel_to_point, localize
+from poi.estimation.tracker import kalman_update
+
+K = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=319.5, ppy=239.5)
+
+
+def test_nees_and_the_interval_by_hand():
+    assert nees(np.array([3.0, 4.0]), np.diag([9.0, 16.0])) == pytest.approx(2.0)
+    # n samples of dimension d: the sum is chi2(n d), the mean's interval is ppf / n
+    lo, hi = chi2_interval(50, 3)
+    assert lo == pytest.approx(chi2.ppf(0.005, 150) / 50) and hi == pytest.approx(chi2.ppf(0.995, 150) / 50)
+    assert lo < 3.0 < hi
+    with pytest.raises(ConsistencyError, match="n >= 1"):
+        chi2_interval(0, 3)
+
+
+def test_table_marks_a_mean_outside_its_interval():
+    s = Samples()
+    for v in (2.0, 3.0, 4.0):
+        s.add("R cam qr", 3, v)
+    for v in (30.0, 31.0, 32.0):
+        s.add("SLAM pose", 3, v)
+    rows = s.rows()
+    assert [r.quantity for r in rows] == ["R cam qr", "SLAM pose"]
+    assert rows[0].inside and not rows[1].inside
+    text = format_table(rows)
+    assert "yes" in text.splitlines()[2] and "NO" in text.splitlines()[3]
+    assert Row(quantity="x", n=1, d=3, mean=1.0, lo=0.1, hi=2.0).to_dict()["inside"] is True
+
+
+def test_detections_match_the_truth_box_of_their_type():
+    from types import SimpleNamespace
+
+    vis = [
+        SimpleNamespace(id=4, type="qr", box_xyxy=(100.0, 100.0, 140.0, 140.0)),
+        SimpleNamespace(id=5, type="hazmat", box_xyxy=(102.0, 100.0, 142.0, 140.0)),
+    ]
+    dets = [
+        make_detection("qr", (103.0, 101.0, 143.0, 141.0), 0.9, source="t", class_probs=None),
+        make_detection("qr", (400.0, 400.0, 420.0, 420.0), 0.9, source="t", class_probs=None),
+    ]
+    assert match_detections(dets, vis) == [4, None]
+
+
+def _observation_samples(rng, n: int, noise_scale: float = 1.0) -> list[float]:
+    """NEES of localize's camera-frame covariance over n boxes drawn with the oracle's centre
+    noise and the D435's depth noise (times ``noise_scale``), on a flat target."""
+    cfg = apply_overrides(load_config(), ["localize.extent_sigma_m={}"])
+    lc = cfg.localize
+    T_tc = make_transform(R_BODY_OPTICAL, [0.0, 0.0, 0.045])
+    out = []
+    for _ in range(n):
+        z = rng.uniform(0.8, 3.5)
+        w = rng.uniform(20.0, 90.0)
+        u, v = rng.uniform(100.0, 540.0), rng.uniform(100.0, 380.0)  # the true centre, pixel coordinates
+        s_u = center_sigma_px(w, a_px=CENTER_SIGMA_A_PX, b=CENTER_SIGMA_B)
+        s_z = depth_sigma_m(z, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
+        cu, cv = np.array([u, v]) + 0.5 + noise_scale * s_u * rng.standard_normal(2)
+        d = z + noise_scale * s_z * rng.standard_normal()
+        depth = np.full((K.height, K.width), d, np.float32)
+        frame = Frame(index=0, timestamp_s=0.0, rgb=None, intrinsics=K, depth_m=depth, pose=np.eye(4))
+        box = (cu - w / 2, cv - w / 2, cu + w / 2, cv + w / 2)
+        det = make_detection("qr", box, 0.9, source="t", class_probs=None)
+        obs = localize(det, frame, cfg, T_tc)
+        out.append(nees(obs.position_cam - deproject_pixel_to_point(K, u, v, z), obs.Sigma_c))
+    return out
+
+
+def test_observation_r_is_consistent_with_the_noise_it_models():
+    """The chain box centre + depth -> camera point ([Avevor2022] 2.2.2) with the oracle's noise:
+    the mean NEES lies in its 99% interval; noise twice what R says (R 4x too small) does not."""
+    n = 300
+    ok = _observation_samples(np.random.default_rng(11), n)
+    lo, hi = chi2_interval(n, 3)
+    assert lo <= np.mean(ok) <= hi
+    loud = _observation_samples(np.random.default_rng(11), n, noise_scale=2.0)
+    assert np.mean(loud) > hi
+
+
+def _track_samples(rng, n_objects: int, r_scale: float = 1.0) -> list[float]:
+    """End-of-track NEES of tracks fed 3-12 observations each, drawn from N(p, R_k) with
+    random R_k; the tracker is told ``r_scale`` R_k."""
+    out = []
+    for _ in range(n_objects):
+        p = rng.uniform(-5, 5, 3)
+        mu = Sigma = None
+        for _ in range(int(rng.integers(3, 13))):
+            A = rng.standard_normal((3, 3)) * rng.uniform(0.01, 0.1)
+            R = A @ A.T + 1e-4 * np.eye(3)
+            o = rng.multivariate_normal(p, R)
+            if mu is None:
+                mu, Sigma = o, r_scale * R  # init: observation (mu = o, Sigma = R)
+            else:
+                mu, Sigma = kalman_update(mu, Sigma, o, r_scale * R)
+        out.append(nees(mu - p, Sigma))
+    return out
+
+
+def test_track_sigma_is_consistent_with_its_error():
+    n = 300
+    lo, hi = chi2_interval(n, 3)
+    assert lo <= np.mean(_track_samples(np.random.default_rng(12), n)) <= hi
+    # R reported 4x too large makes the tracks' Sigma too large: mean NEES below the interval
+    assert np.mean(_track_samples(np.random.default_rng(12), n, r_scale=4.0)) < lo

@@ -1,0 +1,48 @@
+"""poi.estimation.slam_localizer: each landmark measurement is used once (the SLAM update, and
+the tracker with the pose before that update)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from poi.config import SlamConfig
+from poi.core.geometry import make_transform, planar_pose, rot_z
+from poi.core.types import Observation
+from poi.detectors.base import make_detection
+from poi.estimation.slam_localizer import SlamLocalizer
+
+
+def _obs(p_map, sigma=0.02) -> Observation:
+    det = make_detection("valve", (100.0, 100.0, 120.0, 120.0), 0.9, source="test", class_probs=None)
+    p = np.asarray(p_map, dtype=float)
+    return Observation(
+        detection=det,
+        timestamp_s=0.0,
+        position_map=p,
+        R=sigma**2 * np.eye(3),
+        position_cam=np.array([0.0, 0.0, 1.0]),
+        Sigma_c=sigma**2 * np.eye(3),
+        depth_m=1.0,
+    )
+
+
+def test_observations_are_mapped_with_the_pose_before_their_own_update():
+    loc = SlamLocalizer(SlamConfig(n_min=0))
+    T0 = np.eye(4)
+    loc.step(T0, [_obs([2.0, 0.0, 0.5])], 0.0)  # the valve becomes a landmark at (2, 0)
+    # odometry says the robot moved 0.5 m along x; the valve is seen 0.1 m off where the map has it
+    T1 = make_transform(rot_z(0.0), [0.5, 0.0, 0.0])
+    step = loc.step(T1, [_obs([2.1, 0.0, 0.5])], 0.1)
+    slam = loc.slam
+    before = np.array([0.5, 0.0, 0.0])  # the predicted pose: odometry exactly, the start being exact
+    after = planar_pose(step.pose)
+    assert after[0] < before[0] - 1e-3  # the update moved the robot back towards the valve's map position
+    # the observation keeps its place relative to the odometry pose, moved by the predicted pose
+    # (here the odometry pose itself), not by the updated one
+    assert step.observations[0].position_map == pytest.approx([2.1, 0.0, 0.5], abs=1e-6)
+    # (mapped with the updated pose it would have moved by the update: 2.1 - 0.08 m, towards the map)
+    # and its covariance holds the predicted pose's: R + J P J^T with P the predicted covariance,
+    # larger than the updated one
+    assert step.observations[0].R[0, 0] > 0.02**2
+    assert np.trace(slam.pose_covariance) < np.trace(step.observations[0].R)
