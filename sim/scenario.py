@@ -343,7 +343,7 @@ class DepthSpec:
     colour_offset_m: float = number(0.015, lo=0.0, hi=1.0)
     dropout: float = number(0.002, lo=0.0, hi=1.0, hi_open=True)  # fraction of pixels randomly invalid
     window_px: int = number(7, lo=1, hi=31)
-    fixed_pattern: float = number(0.4, lo=0.0, hi=10.0)
+    fixed_pattern: float = number(0.3, lo=0.0, hi=10.0)
     texture: bool = True
     texture_ref: float = number(0.02, lo=0.0, lo_open=True)
     projector_range_m: float = number(3.0, lo=0.0)

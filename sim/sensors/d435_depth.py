@@ -90,23 +90,33 @@ class DepthTrial:
         N(0, e^2 / 2), so the offset's RMS length is ``spec.registration_error_px`` = e."""
         fixed = None
         if spec.fixed_pattern > 0:
-            fixed = window_noise(rng.standard_normal(shape, dtype=np.float32), spec.window_px)
+            white = rng.standard_normal(white_shape(shape, spec.window_px), dtype=np.float32)
+            fixed = window_noise(white, spec.window_px)
         dx, dy = rng.normal(0.0, spec.registration_error_px / np.sqrt(2.0), size=2)
         return cls(fixed=fixed, offset_px=(float(dx), float(dy)), shift_px=(int(np.rint(dx)), int(np.rint(dy))))
 
 
+def white_shape(shape: tuple[int, int], window_px: int) -> tuple[int, int]:
+    """The white noise :func:`window_noise` needs for an image of ``shape``: one window wider."""
+    return (shape[0] + window_px - 1, shape[1] + window_px - 1)
+
+
 def window_noise(white: np.ndarray, window_px: int) -> np.ndarray:
     """Unit-variance noise correlated over a ``window_px`` square: the box mean of ``white``
-    (i.i.d. N(0, 1)) times ``window_px``. Neighbours ``k`` pixels apart along a row correlate
-    at 1 - k / window_px. Returns a new array; ``white`` is not changed.
+    (i.i.d. N(0, 1), of :func:`white_shape`) over each full window, times ``window_px``: an
+    image ``window_px - 1`` smaller than ``white`` each way. Neighbours ``k`` pixels apart
+    along a row correlate at 1 - k / window_px. ``white`` is not changed.
 
-    >>> w = window_noise(np.random.default_rng(0).standard_normal((300, 300), np.float32), 5)
-    >>> round(float(w[20:-20, 20:-20].std()), 1)
-    1.0
+    >>> w = window_noise(np.random.default_rng(0).standard_normal((306, 306), np.float32), 7)
+    >>> w.shape, round(float(w.std()), 1)
+    ((300, 300), 1.0)
     """
+    white = np.asarray(white, np.float32)
     if window_px <= 1:
-        return np.array(white, dtype=np.float32)
-    out = cv2.boxFilter(np.asarray(white, np.float32), -1, (window_px, window_px), borderType=cv2.BORDER_REFLECT)
+        return white.copy()
+    out = cv2.boxFilter(white, -1, (window_px, window_px), anchor=(0, 0), borderType=cv2.BORDER_CONSTANT)
+    h, w = white.shape[0] - window_px + 1, white.shape[1] - window_px + 1
+    out = out[:h, :w]
     out *= np.float32(window_px)
     return out
 
@@ -135,15 +145,16 @@ def disparity_noise(
 ) -> np.ndarray:
     """d = f B / z; d += sigma_d (n + fixed_pattern * fixed); quantise d to ``spec.subpixel``; z = f B / d.
 
-    ``std_normal`` supplies white N(0, 1) samples (e.g. from a ``NoisePool``; without it they
-    are drawn from ``rng``), averaged over ``spec.window_px`` (:func:`window_noise`);
+    ``std_normal`` supplies white N(0, 1) samples of :func:`white_shape` (e.g. from a
+    ``NoisePool``; without it they are drawn from ``rng``), averaged over ``spec.window_px``
+    (:func:`window_noise`);
     ``sigma_scale`` multiplies sigma_d per pixel (texture); ``fixed`` is the trial's fixed
     pattern (:class:`DepthTrial`).
     """
     fB = np.float32(spec.fx_depth_px * spec.baseline_m)
     z = np.asarray(z_m, dtype=np.float32)
     if std_normal is None:
-        std_normal = rng.standard_normal(z.shape, dtype=np.float32)
+        std_normal = rng.standard_normal(white_shape(z.shape, spec.window_px), dtype=np.float32)
     e = window_noise(std_normal, spec.window_px)
     if fixed is not None and spec.fixed_pattern > 0:
         e += np.float32(spec.fixed_pattern) * fixed
@@ -255,7 +266,8 @@ def simulate_depth(
         return from_z16(to_z16(out, spec.depth_unit_m), spec.depth_unit_m)
 
     def white() -> np.ndarray:
-        return rng.standard_normal(z.shape, dtype=np.float32) if pool is None else pool.take(rng, z.shape)
+        shape = white_shape(z.shape, spec.window_px)
+        return rng.standard_normal(shape, dtype=np.float32) if pool is None else pool.take(rng, shape)
 
     if trial is not None:
         z = shift_image(z, *trial.shift_px)
@@ -269,8 +281,9 @@ def simulate_depth(
             gray = shift_image(gray, *trial.shift_px)
         lin = decode_lut(gamma).astype(np.float32)[gray]
         q = texture_quality(lin, z, spec)
-        scale = np.clip(np.float32(1.0) / np.maximum(q, np.float32(1e-6)), 1.0, spec.max_noise_gain)
-        scale = scale.astype(np.float32)
+        # sigma_d grows as 1 / q below the reference, at most max_noise_gain times
+        scale = np.clip(q, np.float32(1.0 / spec.max_noise_gain), np.float32(1.0))
+        np.reciprocal(scale, out=scale)
         # holes where q < min_texture * exp(spread * m), m window-correlated N(0, 1)
         blobs = window_noise(white(), spec.window_px)
         blobs *= np.float32(HOLE_SPREAD)
