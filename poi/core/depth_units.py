@@ -44,4 +44,8 @@ def from_z16(counts: np.ndarray, depth_unit_m: float = DEPTH_UNIT_M) -> np.ndarr
     """float32 metres of uint16 ``counts`` of ``depth_unit_m`` (0 stays 0, no depth)."""
     if not depth_unit_m > 0:
         raise ValueError(f"depth_unit_m must be positive, got {depth_unit_m}")
-    return (np.asarray(counts).astype(np.float64) * depth_unit_m).astype(np.float32)
+    # dividing by counts per metre (1000 for 1 mm, exact in float32) rounds correctly: the
+    # nearest float32 to counts * unit, as float64 arithmetic would give, at float32 cost
+    z = np.asarray(counts).astype(np.float32)
+    z /= np.float32(1.0 / depth_unit_m)
+    return z
