@@ -41,8 +41,10 @@ Each effect is a ``DepthSpec`` setting (sim/scenario.py); in the order they appl
 7. **Z16.** Depth is rounded to counts of ``depth_unit_m`` (1 mm) as librealsense's Z16
    stream is, and handed on in metres (:mod:`poi.core.depth_units`).
 
-Cost: about 10 ms of one core per 640x480 frame with every effect on
-(``python bench/bench_depth.py``).
+Cost: 16 ms CPU per 640x480 frame with every effect on, against 5 ms for the earlier
+noise-shadow-dropout model, on the 2-core machine under a load of 42
+(``python bench/bench_depth.py --baseline OLD.py``); the sensor thread runs it beside the
+GL thread's render.
 
 References
 ----------
@@ -282,7 +284,7 @@ def simulate_depth(
         gray = cv2.cvtColor(np.asarray(rgb, np.uint8), cv2.COLOR_RGB2GRAY)
         if trial is not None:
             gray = shift_image(gray, *trial.shift_px)
-        lin = decode_lut(gamma).astype(np.float32)[gray]
+        lin = cv2.LUT(gray, decode_lut(gamma).astype(np.float32))  # (H, W) float32 linear luminance
         q = texture_quality(lin, z, spec)
         # sigma_d grows as 1 / q below the reference, at most max_noise_gain times
         scale = np.clip(q, np.float32(1.0 / spec.max_noise_gain), np.float32(1.0))
