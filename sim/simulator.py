@@ -69,7 +69,7 @@ from sim.sensors.d435_color import (
     meter,
     steady_state_exposure,
 )
-from sim.sensors.d435_depth import simulate_depth
+from sim.sensors.d435_depth import DepthTrial, simulate_depth
 from sim.sensors.noise_pool import NoisePool
 from sim.sensors.t265 import PoseTrack, simulate_t265
 from sim.sensors.thermal import thermal_image
@@ -260,6 +260,9 @@ class Simulation:
         self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
         self._pools: tuple[NoisePool | None, NoisePool | None] = (
             self._noise_pools() if sc.sensors.noise else (None, None)
+        )
+        self._depth_trial = DepthTrial.draw(
+            d.depth, (d.height, d.width), np.random.default_rng([sc.seed, SENSOR_STREAM, 10**9 + 2])
         )
         self._object_corners_world = self._object_geom_corners()
         self._model_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(
@@ -550,7 +553,17 @@ class Simulation:
         rgb = camera.render(rgb, exposure, lux, rng=rng, pool=colour_pool, motion_px=motion, effects=noise)
         depth = None
         if sens.d435.enabled:
-            depth = simulate_depth(z_true, sens.d435.depth, self.intrinsics.fx, rng, noise, depth_pool)
+            depth = simulate_depth(
+                z_true,
+                sens.d435.depth,
+                self.intrinsics.fx,
+                rng,
+                noise,
+                depth_pool,
+                rgb=raw.rgb,
+                gamma=camera.spec.gamma,
+                trial=self._depth_trial,
+            )
         seg = segmentation.result()
         thermal = None
         if seg.thermal_geoms is not None:

@@ -85,7 +85,7 @@ def cmd_render(args) -> int:
     from tqdm import tqdm
 
     from eval.scoring.truth import truth_rows, write_truth_csv
-    from sim.sensors.d435_depth import to_millimetres
+    from poi.core.depth_units import to_z16
     from sim.simulator import Simulation
 
     sc = resolve_scenario(args.scenario, args.seed, args.set, args.noise)
@@ -104,7 +104,9 @@ def cmd_render(args) -> int:
                 name = f"{k:06d}.png"
                 cv2.imwrite(str(out / "color" / name), cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2BGR))
                 if frame.depth_m is not None:
-                    cv2.imwrite(str(out / "depth" / name), to_millimetres(frame.depth_m))
+                    cv2.imwrite(
+                        str(out / "depth" / name), to_z16(frame.depth_m, sc.sensors.d435.depth.depth_unit_m)
+                    )
                 if frame.thermal_c is not None:
                     t8 = np.clip((frame.thermal_c - 15.0) * 4.0, 0, 255).astype(np.uint8)
                     cv2.imwrite(str(out / "thermal" / name), cv2.applyColorMap(t8, cv2.COLORMAP_INFERNO))

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from poi.core.depth_units import from_z16
 from poi.core.geometry import make_transform, matrix_to_quat_wxyz, quat_wxyz_to_matrix
 from poi.core.types import Intrinsics
 
@@ -161,7 +162,7 @@ def depth_of(msg, topic: str, depth_unit_m: float = 0.001) -> np.ndarray:
     ``depth_unit_m``, millimetres by default) or ``32FC1`` (metres; NaN read as 0) image."""
     enc = msg.encoding
     if enc in ("16UC1", "mono16"):
-        return (_pixels(msg, np.uint16, 1, topic).astype(np.float64) * depth_unit_m).astype(np.float32)
+        return from_z16(_pixels(msg, np.uint16, 1, topic), depth_unit_m)
     if enc == "32FC1":
         z = _pixels(msg, np.float32, 1, topic).copy()
         z[~np.isfinite(z)] = 0.0

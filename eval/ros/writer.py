@@ -49,6 +49,7 @@ from eval.ros.messages import (
     typestore,
 )
 from eval.ros.topics import FrameNames, Topics
+from poi.core.depth_units import to_z16
 from poi.core.geometry import invert_transform, make_transform, planar_pose, rot_z
 from poi.core.names import display_name
 from poi.core.types import Frame
@@ -265,7 +266,7 @@ class LogWriter:
         self._put(T.color, "sensor_msgs/msg/Image", t, image_msg(self.ts, t, n.color, f.rgb, "rgb8"))
         self._put(T.color_info, "sensor_msgs/msg/CameraInfo", t, camera_info_msg(self.ts, t, n.color, k))
         if f.depth_m is not None:
-            mm = np.clip(np.round(np.asarray(f.depth_m, np.float64) * 1000.0), 0, 65535).astype(np.uint16)
+            mm = to_z16(f.depth_m)
             self._put(T.depth, "sensor_msgs/msg/Image", t, image_msg(self.ts, t, n.depth, mm, "16UC1"))
             self._put(T.depth_info, "sensor_msgs/msg/CameraInfo", t, camera_info_msg(self.ts, t, n.depth, k))
         if f.thermal_c is not None and f.thermal_intrinsics is not None:

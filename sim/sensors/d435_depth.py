@@ -1,42 +1,171 @@
-"""D435 depth noise and holes, simulated in the disparity domain (docs/FACTS.md "D435 depth").
+"""D435 depth, aligned to the colour camera, as librealsense gives it (docs/FACTS.md "D435 depth").
 
-Stereo depth is z = f B / d for disparity d (pixels). Sub-pixel disparity noise
-sigma_d perturbs d; quantising d to 1/32 px and converting back gives a depth
-error whose standard deviation grows with the square of distance,
-sigma_z = z^2 sigma_d / (f B), without squaring sigma twice: Intel's RMS error
-formula, :func:`poi.core.sensor_noise.depth_sigma_m`, which the pipeline's
-covariance uses.
+Each effect is a ``DepthSpec`` setting (sim/scenario.py); in the order they apply:
 
-Invalid pixels read 0: beyond ``max_m``; in the occlusion shadow to the right
-of a depth edge, whose width in colour pixels is
-``fx_color * B * (1 / z_near - 1 / z_far)`` (what one camera sees and the other
-cannot); and a small random dropout (low-texture or specular spots). Below
-``min_m`` the values are wrong rather than 0, as on the real sensor.
+1. **Registration error.** The depth image sits ``registration_error_px`` (RMS, drawn once per
+   trial) off the colour image: an extrinsic calibration error of about 0.1 degree moves
+   every pixel about 1 px (**poibench**). Applied as a whole-pixel shift (nearest pixel).
+2. **Range.** z = f B / d for disparity d. The D4 matcher searches 126 disparities, so
+   closer than MinZ = f B / 126 it finds no match ([IntelTuning]: MinZ = focal length x
+   baseline / 126; 0.152 m at 640x480 with f = 384.2 px): those pixels read 0 by default,
+   as librealsense's default preset leaves them (``below_min: wrong`` gives a wrong match,
+   1.5-3 times too far, instead). Beyond ``max_m``, 0.
+3. **Texture, light and the projector.** Stereo matching needs contrast within its window:
+   the local standard deviation of the render's linear luminance over the
+   ``window_px`` x ``window_px`` window (so a dim scene has less of it), plus the IR
+   projector's dot pattern, worth ``texture_ref`` at ``projector_range_m`` and falling with
+   the square of the distance (its light spreads over z^2) ([IntelTuning],
+   [IntelProjectors]). Where the sum q (in units of ``texture_ref``) is below 1 the disparity
+   noise grows as 1 / q (at most ``max_noise_gain``); where it is below ``min_texture``
+   (times a per-pixel log-normal spread in blobs of the window's size) the pixel has no
+   depth. Saturated pixels (linear luminance above ``saturation``: specular highlights,
+   lamps) read 0. The reference levels are **poibench** judgements.
+4. **Flying pixels.** Where the 3x3 neighbourhood spans a depth step of more than
+   ``FLYING_STEP`` (relative), the matching window straddles the edge: with probability
+   ``flying_pixels`` the pixel reads a depth drawn uniformly between the two sides
+   (**poibench**'s model of the mixed depths stereo gives at edges).
+5. **Disparity noise.** White N(0, 1) noise averaged over the matching window (a box of
+   ``window_px``; scaled back to unit variance), so neighbours correlate (0.86 at one pixel
+   with a 7-px window), plus a fixed pattern of the same kind drawn once per trial,
+   ``fixed_pattern`` times as large: the per-pixel temporal sigma stays Intel's formula
+   sigma_z = z^2 sigma_d / (f B) (:func:`poi.core.sensor_noise.depth_sigma_m`), and the
+   spatial (plane-fit) RMS is about sqrt(1 + fixed_pattern^2) times it, at least the
+   temporal as on the real camera ([IntelTuning], [Keselman2017]). d is rounded to
+   ``subpixel`` (1/32 px) steps and converted back, which squares the distance once only.
+6. **Holes.** The stereo shadow: the left imager is the reference and the right one sits B
+   to its right, so the background just left of a near object is hidden from the right
+   imager; aligning depth to the colour camera, ``colour_offset_m`` further left, uncovers
+   more of it. Both fall left of the near object in the aligned image, together
+   ``fx_color * (B + colour_offset_m) * (1 / z_near - 1 / z_far)`` colour pixels wide
+   ([IntelD400], [IntelProjection]; derived in docs/FACTS.md). Then a random ``dropout``.
+7. **Z16.** Depth is rounded to counts of ``depth_unit_m`` (1 mm) as librealsense's Z16
+   stream is, and handed on in metres (:mod:`poi.core.depth_units`).
+
+Cost: 16 ms CPU per 640x480 frame with every effect on, against 5 ms for the earlier
+noise-shadow-dropout model, on the 2-core machine under a load of 42
+(``python bench/bench_depth.py --baseline OLD.py``); the sensor thread runs it beside the
+GL thread's render.
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [IntelD400] Intel Corporation, "Intel RealSense Product Family D400 Series" datasheet.
+.. [IntelTuning] A. Grunnet-Jepsen, J. N. Sweetser, J. Woodfill, "Tuning depth cameras for
+   best performance", Intel RealSense white paper.
+.. [IntelProjectors] A. Grunnet-Jepsen et al., "Projectors for Intel RealSense depth cameras
+   D4xx", Intel RealSense white paper.
+.. [IntelProjection] Intel RealSense, "Projection in RealSense SDK 2.0".
+.. [Keselman2017] L. Keselman, J. I. Woodfill, A. Grunnet-Jepsen, A. Bhowmik, "Intel
+   RealSense Stereoscopic Depth Cameras", IEEE CVPR Workshops, 2017.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import cv2
 import numpy as np
 
+from poi.core.depth_units import from_z16, to_z16
 from sim.scenario import DepthSpec
+from sim.sensors.d435_color import decode_lut
 from sim.sensors.noise_pool import NoisePool, two_sided_threshold
+
+FLYING_STEP = 0.05  # a 3x3 neighbourhood whose depths differ by more than 5% straddles an edge (poibench)
+HOLE_SPREAD = 0.5  # log-normal spread of the texture threshold, in blobs of the window (poibench)
+WRONG_FACTOR = (1.5, 3.0)  # below_min: wrong reads z times U(1.5, 3.0) (poibench)
+
+
+@dataclass(kw_only=True)
+class DepthTrial:
+    """What a D435 draws once per trial: its fixed-pattern disparity error and its
+    depth-to-colour registration offset."""
+
+    fixed: np.ndarray | None  # (H, W) float32 unit-variance window-correlated field
+    offset_px: tuple[float, float]  # drawn (dx, dy) registration error
+    shift_px: tuple[int, int]  # the whole-pixel shift applied, (dx, dy) rounded
+
+    @classmethod
+    def draw(cls, spec: DepthSpec, shape: tuple[int, int], rng: np.random.Generator) -> DepthTrial:
+        """Fixed pattern (when ``spec.fixed_pattern`` > 0), then the offset: each axis
+        N(0, e^2 / 2), so the offset's RMS length is ``spec.registration_error_px`` = e."""
+        fixed = None
+        if spec.fixed_pattern > 0:
+            white = rng.standard_normal(white_shape(shape, spec.window_px), dtype=np.float32)
+            fixed = window_noise(white, spec.window_px)
+        dx, dy = rng.normal(0.0, spec.registration_error_px / np.sqrt(2.0), size=2)
+        return cls(fixed=fixed, offset_px=(float(dx), float(dy)), shift_px=(int(np.rint(dx)), int(np.rint(dy))))
+
+
+def white_shape(shape: tuple[int, int], window_px: int) -> tuple[int, int]:
+    """The white noise :func:`window_noise` needs for an image of ``shape``: one window wider."""
+    return (shape[0] + window_px - 1, shape[1] + window_px - 1)
+
+
+def window_noise(white: np.ndarray, window_px: int) -> np.ndarray:
+    """Unit-variance noise correlated over a ``window_px`` square: the box mean of ``white``
+    (i.i.d. N(0, 1), of :func:`white_shape`) over each full window, times ``window_px``: an
+    image ``window_px - 1`` smaller than ``white`` each way. Neighbours ``k`` pixels apart
+    along a row correlate at 1 - k / window_px. ``white`` is not changed.
+
+    >>> w = window_noise(np.random.default_rng(0).standard_normal((306, 306), np.float32), 7)
+    >>> w.shape, round(float(w.std()), 1)
+    ((300, 300), 1.0)
+    """
+    white = np.asarray(white, np.float32)
+    if window_px <= 1:
+        return white.copy()
+    out = cv2.boxFilter(white, -1, (window_px, window_px), anchor=(0, 0), borderType=cv2.BORDER_CONSTANT)
+    h, w = white.shape[0] - window_px + 1, white.shape[1] - window_px + 1
+    out = out[:h, :w]
+    out *= np.float32(window_px)
+    return out
+
+
+def shift_image(img: np.ndarray, dx: int, dy: int) -> np.ndarray:
+    """``img`` moved ``dx`` pixels right and ``dy`` down; uncovered pixels read 0."""
+    if dx == 0 and dy == 0:
+        return img
+    H, W = img.shape[:2]
+    out = np.zeros_like(img)
+    if abs(dx) >= W or abs(dy) >= H:
+        return out
+    out[max(dy, 0) : H + min(dy, 0), max(dx, 0) : W + min(dx, 0)] = img[
+        max(-dy, 0) : H + min(-dy, 0), max(-dx, 0) : W + min(-dx, 0)
+    ]
+    return out
 
 
 def disparity_noise(
-    z_m: np.ndarray, spec: DepthSpec, rng: np.random.Generator, std_normal: np.ndarray | None = None
+    z_m: np.ndarray,
+    spec: DepthSpec,
+    rng: np.random.Generator,
+    std_normal: np.ndarray | None = None,
+    sigma_scale: np.ndarray | None = None,
+    fixed: np.ndarray | None = None,
 ) -> np.ndarray:
-    """d = f B / z; d += N(0, sigma_d^2); quantise d to ``spec.subpixel``; z = f B / d.
+    """d = f B / z; d += sigma_d (n + fixed_pattern * fixed); quantise d to ``spec.subpixel``; z = f B / d.
 
-    ``std_normal`` supplies the N(0, 1) samples (e.g. from a ``NoisePool``);
-    without it they are drawn from ``rng``.
+    ``std_normal`` supplies white N(0, 1) samples of :func:`white_shape` (e.g. from a
+    ``NoisePool``; without it they are drawn from ``rng``), averaged over ``spec.window_px``
+    (:func:`window_noise`);
+    ``sigma_scale`` multiplies sigma_d per pixel (texture); ``fixed`` is the trial's fixed
+    pattern (:class:`DepthTrial`).
     """
     fB = np.float32(spec.fx_depth_px * spec.baseline_m)
     z = np.asarray(z_m, dtype=np.float32)
     if std_normal is None:
-        std_normal = rng.standard_normal(z.shape, dtype=np.float32)
+        std_normal = rng.standard_normal(white_shape(z.shape, spec.window_px), dtype=np.float32)
+    e = window_noise(std_normal, spec.window_px)
+    if fixed is not None and spec.fixed_pattern > 0:
+        e += np.float32(spec.fixed_pattern) * fixed
+    e *= np.float32(spec.sigma_d_px)
+    if sigma_scale is not None:
+        e *= sigma_scale
     valid = z > 0
     d = np.divide(fB, z, out=np.zeros(z.shape, np.float32), where=valid)
-    d += std_normal * np.float32(spec.sigma_d_px)
+    d += e
     q = np.float32(spec.subpixel)
     d /= q
     np.rint(d, out=d)
@@ -45,28 +174,73 @@ def disparity_noise(
     return np.divide(fB, d, out=np.zeros(z.shape, np.float32), where=ok)
 
 
-def edge_shadow_mask(z_m: np.ndarray, fx_color_px: float, baseline_m: float) -> np.ndarray:
-    """Pixels in the occlusion shadow right of each depth edge (True = invalid).
+def edge_shadow_mask(
+    z_m: np.ndarray, fx_color_px: float, baseline_m: float, colour_offset_m: float = 0.0
+) -> np.ndarray:
+    """Pixels in the shadow left of each near object (True = invalid).
 
-    At a left-to-right step from a near surface z_n to a far one z_f the shadow
-    spans w = f B (1/z_n - 1/z_f) pixels. Each edge's reach (column + w) is carried
-    along the row with a running maximum, so the whole mask costs a few array ops.
+    At a step from a far surface z_f (column e - 1) to a near one z_n (column e) the
+    shadow covers w = fx (B + b) (1/z_n - 1/z_f) pixels left of the edge: columns c with
+    c + 1 > e - w (B the stereo baseline, b the colour camera's offset to the left of the
+    reference imager). Each edge's reach is carried leftwards along the row with a running
+    minimum, so the whole mask costs a few array ops.
     """
     z = np.asarray(z_m, dtype=np.float32)
     H, W = z.shape
     inv = np.divide(np.float32(1.0), z, out=np.zeros((H, W), np.float32), where=z > 1e-6)
-    # step between column x-1 (near) and x (far): positive 1/z drop, in pixels of shadow
+    # reach[:, c] for c < W - 1: the leftmost column the step between c (far) and c + 1 (near) shadows
     reach = np.empty((H, W), np.float32)
-    reach[:, 0] = -1.0
-    width = reach[:, 1:]
-    np.subtract(inv[:, :-1], inv[:, 1:], out=width)
-    width *= np.float32(fx_color_px * baseline_m)
+    reach[:, -1] = np.float32(W)
+    width = reach[:, :-1]
+    np.subtract(inv[:, 1:], inv[:, :-1], out=width)
+    width *= np.float32(fx_color_px * (baseline_m + colour_offset_m))
     cols = np.arange(W, dtype=np.float32)
     short = width <= 0.5
-    width += cols[1:]
-    width[short] = -1.0
-    np.maximum.accumulate(reach, axis=1, out=reach)
-    return reach > cols
+    np.subtract(cols[1:], width, out=width)  # e - w with e = c + 1
+    width[short] = np.float32(W)
+    flipped = reach[:, ::-1]
+    np.minimum.accumulate(flipped, axis=1, out=flipped)
+    return reach < cols + 1
+
+
+def texture_quality(lin: np.ndarray, z_m: np.ndarray, spec: DepthSpec) -> np.ndarray:
+    """q: the matching window's contrast in units of ``spec.texture_ref``: the local std of the
+    linear luminance ``lin`` over the window plus the projector's (projector_range_m / z)^2."""
+    k = (spec.window_px, spec.window_px) if spec.window_px > 1 else (3, 3)
+    mean = cv2.boxFilter(lin, -1, k, borderType=cv2.BORDER_REFLECT)
+    mean2 = cv2.sqrBoxFilter(lin, cv2.CV_32F, k, borderType=cv2.BORDER_REFLECT)
+    mean *= mean
+    mean2 -= mean
+    np.maximum(mean2, 0.0, out=mean2)
+    q = np.sqrt(mean2)
+    q *= np.float32(1.0 / spec.texture_ref)
+    if spec.projector_range_m > 0:
+        z = np.maximum(np.asarray(z_m, np.float32), np.float32(1e-3))
+        proj = np.float32(spec.projector_range_m) / z
+        proj *= proj
+        q += proj
+    return q
+
+
+def flying_pixels(
+    z_m: np.ndarray, valid: np.ndarray, spec: DepthSpec, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) and depths of the pixels at depth edges that read a mix of both sides."""
+    z = np.asarray(z_m, np.float32)
+    k = np.ones((3, 3), np.uint8)
+    zmin = cv2.erode(z, k, borderType=cv2.BORDER_REPLICATE)
+    zmax = cv2.dilate(z, k, borderType=cv2.BORDER_REPLICATE)
+    zmin *= np.float32(1.0 + FLYING_STEP)
+    ys, xs = np.nonzero(zmax > zmin)  # a few percent of the pixels: the rest is done on them
+    zmin /= np.float32(1.0 + FLYING_STEP)
+    keep = valid[ys, xs] & (zmin[ys, xs] > 0)
+    ys, xs = ys[keep], xs[keep]
+    pick = rng.random(len(ys)) < spec.flying_pixels
+    ys, xs = ys[pick], xs[pick]
+    lo = zmin[ys, xs]
+    hi = np.minimum(zmax[ys, xs], np.float32(spec.max_m))
+    u = rng.random(len(ys)).astype(np.float32)
+    return (ys, xs), lo + u * np.maximum(hi - lo, 0)
 
 
 def simulate_depth(
@@ -76,35 +250,71 @@ def simulate_depth(
     rng: np.random.Generator,
     noise: bool,
     pool: NoisePool | None = None,
+    *,
+    rgb: np.ndarray | None = None,
+    gamma: float = 2.2,
+    trial: DepthTrial | None = None,
 ) -> np.ndarray:
-    """The aligned depth image the pipeline receives (float32 metres, 0 = invalid).
+    """The aligned depth image the pipeline receives (float32 metres on the Z16 grid, 0 = invalid).
 
-    With a ``pool`` the disparity noise and the dropout come from windows of
-    pre-drawn N(0, 1) samples (dropout where |n| exceeds the two-sided quantile
-    of ``spec.dropout``); the offsets come from ``rng``.
+    ``z_true_m``: the render's z-depth seen from the colour camera; ``rgb``: the same
+    rasterisation's colour, display-encoded with ``gamma`` (without it every surface counts
+    as well textured and unsaturated); ``trial``: the trial's fixed pattern and registration
+    offset. With a ``pool`` the white noise comes from windows of pre-drawn N(0, 1) samples
+    (the dropout where |n| exceeds the two-sided quantile of ``spec.dropout``); the offsets
+    come from ``rng``.
     """
     z = np.asarray(z_true_m, dtype=np.float32)
+    zmin_m = np.float32(spec.min_range_m)
     if not noise or not spec.noise:
-        out = np.where((z >= spec.min_m) & (z <= spec.max_m), z, 0.0).astype(np.float32)
-        return out
-    out = disparity_noise(z, spec, rng, None if pool is None else pool.take(rng, z.shape))
-    invalid = z > spec.max_m
+        out = np.where((z >= zmin_m) & (z <= spec.max_m), z, np.float32(0.0)).astype(np.float32)
+        return from_z16(to_z16(out, spec.depth_unit_m), spec.depth_unit_m)
+
+    def white() -> np.ndarray:
+        shape = white_shape(z.shape, spec.window_px)
+        return rng.standard_normal(shape, dtype=np.float32) if pool is None else pool.take(rng, shape)
+
+    if trial is not None:
+        z = shift_image(z, *trial.shift_px)
+    in_range = (z > 0) & (z <= np.float32(spec.max_m))
+    invalid = ~in_range
+    near = in_range & (z < zmin_m)
+    scale = None
+    if spec.texture and rgb is not None:
+        gray = cv2.cvtColor(np.asarray(rgb, np.uint8), cv2.COLOR_RGB2GRAY)
+        if trial is not None:
+            gray = shift_image(gray, *trial.shift_px)
+        lin = cv2.LUT(gray, decode_lut(gamma).astype(np.float32))  # (H, W) float32 linear luminance
+        q = texture_quality(lin, z, spec)
+        # sigma_d grows as 1 / q below the reference, at most max_noise_gain times
+        scale = np.clip(q, np.float32(1.0 / spec.max_noise_gain), np.float32(1.0))
+        np.reciprocal(scale, out=scale)
+        # holes where q < min_texture * exp(spread * m), m window-correlated N(0, 1); only
+        # pixels with q below the threshold at m = 4 (all but 3e-5 of the draws) can be one
+        blobs = window_noise(white(), spec.window_px)
+        ys, xs = np.nonzero(q < np.float32(spec.min_texture * np.exp(4.0 * HOLE_SPREAD)))
+        if len(ys):
+            thresh = np.exp(np.float32(HOLE_SPREAD) * blobs[ys, xs]) * np.float32(spec.min_texture)
+            hole = q[ys, xs] < thresh
+            invalid[ys[hole], xs[hole]] = True
+        invalid |= lin > np.float32(spec.saturation)
+    z_in = z
+    if spec.flying_pixels > 0:
+        (ys, xs), mixed = flying_pixels(z, in_range & ~near, spec, rng)
+        if len(ys):
+            z_in = z.copy()
+            z_in[ys, xs] = mixed
+    out = disparity_noise(z_in, spec, rng, white(), scale, None if trial is None else trial.fixed)
     if spec.edge_holes:
-        invalid |= edge_shadow_mask(z, fx_color_px, spec.baseline_m)
+        invalid |= edge_shadow_mask(z, fx_color_px, spec.baseline_m, spec.colour_offset_m)
     if spec.dropout > 0:
         if pool is None:
             invalid |= rng.random(z.shape, dtype=np.float32) < np.float32(spec.dropout)
         else:
             invalid |= np.abs(pool.take(rng, z.shape)) > np.float32(two_sided_threshold(spec.dropout))
-    # below the minimum range the matcher finds a wrong disparity: a value well off the truth
-    near = (z > 0) & (z < spec.min_m)
-    if near.any():
-        out[near] = z[near] * rng.uniform(1.5, 3.0, size=int(near.sum())).astype(np.float32)
+    if spec.below_min == "zero":
+        invalid |= near
+    elif near.any():  # the matcher finds a wrong disparity: a value well off the truth
+        out[near] = z[near] * rng.uniform(*WRONG_FACTOR, size=int(near.sum())).astype(np.float32)
     out[invalid] = 0.0
-    return out
-
-
-def to_millimetres(depth_m: np.ndarray) -> np.ndarray:
-    """uint16 millimetres for file boundaries (0 stays 0; saturates at 65.535 m)."""
-    mm = np.round(np.asarray(depth_m, dtype=np.float64) * 1000.0)
-    return np.clip(mm, 0, 65535).astype(np.uint16)
+    return from_z16(to_z16(out, spec.depth_unit_m), spec.depth_unit_m)

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from poi.core.depth_units import to_z16
 from poi.core.geometry import make_transform, rot_z
 from poi.core.sensor_noise import depth_sigma_m
 from sim.scenario import DepthSpec, T265Spec, ThermalSpec
@@ -10,7 +11,6 @@ from sim.sensors.d435_depth import (
     disparity_noise,
     edge_shadow_mask,
     simulate_depth,
-    to_millimetres,
 )
 from sim.sensors.noise_pool import NoisePool, two_sided_threshold
 from sim.sensors.t265 import simulate_t265
@@ -70,16 +70,16 @@ def test_disparity_is_quantised_to_subpixel_steps():
 
 
 def test_edge_shadow_width_matches_stereo_geometry():
-    # near surface (1 m) on the left half, far (2 m) on the right: shadow of
-    # f B (1/1 - 1/2) = 612.4 * 0.05 * 0.5 = 15.3 px right of the edge
+    # far surface (2 m) on the left half, near (1 m) on the right: the shadow of
+    # f B (1/1 - 1/2) = 612.4 * 0.05 * 0.5 = 15.3 px falls left of the edge
     z = np.full((4, 100), 2.0, np.float32)
-    z[:, :50] = 1.0
+    z[:, 50:] = 1.0
     mask = edge_shadow_mask(z, 612.4, 0.05)
     cols = np.nonzero(mask[0])[0]
-    assert cols.min() == 50
-    assert cols.max() == 50 + 15  # reach 50 + 15.31 covers columns 50..65
-    # a far-to-near step casts no shadow
-    assert not edge_shadow_mask(z[:, ::-1].copy(), 612.4, 0.05)[:, :49].any()
+    assert cols.max() == 49
+    assert cols.min() == 50 - 16  # reach 50 - 15.31 touches columns 34..49
+    # a near-to-far step casts no shadow
+    assert not edge_shadow_mask(z[:, ::-1].copy(), 612.4, 0.05)[:, 51:].any()
 
 
 def test_simulate_depth_range_limits_and_clean_mode():
@@ -89,17 +89,17 @@ def test_simulate_depth_range_limits_and_clean_mode():
     assert clean.tolist() == [[0.0, 1.0, 5.0, 0.0]]
     noisy = simulate_depth(
         np.tile(z, (1, 1)),
-        DepthSpec(dropout=0.0, edge_holes=False),
+        DepthSpec(dropout=0.0, edge_holes=False, below_min="wrong"),
         612.4,
         np.random.default_rng(0),
         noise=True,
     )
     assert noisy[0, 3] == 0.0  # beyond 10 m: invalid
-    assert noisy[0, 0] > 0.15  # below min range: wrong, not zero
+    assert noisy[0, 0] > 0.15  # below min range: wrong, not zero (below_min: wrong)
 
 
 def test_millimetres_round_and_keep_zero():
-    assert to_millimetres(np.array([0.0, 1.2344, 1.2346])).tolist() == [0, 1234, 1235]
+    assert to_z16(np.array([0.0, 1.2344, 1.2346])).tolist() == [0, 1234, 1235]
 
 
 def _straight_line(n=2001, length_m=25.0):
