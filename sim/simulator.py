@@ -71,8 +71,9 @@ from sim.sensors.d435_color import (
 )
 from sim.sensors.d435_depth import simulate_depth
 from sim.sensors.noise_pool import NoisePool
-from sim.sensors.t265 import PoseTrack, simulate_t265
+from sim.sensors.t265 import PoseTrack, TrackingConditions, simulate_t265
 from sim.sensors.thermal import thermal_image
+from sim.sensors.tracking_conditions import drift_multiplier, scene_lux, texture_contrast
 from sim.sensors.wheel_odometry import simulate_wheel_odometry
 from sim.tour import plan_tour
 from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, World, build_world, door_gap_m, lux_of_decoded_one
@@ -229,6 +230,7 @@ class Simulation:
             duration = min(duration, sc.robot.max_duration_s)
         self.times_s = np.arange(0.0, duration + 1e-9, 1.0 / sc.sensors.fps)
         tilt = np.deg2rad(sc.robot.tilt_deg)
+        self._tilt_rad = tilt
         wheels = sc.sensors.pose_source == "wheels"
         if wheels:  # the tracker frame is the base, the camera fixed above it
             mounts = base_mount_transforms(self.mast_height_m, tilt, sc.sensors.mount)
@@ -246,15 +248,15 @@ class Simulation:
                 self.T_map_tracker_true, self.times_s, sc.sensors.wheel_odometry, rng, sc.sensors.noise
             )
         else:
+            self.tracking_conditions = self._tracking_conditions()
             self.pose_track = simulate_t265(
-                self.T_map_tracker_true, self.times_s, sc.sensors.t265, rng, sc.sensors.noise
+                self._tracker_poses, self.times_s, sc.sensors.t265, rng, sc.sensors.noise, self.tracking_conditions
             )
         self._temp_of_geom = self._geom_temperatures()
         col = sc.sensors.d435.colour
         self.colour_lux = self._decoded_one_lux(col)
         self._camera = ColourCamera(col, d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
         self._meters: dict[int, float] = {}  # frame index -> auto-exposure meter of its render
-        self._tilt_rad = tilt
         self._renderer: SceneRenderer | None = None
         self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
         self._pools: tuple[NoisePool | None, NoisePool | None] = (
@@ -320,6 +322,38 @@ class Simulation:
     @property
     def duration_s(self) -> float:
         return float(self.times_s[-1]) if len(self.times_s) else 0.0
+
+    # ------------------------------------------------------------------- T265
+    def _tracker_poses(self, t: np.ndarray) -> np.ndarray:
+        """True T_map_tracker at times ``t`` (n,): :func:`sim.route.rig_pose` for many times at once."""
+        t = np.asarray(t, dtype=float)
+        r = self.route
+        x, y, yaw = (np.interp(t, r.t_s, v) for v in (r.x_m, r.y_m, r.yaw_rad))
+        pan = np.array([r.pan(float(ti)) for ti in t])
+        n = len(t)
+        T_world_base = np.zeros((n, 4, 4))
+        c, sn = np.cos(yaw), np.sin(yaw)
+        T_world_base[:, 0, 0], T_world_base[:, 0, 1], T_world_base[:, 1, 0], T_world_base[:, 1, 1] = c, -sn, sn, c
+        T_world_base[:, 2, 2] = T_world_base[:, 3, 3] = 1.0
+        T_world_base[:, 0, 3], T_world_base[:, 1, 3] = x, y
+        cp, sp = np.cos(pan), np.sin(pan)
+        Rz_pan = np.zeros((n, 3, 3))
+        Rz_pan[:, 0, 0], Rz_pan[:, 0, 1], Rz_pan[:, 1, 0], Rz_pan[:, 1, 1], Rz_pan[:, 2, 2] = cp, -sp, sp, cp, 1.0
+        T_base_rig = np.zeros((n, 4, 4))
+        T_base_rig[:, :3, :3] = Rz_pan @ rot_y(-self._tilt_rad)
+        T_base_rig[:, 2, 3] = self.mast_height_m
+        T_base_rig[:, 3, 3] = 1.0
+        return self.T_map_world @ T_world_base @ T_base_rig @ self._T_rig_tracker
+
+    def _tracking_conditions(self) -> TrackingConditions:
+        """The T265's drift multiplier at the frame times, from the light and the wall and
+        floor textures where the tracker is (sim/sensors/tracking_conditions.py)."""
+        spec = self.scenario.sensors.t265.conditions
+        p_world = np.array([(self.T_world_map @ T)[:3, 3] for T in self.T_map_tracker_true])
+        m, d = self.world.model, self.world.data
+        lux = scene_lux(m, d, self.scenario.lighting, p_world)
+        contrast = texture_contrast(m, d, self.world.geom_object_id, p_world, spec.radius_m)
+        return TrackingConditions(t_s=self.times_s, multiplier=drift_multiplier(lux, contrast, spec))
 
     # ---------------------------------------------------------------- render
     def _geom_temperatures(self) -> np.ndarray:
