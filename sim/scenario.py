@@ -519,12 +519,30 @@ class WheelOdometrySpec:
 
 @dataclass(kw_only=True)
 class ThermalSpec:
+    """The thermal camera (sim/sensors/thermal.py; docs/FACTS.md "Thermal camera"; all
+    **poibench**'s choices). The air: ``ambient_c`` at ``reference_height_m``, warming by
+    ``vertical_gradient_c_per_m`` per metre up and changing by ``horizontal_gradient_c_per_m``
+    per metre along a direction drawn from the seed. Lamp panels at ``lamp_c``; metal reads
+    ``metal_emissivity`` of its own temperature and the rest from what it mirrors. Sensor:
+    NETD ``netd_k`` (per pixel and frame), optical blur ``blur_px``, fixed-pattern noise
+    ``fpn_sigma_k`` drifting by ``fpn_drift_k_per_min`` until the flat-field correction
+    every ``ffc_interval_s``.
+    """
+
     enabled: bool = True
     width: int = number(160, lo=1, hi=MAX_IMAGE_PX)
     height: int = number(120, lo=1, hi=MAX_IMAGE_PX)
-    ambient_c: float = 20.0
-    netd_k: float = 0.08
-    blur_px: float = 0.8
+    ambient_c: float = number(20.0, lo=-50.0, hi=60.0)
+    netd_k: float = number(0.08, lo=0.0)
+    blur_px: float = number(0.8, lo=0.0)
+    reference_height_m: float = 0.5
+    vertical_gradient_c_per_m: float = number(1.0, lo=-10.0, hi=10.0)
+    horizontal_gradient_c_per_m: float = number(0.2, lo=-10.0, hi=10.0)
+    lamp_c: float = number(40.0, lo=-50.0, hi=500.0)
+    metal_emissivity: float = number(0.1, lo=0.0, hi=1.0)
+    fpn_sigma_k: float = number(0.2, lo=0.0)
+    fpn_drift_k_per_min: float = number(0.1, lo=0.0)
+    ffc_interval_s: float = number(120.0, lo=0.0, lo_open=True)
 
     def __post_init__(self) -> None:
         if self.width < 1 or self.height < 1:

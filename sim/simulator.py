@@ -72,13 +72,14 @@ from sim.sensors.d435_color import (
 from sim.sensors.d435_depth import simulate_depth
 from sim.sensors.noise_pool import NoisePool
 from sim.sensors.t265 import PoseTrack, TrackingConditions, simulate_t265
-from sim.sensors.thermal import thermal_image
+from sim.sensors.thermal import ThermalScene, make_thermal_scene, surface_points, thermal_image
 from sim.sensors.tracking_conditions import drift_multiplier, scene_lux, texture_contrast
 from sim.sensors.wheel_odometry import simulate_wheel_odometry
 from sim.tour import plan_tour
 from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, World, build_world, door_gap_m, lux_of_decoded_one
 
 SENSOR_STREAM = 1
+THERMAL_STREAM = 3  # the thermal camera's per-run draws: gradient direction, fixed patterns
 ARENA_LIGHT_HEIGHT_M = 2.5  # the goal arena's lamps hang from a room's ceiling, not over low walls
 PREFETCH_FRAMES = 2  # frames rendered ahead by Simulation.frames()
 AE_CACHE_FRAMES = 16  # auto-exposure meters kept for the frames that follow
@@ -253,6 +254,7 @@ class Simulation:
                 self._tracker_poses, self.times_s, sc.sensors.t265, rng, sc.sensors.noise, self.tracking_conditions
             )
         self._temp_of_geom = self._geom_temperatures()
+        self._thermal_scene = self._make_thermal_scene() if sc.sensors.thermal.enabled else None
         col = sc.sensors.d435.colour
         self.colour_lux = self._decoded_one_lux(col)
         self._camera = ColourCamera(col, d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
@@ -356,14 +358,41 @@ class Simulation:
         return TrackingConditions(t_s=self.times_s, multiplier=drift_multiplier(lux, contrast, spec))
 
     # ---------------------------------------------------------------- render
+    def _geom_material_names(self) -> list[str]:
+        m = self.world.model
+        return [
+            (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MATERIAL, int(mid)) or "") if mid >= 0 else ""
+            for mid in m.geom_matid
+        ]
+
     def _geom_temperatures(self) -> np.ndarray:
-        ambient = self.scenario.sensors.thermal.ambient_c
-        temp = np.full(self.world.model.ngeom, ambient, dtype=np.float32)
+        """Each geom's own temperature (its object's, or a lamp panel's), NaN for "the air's
+        where it is" (sim/sensors/thermal.py)."""
+        temp = np.full(self.world.model.ngeom, np.nan)
         by_id = {o.id: o for o in self.objects}
-        for g, oid in enumerate(self.world.geom_object_id):
+        for g, (oid, mat) in enumerate(zip(self.world.geom_object_id, self._geom_material_names(), strict=True)):
             if oid >= 0 and by_id[int(oid)].temperature_c is not None:
                 temp[g] = by_id[int(oid)].temperature_c
+            elif mat == "hall_lamp":
+                temp[g] = self.scenario.sensors.thermal.lamp_c
         return temp
+
+    def _make_thermal_scene(self) -> ThermalScene:
+        """The thermal model's per-run scene: metal geoms (steel materials of things with no
+        temperature of their own), a static copy of the scene for reflected rays, and the
+        gradient direction and fixed patterns from the seed's thermal stream."""
+        m = self.world.model
+        metal = np.array(
+            [
+                "steel" in name and not np.isfinite(t)
+                for name, t in zip(self._geom_material_names(), self._temp_of_geom, strict=True)
+            ]
+        )
+        data = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, data)
+        w, h = self.maze.size_m
+        rng = np.random.default_rng([self.scenario.seed, THERMAL_STREAM])
+        return make_thermal_scene(self.scenario.sensors.thermal, rng, np.array([w / 2, h / 2]), metal, m, data)
 
     def _renderer_ready(self) -> SceneRenderer:
         if self._renderer is None:
@@ -587,7 +616,19 @@ class Simulation:
         seg = segmentation.result()
         thermal = None
         if seg.thermal_geoms is not None:
-            thermal = thermal_image(seg.thermal_geoms, self._temp_of_geom, sens.thermal, rng, noise)
+            h2, w2 = seg.thermal_geoms.shape
+            points = surface_points(z_true, self.intrinsics, self.T_world_map @ T_map_optical, w2, h2)
+            t_frame = float(self.times_s[k]) if T_map_rig is None else 0.0
+            thermal = thermal_image(
+                seg.thermal_geoms,
+                self._temp_of_geom,
+                sens.thermal,
+                rng,
+                noise,
+                scene=self._thermal_scene,
+                points=points,
+                t_s=t_frame,
+            )
         if T_map_rig is None:
             t_s, pose, confidence = float(self.times_s[k]), self.pose_track.poses[k], self.pose_track.confidence[k]
             T_map_tracker = self.T_map_tracker_true[k]

@@ -1,18 +1,149 @@
 """A low-resolution thermal camera registered to the colour camera.
 
-Every geom has a surface temperature (ambient unless its object has one: the
-heat source, dolls at body temperature). The thermal image is the
-segmentation render mapped through that table, area-averaged down to the
-thermal resolution (each thermal pixel integrates its footprint), blurred by
-the optics and given NETD noise. Degrees Celsius, float32.
+Every geom has a surface temperature: its object's own (the heat source; dolls at body
+temperature), a lamp's (``lamp_c``), or the air's where it stands. The air is not at one
+temperature (**poibench**'s model, docs/FACTS.md "Thermal camera"): warm air rises, so
+it warms by ``vertical_gradient_c_per_m`` per metre above ``reference_height_m``, and it
+changes by ``horizontal_gradient_c_per_m`` per metre along a direction drawn from the
+seed (a door, a heater at one end of the hall), zero at the arena's centre.
+
+Metal reflects most of the infrared it receives: a pixel on a metal geom reads
+e T_surface + (1 - e) T_reflected, with e = ``metal_emissivity`` and T_reflected the
+temperature of what the mirror direction (the view ray reflected about the surface
+normal, from the depth image) hits, by a ray cast in the scene (ambient if nothing).
+
+The image is the segmentation render mapped through those temperatures, area-averaged
+down to the thermal resolution (each thermal pixel integrates its footprint), blurred by
+the optics, with fixed-pattern noise and NETD noise. Fixed-pattern noise, per pixel and
+fixed for a run: F0 (standard deviation ``fpn_sigma_k``) plus a second pattern F1 (unit
+standard deviation) that grows at ``fpn_drift_k_per_min`` and is reset by the camera's
+flat-field correction every ``ffc_interval_s``. Degrees Celsius, float32.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
+import mujoco
 import numpy as np
 
+from poi.core.types import Intrinsics
 from sim.scenario import ThermalSpec
+
+RAY_OFFSET_M = 1e-3  # start reflected rays this far off the surface so they do not hit it
+
+
+@dataclass(kw_only=True)
+class ThermalScene:
+    """What the thermal model needs of a run's scene: drawn and computed once."""
+
+    gradient_dir: np.ndarray  # (2,) unit horizontal direction of the along-the-arena gradient (world)
+    centre_xy: np.ndarray  # (2,) where that gradient is zero (world)
+    fpn: np.ndarray  # (2, h, w): F0 (K) and the unit drift pattern F1
+    metal: np.ndarray  # (ngeom,) bool: geoms that mirror their surroundings
+    model: mujoco.MjModel | None = None  # the scene, for reflected rays (None: no reflections)
+    data: mujoco.MjData | None = None  # a copy of the scene's static state, for ray casts only
+
+
+def make_thermal_scene(
+    spec: ThermalSpec,
+    rng: np.random.Generator,
+    centre_xy: np.ndarray,
+    metal: np.ndarray,
+    model: mujoco.MjModel | None = None,
+    data: mujoco.MjData | None = None,
+) -> ThermalScene:
+    """Draw the gradient's direction and the fixed patterns (in this order) from ``rng``."""
+    a = rng.uniform(0.0, 2.0 * np.pi)
+    f0 = rng.standard_normal((spec.height, spec.width)) * spec.fpn_sigma_k
+    f1 = rng.standard_normal((spec.height, spec.width))
+    return ThermalScene(
+        gradient_dir=np.array([np.cos(a), np.sin(a)]),
+        centre_xy=np.asarray(centre_xy, dtype=float),
+        fpn=np.stack([f0, f1]).astype(np.float32),
+        metal=np.asarray(metal, dtype=bool),
+        model=model,
+        data=data,
+    )
+
+
+def air_temperature(p_world: np.ndarray, spec: ThermalSpec, scene: ThermalScene) -> np.ndarray:
+    """The ambient temperature at points (..., 3): ambient + vertical + horizontal gradients.
+
+    >>> spec = ThermalSpec(vertical_gradient_c_per_m=1.0, horizontal_gradient_c_per_m=0.5)
+    >>> sc = ThermalScene(gradient_dir=np.array([1.0, 0.0]), centre_xy=np.zeros(2),
+    ...                   fpn=np.zeros((2, 1, 1)), metal=np.zeros(0, bool))
+    >>> air_temperature(np.array([[2.0, 5.0, 1.5]]), spec, sc).tolist()
+    [22.0]
+    """
+    p = np.asarray(p_world, dtype=float)
+    along = (p[..., :2] - scene.centre_xy) @ scene.gradient_dir
+    return (
+        spec.ambient_c
+        + spec.vertical_gradient_c_per_m * (p[..., 2] - spec.reference_height_m)
+        + spec.horizontal_gradient_c_per_m * along
+    )
+
+
+def fixed_pattern(spec: ThermalSpec, scene: ThermalScene, t_s: float) -> np.ndarray:
+    """F0 + fpn_drift_k_per_min (time since the last flat-field correction, min) F1."""
+    since = (t_s % spec.ffc_interval_s) / 60.0
+    return scene.fpn[0] + np.float32(spec.fpn_drift_k_per_min * since) * scene.fpn[1]
+
+
+def surface_points(
+    z_m: np.ndarray, K: Intrinsics, T_world_optical: np.ndarray, width: int, height: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """World points and unit view rays (world), each (height, width, 3), of a ``width`` x
+    ``height`` image of the same camera, from the colour camera's z-depth ``z_m``."""
+    z = cv2.resize(z_m.astype(np.float32), (width, height), interpolation=cv2.INTER_NEAREST)
+    Ks = K.scaled(width, height)
+    u = (np.arange(width, dtype=np.float32) - np.float32(Ks.ppx)) / np.float32(Ks.fx)
+    v = (np.arange(height, dtype=np.float32) - np.float32(Ks.ppy)) / np.float32(Ks.fy)
+    rays = np.empty((height, width, 3), dtype=np.float32)
+    rays[..., 0], rays[..., 1], rays[..., 2] = u[None, :], v[:, None], 1.0
+    R, t = T_world_optical[:3, :3].astype(np.float32), T_world_optical[:3, 3].astype(np.float32)
+    P = (rays * z[..., None]) @ R.T + t
+    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
+    return P, rays @ R.T
+
+
+def surface_normals(P: np.ndarray, rays: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Unit normals (n, 3), facing the camera, at the ``mask`` pixels of a grid of world
+    points ``P`` (H, W, 3), from its neighbours (central differences)."""
+    ys, xs = np.nonzero(mask)
+    H, W = mask.shape
+    xa, xb = np.maximum(xs - 1, 0), np.minimum(xs + 1, W - 1)
+    ya, yb = np.maximum(ys - 1, 0), np.minimum(ys + 1, H - 1)
+    n = np.cross(P[ys, xb] - P[ys, xa], P[yb, xs] - P[ya, xs]).astype(float)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    d = rays[ys, xs]
+    return np.where((np.sum(n * d, axis=1) > 0)[:, None], -n, n)
+
+
+def reflected_temperature(
+    origins: np.ndarray,
+    directions: np.ndarray,
+    geom_temp_c: np.ndarray,
+    spec: ThermalSpec,
+    scene: ThermalScene,
+) -> np.ndarray:
+    """The temperature seen along rays (n, 3) from ``origins`` (n, 3): the hit geom's own
+    temperature, or the air's at the hit point where it has none (NaN in ``geom_temp_c``),
+    or the ambient where the ray leaves the scene."""
+    out = np.full(len(origins), spec.ambient_c, dtype=float)
+    if scene.model is None or scene.data is None:
+        return out
+    geomid = np.array([-1], dtype=np.int32)
+    for i, (o, d) in enumerate(zip(origins, directions, strict=True)):
+        dist = mujoco.mj_ray(scene.model, scene.data, o, d, None, 1, -1, geomid)
+        g = int(geomid[0])
+        if dist < 0 or g < 0:
+            continue
+        own = geom_temp_c[g]
+        out[i] = own if np.isfinite(own) else float(air_temperature(o + dist * d, spec, scene))
+    return out
 
 
 def thermal_image(
@@ -21,13 +152,36 @@ def thermal_image(
     spec: ThermalSpec,
     rng: np.random.Generator,
     noise: bool,
+    *,
+    scene: ThermalScene | None = None,
+    points: tuple[np.ndarray, np.ndarray] | None = None,
+    t_s: float = 0.0,
 ) -> np.ndarray:
-    """seg_geom: (H, W) int geom ids (-1 background); temp_of_geom: (ngeom,) deg C."""
-    lut = np.append(temp_of_geom.astype(np.float32), np.float32(spec.ambient_c))  # index -1 -> ambient
-    full = lut[seg_geom]
-    img = cv2.resize(full, (spec.width, spec.height), interpolation=cv2.INTER_AREA)
+    """seg_geom: (H, W) int geom ids (-1 background); temp_of_geom: (ngeom,) deg C, NaN for
+    "the air's where it is". ``points``: :func:`surface_points` of the (H, W) image (with
+    ``scene``: gradients and reflections; without: the air is ``ambient_c`` everywhere)."""
+    temps = np.append(temp_of_geom.astype(float), np.nan)  # index -1 -> the air's
+    full = temps[seg_geom]
+    air = np.isnan(full)
+    if scene is not None and points is not None:
+        P, ray = points
+        full[air] = air_temperature(P[air], spec, scene)
+        metal = (seg_geom >= 0) & scene.metal[np.maximum(seg_geom, 0)]
+        if metal.any():
+            d, n = ray[metal].astype(float), surface_normals(P, ray, metal)
+            mirror = d - 2.0 * np.sum(d * n, axis=1, keepdims=True) * n
+            t_refl = reflected_temperature(
+                P[metal].astype(float) + RAY_OFFSET_M * n, mirror, temp_of_geom, spec, scene
+            )
+            e = spec.metal_emissivity
+            full[metal] = e * full[metal] + (1.0 - e) * t_refl
+    else:
+        full[air] = spec.ambient_c
+    img = cv2.resize(full.astype(np.float32), (spec.width, spec.height), interpolation=cv2.INTER_AREA)
     if noise:
         if spec.blur_px > 0:
             img = cv2.GaussianBlur(img, (0, 0), spec.blur_px)
+        if scene is not None:
+            img = img + fixed_pattern(spec, scene, t_s)
         img = img + rng.standard_normal(img.shape, dtype=np.float32) * np.float32(spec.netd_k)
     return img.astype(np.float32)
