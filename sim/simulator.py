@@ -9,7 +9,8 @@ scoring, the oracle detector and datasets.
 Randomness: the scenario seed makes one ``np.random.Generator`` for building the
 world (maze and placement, or the goal arena's layout; lighting; T265 drift or wheel
 odometry errors) and, for sensor noise, one generator per frame from
-``SeedSequence([seed, 1, k])``, so frame k is the same whichever frames are rendered.
+``SeedSequence([seed, 1, k])``, so frame k is the same whichever frames are rendered;
+the thermal camera's fixed patterns and air gradient come from ``SeedSequence([seed, 3])``.
 
 Tracker frame: ``Frame.pose`` is the pose of the tracker frame, the T265 (mounted
 relative to the camera by ``sensors.mount``) or, with ``sensors.pose_source: wheels``,
@@ -244,6 +245,7 @@ class Simulation:
             self.T_map_world @ rig_pose(self.route, t, self.mast_height_m, tilt) for t in self.times_s
         ]
         self.T_map_tracker_true = [T @ T_rig_tracker for T in self._T_map_rig]
+        self.tracking_conditions: TrackingConditions | None = None  # the T265's only
         if wheels:
             self.pose_track: PoseTrack = simulate_wheel_odometry(
                 self.T_map_tracker_true, self.times_s, sc.sensors.wheel_odometry, rng, sc.sensors.noise
