@@ -73,7 +73,7 @@ from sim.sensors.d435_color import (
 from sim.sensors.d435_depth import simulate_depth
 from sim.sensors.noise_pool import NoisePool
 from sim.sensors.t265 import PoseTrack, TrackingConditions, simulate_t265
-from sim.sensors.thermal import ThermalScene, make_thermal_scene, surface_points, thermal_image
+from sim.sensors.thermal import ThermalScene, ThermalView, make_thermal_scene, thermal_image
 from sim.sensors.tracking_conditions import drift_multiplier, scene_lux, texture_contrast
 from sim.sensors.wheel_odometry import simulate_wheel_odometry
 from sim.tour import plan_tour
@@ -619,7 +619,7 @@ class Simulation:
         thermal = None
         if seg.thermal_geoms is not None:
             h2, w2 = seg.thermal_geoms.shape
-            points = surface_points(z_true, self.intrinsics, self.T_world_map @ T_map_optical, w2, h2)
+            view = ThermalView.from_depth(z_true, self.intrinsics, self.T_world_map @ T_map_optical, w2, h2)
             t_frame = float(self.times_s[k]) if T_map_rig is None else 0.0
             thermal = thermal_image(
                 seg.thermal_geoms,
@@ -628,7 +628,7 @@ class Simulation:
                 rng,
                 noise,
                 scene=self._thermal_scene,
-                points=points,
+                view=view,
                 t_s=t_frame,
             )
         if T_map_rig is None:

@@ -92,34 +92,69 @@ def fixed_pattern(spec: ThermalSpec, scene: ThermalScene, t_s: float) -> np.ndar
     return scene.fpn[0] + np.float32(spec.fpn_drift_k_per_min * since) * scene.fpn[1]
 
 
-def surface_points(
-    z_m: np.ndarray, K: Intrinsics, T_world_optical: np.ndarray, width: int, height: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """World points and unit view rays (world), each (height, width, 3), of a ``width`` x
-    ``height`` image of the same camera, from the colour camera's z-depth ``z_m``."""
-    z = cv2.resize(z_m.astype(np.float32), (width, height), interpolation=cv2.INTER_NEAREST)
-    Ks = K.scaled(width, height)
-    u = (np.arange(width, dtype=np.float32) - np.float32(Ks.ppx)) / np.float32(Ks.fx)
-    v = (np.arange(height, dtype=np.float32) - np.float32(Ks.ppy)) / np.float32(Ks.fy)
-    rays = np.empty((height, width, 3), dtype=np.float32)
-    rays[..., 0], rays[..., 1], rays[..., 2] = u[None, :], v[:, None], 1.0
-    R, t = T_world_optical[:3, :3].astype(np.float32), T_world_optical[:3, 3].astype(np.float32)
-    P = (rays * z[..., None]) @ R.T + t
-    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
-    return P, rays @ R.T
+@dataclass(kw_only=True)
+class ThermalView:
+    """Where the segmentation image's pixels lie: z-depth ``z_m`` (H, W) of a camera with
+    intrinsics ``K`` (of that size) at ``T_world_optical``."""
 
+    z_m: np.ndarray
+    K: Intrinsics
+    T_world_optical: np.ndarray
 
-def surface_normals(P: np.ndarray, rays: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Unit normals (n, 3), facing the camera, at the ``mask`` pixels of a grid of world
-    points ``P`` (H, W, 3), from its neighbours (central differences)."""
-    ys, xs = np.nonzero(mask)
-    H, W = mask.shape
-    xa, xb = np.maximum(xs - 1, 0), np.minimum(xs + 1, W - 1)
-    ya, yb = np.maximum(ys - 1, 0), np.minimum(ys + 1, H - 1)
-    n = np.cross(P[ys, xb] - P[ys, xa], P[yb, xs] - P[ya, xs]).astype(float)
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-    d = rays[ys, xs]
-    return np.where((np.sum(n * d, axis=1) > 0)[:, None], -n, n)
+    @classmethod
+    def from_depth(cls, z_m: np.ndarray, K: Intrinsics, T_world_optical: np.ndarray, width: int, height: int):
+        """The view of a ``width`` x ``height`` image of the same camera, from a z-depth image."""
+        z = cv2.resize(z_m.astype(np.float32), (width, height), interpolation=cv2.INTER_NEAREST)
+        return cls(z_m=z, K=K.scaled(width, height), T_world_optical=np.asarray(T_world_optical, float))
+
+    def _rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """(u', v') = ((u - ppx) / fx, (v - ppy) / fy) per column and row."""
+        H, W = self.z_m.shape
+        return (np.arange(W) - self.K.ppx) / self.K.fx, (np.arange(H) - self.K.ppy) / self.K.fy
+
+    def air_temperature(self, spec: ThermalSpec, scene: ThermalScene) -> np.ndarray:
+        """:func:`air_temperature` at every pixel's surface point. The air's temperature is
+        linear in the point, T = c + g . p, and p = R z (u', v', 1) + t, so per pixel it is
+        c + g . t + z (k . (u', v', 1)) with k = R^T g: no 3D points needed."""
+        g = np.array(
+            [
+                spec.horizontal_gradient_c_per_m * scene.gradient_dir[0],
+                spec.horizontal_gradient_c_per_m * scene.gradient_dir[1],
+                spec.vertical_gradient_c_per_m,
+            ]
+        )
+        c = (
+            spec.ambient_c
+            - spec.vertical_gradient_c_per_m * spec.reference_height_m
+            - spec.horizontal_gradient_c_per_m * float(scene.centre_xy @ scene.gradient_dir)
+        )
+        R, t = self.T_world_optical[:3, :3], self.T_world_optical[:3, 3]
+        k = R.T @ g
+        up, vp = self._rays()
+        per_ray = (k[0] * up[None, :] + k[1] * vp[:, None] + k[2]).astype(np.float32)
+        return np.float32(c + g @ t) + self.z_m * per_ray
+
+    def points(self, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """World points, unit normals facing the camera (from the neighbouring pixels' points)
+        and unit view rays, each (n, 3), of the ``mask`` pixels."""
+        H, W = mask.shape
+        up, vp = self._rays()
+        R, t = self.T_world_optical[:3, :3], self.T_world_optical[:3, 3]
+
+        def point(y: np.ndarray, x: np.ndarray) -> np.ndarray:
+            ray = np.stack([up[x], vp[y], np.ones(len(x))], axis=1)
+            return (ray * self.z_m[y, x, None]) @ R.T + t
+
+        ys, xs = np.nonzero(mask)
+        P = point(ys, xs)
+        du = point(ys, np.minimum(xs + 1, W - 1)) - point(ys, np.maximum(xs - 1, 0))
+        dv = point(np.minimum(ys + 1, H - 1), xs) - point(np.maximum(ys - 1, 0), xs)
+        n = np.cross(du, dv)
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+        d = np.stack([up[xs], vp[ys], np.ones(len(xs))], axis=1) @ R.T
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        n = np.where((np.sum(n * d, axis=1) > 0)[:, None], -n, n)
+        return P, n, d
 
 
 def reflected_temperature(
@@ -154,25 +189,22 @@ def thermal_image(
     noise: bool,
     *,
     scene: ThermalScene | None = None,
-    points: tuple[np.ndarray, np.ndarray] | None = None,
+    view: ThermalView | None = None,
     t_s: float = 0.0,
 ) -> np.ndarray:
     """seg_geom: (H, W) int geom ids (-1 background); temp_of_geom: (ngeom,) deg C, NaN for
-    "the air's where it is". ``points``: :func:`surface_points` of the (H, W) image (with
-    ``scene``: gradients and reflections; without: the air is ``ambient_c`` everywhere)."""
-    temps = np.append(temp_of_geom.astype(float), np.nan)  # index -1 -> the air's
+    "the air's where it is". ``view``: where each pixel's surface lies (with ``scene``:
+    gradients and reflections; without: the air is ``ambient_c`` everywhere)."""
+    temps = np.append(temp_of_geom.astype(np.float32), np.float32(np.nan))  # index -1 -> the air's
     full = temps[seg_geom]
     air = np.isnan(full)
-    if scene is not None and points is not None:
-        P, ray = points
-        full[air] = air_temperature(P[air], spec, scene)
+    if scene is not None and view is not None:
+        full[air] = view.air_temperature(spec, scene)[air]
         metal = (seg_geom >= 0) & scene.metal[np.maximum(seg_geom, 0)]
         if metal.any():
-            d, n = ray[metal].astype(float), surface_normals(P, ray, metal)
+            P, n, d = view.points(metal)
             mirror = d - 2.0 * np.sum(d * n, axis=1, keepdims=True) * n
-            t_refl = reflected_temperature(
-                P[metal].astype(float) + RAY_OFFSET_M * n, mirror, temp_of_geom, spec, scene
-            )
+            t_refl = reflected_temperature(P + RAY_OFFSET_M * n, mirror, temp_of_geom, spec, scene)
             e = spec.metal_emissivity
             full[metal] = e * full[metal] + (1.0 - e) * t_refl
     else:
