@@ -5,7 +5,8 @@ docs/FACTS.md "T265 tracking camera" gives the sources ([IntelT265]: 200 Hz pose
 visual-inertial tracker cannot observe its global position and yaw, while gravity
 keeps roll and pitch observable). The error model is **poibench**'s.
 
-The tracker samples its pose every 1 / ``rate_hz`` seconds. At sample i, with ds_i
+The tracker samples its pose every 1 / ``rate_hz`` seconds, at multiples of that period
+(its own clock, not the frames'). At sample i, with ds_i
 the distance travelled since the last sample and m_i >= 1 the drift multiplier of
 the scene there (:mod:`sim.sensors.tracking_conditions`; 1 where light and texture
 are good), the effective distance is dse_i = m_i ds_i and, with p_true the true
@@ -22,10 +23,11 @@ position and dp_i = p_true(i) - p_true(i - 1)::
 * r_i, q_i (roll, pitch): Gauss-Markov in distance, x_i = a x_i-1 + sqrt(1 - a^2) sigma n_i
   with a = exp(-dse_i / tilt_correlation_m): bounded at tilt_sigma_deg, not drifting;
 * J: false relocalisations (``jumps``: Poisson at rate_per_min m_i, N(0, sigma^2) in x, y)
-  and loop closures (``relocalise``): back at a place it passed min_gap_m or more of
-  travel ago, the tracker recognises it with probability ``probability`` / m_i at each
-  keyframe (one every ``keyframe_m`` of travel), and its position and yaw errors jump
-  back toward those of the earlier visit by ``strength`` (1: all the error gained since);
+  and loop closures (``relocalise``): back within radius_m of a place it passed min_gap_m
+  or more of travel ago, facing within max_heading_deg of the same way, the tracker
+  recognises it with probability ``probability`` / m_i at each keyframe (one every
+  ``keyframe_m`` of travel), and its position and yaw errors jump back toward those of
+  the earlier visit by ``strength`` (1: all the error gained since);
 * w_p, w_r: white jitter per sample (``jitter_m``, ``jitter_deg``).
 
 Frame k at time t_k gets the estimate of time t_k - latency_s, interpolated between
