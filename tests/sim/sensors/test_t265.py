@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from poi.core.geometry import make_transform, rot_z
-from sim.scenario import RelocaliseSpec, T265ConditionsSpec, T265Spec
+from sim.scenario import RelocaliseSpec, Scenario, ScenarioError, T265ConditionsSpec, T265Spec, apply_settings
 from sim.sensors.t265 import TrackingConditions, pose_interpolator, simulate_t265
 from sim.sensors.tracking_conditions import drift_multiplier
 
@@ -193,3 +193,20 @@ def test_scale_error_dropouts_clean_mode_and_determinism():
     assert [p.tobytes() if p is not None else None for p in a.poses] == [
         p.tobytes() if p is not None else None for p in b.poses
     ]
+
+
+@pytest.mark.parametrize(
+    "setting, message",
+    [
+        ("sensors.t265.latency_s=-1", "sensors.t265.latency_s: expected a value >= 0 and <= 1, got -1"),
+        ("sensors.t265.relocalise.probability=2", "sensors.t265.relocalise.probability: expected a value >= 0"),
+        ("sensors.t265.conditions.good_lux=0", "sensors.t265.conditions.good_lux: expected a value > 0, got 0"),
+        ("sensors.t265.dropouts.duration_s=[5, 1]", "duration_s: expected (shortest, longest), got [5.0, 1.0]"),
+        ("sensors.thermal.metal_emissivity=1.5", "sensors.thermal.metal_emissivity: expected a value >= 0"),
+        ("sensors.thermal.ffc_interval_s=0", "sensors.thermal.ffc_interval_s: expected a value > 0, got 0"),
+    ],
+)
+def test_bad_settings_are_refused_at_load_naming_the_field(setting, message):
+    with pytest.raises(ScenarioError) as err:
+        apply_settings(Scenario(), [setting])
+    assert message in str(err.value) and "\n" not in str(err.value)
