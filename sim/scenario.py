@@ -443,22 +443,87 @@ class D435Spec:
 
 @dataclass(kw_only=True)
 class JumpSpec:
-    rate_per_min: float = 0.0
-    sigma_m: float = 0.2
+    """False relocalisations: Poisson jumps of N(0, sigma_m^2) in x and y, at ``rate_per_min``
+    in good conditions (times the T265's drift multiplier where the scene is dim or bare)."""
+
+    rate_per_min: float = number(0.0, lo=0.0)
+    sigma_m: float = number(0.2, lo=0.0)
 
 
 @dataclass(kw_only=True)
 class DropoutSpec:
-    rate_per_min: float = 0.0
-    duration_s: tuple[float, float] = (3.0, 7.0)
+    rate_per_min: float = number(0.0, lo=0.0)
+    duration_s: tuple[float, float] = number((3.0, 7.0), lo=0.0)
+
+    def __post_init__(self) -> None:
+        if self.duration_s[0] > self.duration_s[1]:
+            raise ValueError(f"duration_s: expected (shortest, longest), got {list(self.duration_s)}")
+
+
+@dataclass(kw_only=True)
+class T265ConditionsSpec:
+    """How the scene's light and texture where the robot is scale the T265's drift
+    (sim/sensors/tracking_conditions.py; **poibench**'s model, docs/FACTS.md "T265 tracking camera").
+
+    The drift rate (and the false-jump rate) is multiplied by
+    1 + dim_gain * clip(1 - lux / good_lux, 0, 1) + bare_gain * clip(1 - contrast / good_contrast, 0, 1)
+    with ``lux`` the light the robot's lamp and the scene's lamps give where it is and
+    ``contrast`` the RMS contrast of the wall and floor textures around it.
+    """
+
+    good_lux: float = number(500.0, lo=0.0, lo_open=True)
+    dim_gain: float = number(2.0, lo=0.0)
+    good_contrast: float = number(0.12, lo=0.0, lo_open=True)
+    bare_gain: float = number(2.0, lo=0.0)
+    radius_m: float = number(1.5, lo=0.0, lo_open=True)  # walls this near the robot count
+
+
+@dataclass(kw_only=True)
+class RelocaliseSpec:
+    """Loop closure: back at a place it mapped ``min_gap_m`` or more of travel ago (within
+    ``radius_m``, heading within ``max_heading_deg``), the T265 recognises it with probability
+    ``probability`` / multiplier per keyframe (one every ``keyframe_m``), and its pose jumps back
+    toward the truth: ``strength`` of the error gained since that visit is removed.
+    **poibench**'s model of librealsense's relocalisation with pose jumping on ([T265Issues])."""
+
+    enabled: bool = True
+    radius_m: float = number(0.5, lo=0.0, lo_open=True)
+    min_gap_m: float = number(5.0, lo=0.0)
+    max_heading_deg: float = number(60.0, lo=0.0, hi=180.0)
+    probability: float = number(0.3, lo=0.0, hi=1.0)
+    strength: float = number(1.0, lo=0.0, hi=1.0)
+    keyframe_m: float = number(0.5, lo=0.0, lo_open=True)
 
 
 @dataclass(kw_only=True)
 class T265Spec:
+    """The T265 pose model (sim/sensors/t265.py; docs/FACTS.md "T265 tracking camera").
+
+    Per-axis drift, in distance travelled (times the conditions' multiplier): ``drift_fraction``
+    (x and y: a random walk whose size grows by this fraction of the distance, its direction
+    wandering), ``z_drift_fraction`` (z: a rate drawn once, N(0, this^2) metres per metre),
+    ``yaw_drift_deg_per_m`` (yaw: a bias of this size, its sign drawn once), ``tilt_sigma_deg``
+    and ``tilt_correlation_m`` (roll and pitch: bounded, a Gauss-Markov error of this standard
+    deviation and correlation length; gravity keeps them observable). Poses come at
+    ``rate_hz`` with white ``jitter_m`` / ``jitter_deg`` per sample; frame k gets the pose of
+    time t_k - ``latency_s`` (SE(3)-interpolated between samples), or that pose extrapolated
+    to t_k at the last samples' velocity with ``latency_extrapolate``.
+    """
+
     enabled: bool = True
-    drift_fraction: float = number(0.01, lo=0.0)  # position error grows ~1% of distance travelled
-    yaw_drift_deg_per_m: float = 0.1
-    scale_error: float = 0.0  # -0.2 means distances reported 20% short
+    drift_fraction: float = number(0.007, lo=0.0)
+    z_drift_fraction: float = number(0.002, lo=0.0)
+    yaw_drift_deg_per_m: float = number(0.08, lo=0.0)
+    tilt_sigma_deg: float = number(0.3, lo=0.0)
+    tilt_correlation_m: float = number(5.0, lo=0.0, lo_open=True)
+    scale_error: float = number(0.0, lo=-1.0, lo_open=True)  # -0.2 means distances reported 20% short
+    rate_hz: float = number(200.0, lo=1.0, hi=1000.0)
+    latency_s: float = number(0.01, lo=0.0, hi=1.0)
+    latency_extrapolate: bool = False
+    jitter_m: float = number(0.0005, lo=0.0)
+    jitter_deg: float = number(0.02, lo=0.0)
+    conditions: T265ConditionsSpec = field(default_factory=T265ConditionsSpec)
+    relocalise: RelocaliseSpec = field(default_factory=RelocaliseSpec)
     jumps: JumpSpec = field(default_factory=JumpSpec)
     dropouts: DropoutSpec = field(default_factory=DropoutSpec)
 
@@ -503,12 +568,30 @@ class WheelOdometrySpec:
 
 @dataclass(kw_only=True)
 class ThermalSpec:
+    """The thermal camera (sim/sensors/thermal.py; docs/FACTS.md "Thermal camera"; all
+    **poibench**'s choices). The air: ``ambient_c`` at ``reference_height_m``, warming by
+    ``vertical_gradient_c_per_m`` per metre up and changing by ``horizontal_gradient_c_per_m``
+    per metre along a direction drawn from the seed. Lamp panels at ``lamp_c``; metal reads
+    ``metal_emissivity`` of its own temperature and the rest from what it mirrors. Sensor:
+    NETD ``netd_k`` (per pixel and frame), optical blur ``blur_px``, fixed-pattern noise
+    ``fpn_sigma_k`` drifting by ``fpn_drift_k_per_min`` until the flat-field correction
+    every ``ffc_interval_s``.
+    """
+
     enabled: bool = True
     width: int = number(160, lo=1, hi=MAX_IMAGE_PX)
     height: int = number(120, lo=1, hi=MAX_IMAGE_PX)
-    ambient_c: float = 20.0
-    netd_k: float = 0.08
-    blur_px: float = 0.8
+    ambient_c: float = number(20.0, lo=-50.0, hi=60.0)
+    netd_k: float = number(0.08, lo=0.0)
+    blur_px: float = number(0.8, lo=0.0)
+    reference_height_m: float = 0.5
+    vertical_gradient_c_per_m: float = number(1.0, lo=-10.0, hi=10.0)
+    horizontal_gradient_c_per_m: float = number(0.2, lo=-10.0, hi=10.0)
+    lamp_c: float = number(40.0, lo=-50.0, hi=500.0)
+    metal_emissivity: float = number(0.1, lo=0.0, hi=1.0)
+    fpn_sigma_k: float = number(0.2, lo=0.0)
+    fpn_drift_k_per_min: float = number(0.1, lo=0.0)
+    ffc_interval_s: float = number(120.0, lo=0.0, lo_open=True)
 
     def __post_init__(self) -> None:
         if self.width < 1 or self.height < 1:

@@ -9,7 +9,8 @@ scoring, the oracle detector and datasets.
 Randomness: the scenario seed makes one ``np.random.Generator`` for building the
 world (maze and placement, or the goal arena's layout; lighting; T265 drift or wheel
 odometry errors) and, for sensor noise, one generator per frame from
-``SeedSequence([seed, 1, k])``, so frame k is the same whichever frames are rendered.
+``SeedSequence([seed, 1, k])``, so frame k is the same whichever frames are rendered;
+the thermal camera's fixed patterns and air gradient come from ``SeedSequence([seed, 3])``.
 
 Tracker frame: ``Frame.pose`` is the pose of the tracker frame, the T265 (mounted
 relative to the camera by ``sensors.mount``) or, with ``sensors.pose_source: wheels``,
@@ -71,13 +72,15 @@ from sim.sensors.d435_color import (
 )
 from sim.sensors.d435_depth import DepthTrial, simulate_depth
 from sim.sensors.noise_pool import NoisePool
-from sim.sensors.t265 import PoseTrack, simulate_t265
-from sim.sensors.thermal import thermal_image
+from sim.sensors.t265 import PoseTrack, TrackingConditions, simulate_t265
+from sim.sensors.thermal import ThermalScene, ThermalView, make_thermal_scene, thermal_image
+from sim.sensors.tracking_conditions import drift_multiplier, scene_lux, texture_contrast
 from sim.sensors.wheel_odometry import simulate_wheel_odometry
 from sim.tour import plan_tour
 from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, World, build_world, door_gap_m, lux_of_decoded_one
 
 SENSOR_STREAM = 1
+THERMAL_STREAM = 3  # the thermal camera's per-run draws: gradient direction, fixed patterns
 ARENA_LIGHT_HEIGHT_M = 2.5  # the goal arena's lamps hang from a room's ceiling, not over low walls
 PREFETCH_FRAMES = 2  # frames rendered ahead by Simulation.frames()
 AE_CACHE_FRAMES = 16  # auto-exposure meters kept for the frames that follow
@@ -230,6 +233,7 @@ class Simulation:
             duration = min(duration, sc.robot.max_duration_s)
         self.times_s = np.arange(0.0, duration + 1e-9, 1.0 / sc.sensors.fps)
         tilt = np.deg2rad(sc.robot.tilt_deg)
+        self._tilt_rad = tilt
         wheels = sc.sensors.pose_source == "wheels"
         if wheels:  # the tracker frame is the base, the camera fixed above it
             mounts = base_mount_transforms(self.mast_height_m, tilt, sc.sensors.mount)
@@ -242,20 +246,22 @@ class Simulation:
             self.T_map_world @ rig_pose(self.route, t, self.mast_height_m, tilt) for t in self.times_s
         ]
         self.T_map_tracker_true = [T @ T_rig_tracker for T in self._T_map_rig]
+        self.tracking_conditions: TrackingConditions | None = None  # the T265's only
         if wheels:
             self.pose_track: PoseTrack = simulate_wheel_odometry(
                 self.T_map_tracker_true, self.times_s, sc.sensors.wheel_odometry, rng, sc.sensors.noise
             )
         else:
+            self.tracking_conditions = self._tracking_conditions()
             self.pose_track = simulate_t265(
-                self.T_map_tracker_true, self.times_s, sc.sensors.t265, rng, sc.sensors.noise
+                self._tracker_poses, self.times_s, sc.sensors.t265, rng, sc.sensors.noise, self.tracking_conditions
             )
         self._temp_of_geom = self._geom_temperatures()
+        self._thermal_scene = self._make_thermal_scene() if sc.sensors.thermal.enabled else None
         col = sc.sensors.d435.colour
         self.colour_lux = self._decoded_one_lux(col)
         self._camera = ColourCamera(col, d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
         self._meters: dict[int, float] = {}  # frame index -> auto-exposure meter of its render
-        self._tilt_rad = tilt
         self._renderer: SceneRenderer | None = None
         self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
         self._pools: tuple[NoisePool | None, NoisePool | None] = (
@@ -325,15 +331,74 @@ class Simulation:
     def duration_s(self) -> float:
         return float(self.times_s[-1]) if len(self.times_s) else 0.0
 
+    # ------------------------------------------------------------------- T265
+    def _tracker_poses(self, t: np.ndarray) -> np.ndarray:
+        """True T_map_tracker at times ``t`` (n,): :func:`sim.route.rig_pose` for many times at once."""
+        t = np.asarray(t, dtype=float)
+        r = self.route
+        x, y, yaw = (np.interp(t, r.t_s, v) for v in (r.x_m, r.y_m, r.yaw_rad))
+        pan = np.array([r.pan(float(ti)) for ti in t])
+        n = len(t)
+        T_world_base = np.zeros((n, 4, 4))
+        c, sn = np.cos(yaw), np.sin(yaw)
+        T_world_base[:, 0, 0], T_world_base[:, 0, 1], T_world_base[:, 1, 0], T_world_base[:, 1, 1] = c, -sn, sn, c
+        T_world_base[:, 2, 2] = T_world_base[:, 3, 3] = 1.0
+        T_world_base[:, 0, 3], T_world_base[:, 1, 3] = x, y
+        cp, sp = np.cos(pan), np.sin(pan)
+        Rz_pan = np.zeros((n, 3, 3))
+        Rz_pan[:, 0, 0], Rz_pan[:, 0, 1], Rz_pan[:, 1, 0], Rz_pan[:, 1, 1], Rz_pan[:, 2, 2] = cp, -sp, sp, cp, 1.0
+        T_base_rig = np.zeros((n, 4, 4))
+        T_base_rig[:, :3, :3] = Rz_pan @ rot_y(-self._tilt_rad)
+        T_base_rig[:, 2, 3] = self.mast_height_m
+        T_base_rig[:, 3, 3] = 1.0
+        return self.T_map_world @ T_world_base @ T_base_rig @ self._T_rig_tracker
+
+    def _tracking_conditions(self) -> TrackingConditions:
+        """The T265's drift multiplier at the frame times, from the light and the wall and
+        floor textures where the tracker is (sim/sensors/tracking_conditions.py)."""
+        spec = self.scenario.sensors.t265.conditions
+        p_world = np.array([(self.T_world_map @ T)[:3, 3] for T in self.T_map_tracker_true])
+        m, d = self.world.model, self.world.data
+        lux = scene_lux(m, d, self.scenario.lighting, p_world)
+        contrast = texture_contrast(m, d, self.world.geom_object_id, p_world, spec.radius_m)
+        return TrackingConditions(t_s=self.times_s, multiplier=drift_multiplier(lux, contrast, spec))
+
     # ---------------------------------------------------------------- render
+    def _geom_material_names(self) -> list[str]:
+        m = self.world.model
+        return [
+            (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MATERIAL, int(mid)) or "") if mid >= 0 else ""
+            for mid in m.geom_matid
+        ]
+
     def _geom_temperatures(self) -> np.ndarray:
-        ambient = self.scenario.sensors.thermal.ambient_c
-        temp = np.full(self.world.model.ngeom, ambient, dtype=np.float32)
+        """Each geom's own temperature (its object's, or a lamp panel's), NaN for "the air's
+        where it is" (sim/sensors/thermal.py)."""
+        temp = np.full(self.world.model.ngeom, np.nan)
         by_id = {o.id: o for o in self.objects}
-        for g, oid in enumerate(self.world.geom_object_id):
+        for g, (oid, mat) in enumerate(zip(self.world.geom_object_id, self._geom_material_names(), strict=True)):
             if oid >= 0 and by_id[int(oid)].temperature_c is not None:
                 temp[g] = by_id[int(oid)].temperature_c
+            elif mat == "hall_lamp":
+                temp[g] = self.scenario.sensors.thermal.lamp_c
         return temp
+
+    def _make_thermal_scene(self) -> ThermalScene:
+        """The thermal model's per-run scene: metal geoms (steel materials of things with no
+        temperature of their own), a static copy of the scene for reflected rays, and the
+        gradient direction and fixed patterns from the seed's thermal stream."""
+        m = self.world.model
+        metal = np.array(
+            [
+                "steel" in name and not np.isfinite(t)
+                for name, t in zip(self._geom_material_names(), self._temp_of_geom, strict=True)
+            ]
+        )
+        data = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, data)
+        w, h = self.maze.size_m
+        rng = np.random.default_rng([self.scenario.seed, THERMAL_STREAM])
+        return make_thermal_scene(self.scenario.sensors.thermal, rng, np.array([w / 2, h / 2]), metal, m, data)
 
     def _renderer_ready(self) -> SceneRenderer:
         if self._renderer is None:
@@ -567,7 +632,19 @@ class Simulation:
         seg = segmentation.result()
         thermal = None
         if seg.thermal_geoms is not None:
-            thermal = thermal_image(seg.thermal_geoms, self._temp_of_geom, sens.thermal, rng, noise)
+            h2, w2 = seg.thermal_geoms.shape
+            view = ThermalView.from_depth(z_true, self.intrinsics, self.T_world_map @ T_map_optical, w2, h2)
+            t_frame = float(self.times_s[k]) if T_map_rig is None else 0.0
+            thermal = thermal_image(
+                seg.thermal_geoms,
+                self._temp_of_geom,
+                sens.thermal,
+                rng,
+                noise,
+                scene=self._thermal_scene,
+                view=view,
+                t_s=t_frame,
+            )
         if T_map_rig is None:
             t_s, pose, confidence = float(self.times_s[k]), self.pose_track.poses[k], self.pose_track.confidence[k]
             T_map_tracker = self.T_map_tracker_true[k]

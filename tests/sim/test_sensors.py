@@ -1,19 +1,17 @@
-"""Sensor models: depth noise statistics, edge shadows, T265 drift magnitude, thermal registration."""
+"""Sensor models: depth noise statistics, edge shadows, thermal registration (the T265: sensors/test_t265.py)."""
 
 import numpy as np
 import pytest
 
 from poi.core.depth_units import to_z16
-from poi.core.geometry import make_transform, rot_z
 from poi.core.sensor_noise import depth_sigma_m
-from sim.scenario import DepthSpec, T265Spec, ThermalSpec
+from sim.scenario import DepthSpec, ThermalSpec
 from sim.sensors.d435_depth import (
     disparity_noise,
     edge_shadow_mask,
     simulate_depth,
 )
 from sim.sensors.noise_pool import NoisePool, two_sided_threshold
-from sim.sensors.t265 import simulate_t265
 from sim.sensors.thermal import thermal_image
 
 
@@ -100,52 +98,6 @@ def test_simulate_depth_range_limits_and_clean_mode():
 
 def test_millimetres_round_and_keep_zero():
     assert to_z16(np.array([0.0, 1.2344, 1.2346])).tolist() == [0, 1234, 1235]
-
-
-def _straight_line(n=2001, length_m=25.0):
-    t = np.linspace(0, length_m / 0.3, n)
-    return [make_transform(np.eye(3), [length_m * i / (n - 1), 0.0, 0.5]) for i in range(n)], t
-
-
-def test_t265_drift_is_about_one_percent_of_distance():
-    T, t = _straight_line()
-    errs = []
-    for seed in range(40):
-        tr = simulate_t265(T, t, T265Spec(yaw_drift_deg_per_m=0.0), np.random.default_rng(seed), noise=True)
-        errs.append(tr.error_m[-1])
-    # the drift direction wanders, so |e| <= 1% of 25 m = 0.25 m, and on average is a good
-    # part of it; 40 runs put the mean well inside [0.12, 0.25]
-    assert max(errs) <= 0.25 + 1e-9
-    assert 0.12 < np.mean(errs) < 0.25
-
-
-def test_t265_scale_error_and_clean_mode():
-    T, t = _straight_line(101, 10.0)
-    spec = T265Spec(drift_fraction=0.0, yaw_drift_deg_per_m=0.0, scale_error=-0.2)
-    tr = simulate_t265(T, t, spec, np.random.default_rng(0), noise=True)
-    assert tr.poses[-1][0, 3] == pytest.approx(8.0)  # 10 m reported 20% short
-    clean = simulate_t265(T, t, spec, np.random.default_rng(0), noise=False)
-    assert np.allclose(clean.poses[-1], T[-1])
-
-
-def test_t265_dropouts_give_no_pose_and_low_confidence():
-    T, t = _straight_line(601, 20.0)
-    spec = T265Spec()
-    spec.dropouts.rate_per_min = 30.0
-    tr = simulate_t265(T, t, spec, np.random.default_rng(3), noise=True)
-    missing = [k for k, p in enumerate(tr.poses) if p is None]
-    assert missing, "30 dropouts a minute over a minute must drop some frames"
-    assert all(tr.confidence[k] == "low" for k in missing)
-
-
-def test_t265_yaw_drift_rotates_heading():
-    T, t = _straight_line(101, 10.0)
-    spec = T265Spec(drift_fraction=0.0, yaw_drift_deg_per_m=0.5)
-    tr = simulate_t265(T, t, spec, np.random.default_rng(0), noise=True)
-    R = tr.poses[-1][:3, :3]
-    yaw = np.degrees(np.arctan2(R[1, 0], R[0, 0]))
-    assert abs(yaw) == pytest.approx(5.0, abs=0.01)
-    assert np.allclose(rot_z(np.radians(yaw)), R)
 
 
 def test_thermal_image_sees_hot_geoms_against_ambient():
