@@ -65,7 +65,7 @@ class TrackerConfig:
     init: Literal["observation", "prior"] = "observation"
     mu0: tuple[float, float, float] = (0.0, 0.0, 1.0)
     Sigma0_diag: tuple[float, float, float] = number((100.0, 100.0, 4.0), lo=0.0, lo_open=True)
-    qr_requires_text: bool = True
+    qr_requires_text: bool = True  # a QR or Landolt-C track is confirmed only once it has text
 
     def __post_init__(self) -> None:
         for t, g in self.gates.items():

@@ -42,12 +42,14 @@ import numpy as np
 
 from poi.config import TrackerConfig
 from poi.core.assignment import optimal_assignment
+from poi.core.landolt import merge_orientation_votes
 from poi.core.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS
 from poi.core.types import Observation, TrackSnapshot
 from poi.estimation.covariance import Calibration
 
 N_CLASSES = len(CLASSES)
 HAZMAT_SLICE = slice(0, len(HAZMAT_LABELS))  # hazmat labels come first in CLASSES
+TEXT_TYPES = ("qr", "landolt-c")  # types whose text is read from pixels and voted on over frames
 
 
 class TrackerError(ValueError):
@@ -163,12 +165,15 @@ class Track:
 
     @property
     def text(self) -> str:
-        """QR: the most voted decoded string (ties: the first seen); hazmat: the argmax label."""
+        """QR: the most voted decoded string (ties: the first seen); hazmat: the argmax label;
+        Landolt-C: per ring, the direction read most often (poi.core.landolt.merge_orientation_votes)."""
         if self.type == "hazmat":
             return HAZMAT_LABELS[int(np.argmax(self.probs[HAZMAT_SLICE]))]
         if self.type == "qr" and self.text_votes:
             best = max(self.text_votes.values())
             return next(t for t, n in self.text_votes.items() if n == best)
+        if self.type == "landolt-c" and self.text_votes:
+            return merge_orientation_votes(self.text_votes)
         return ""
 
     @property
@@ -253,7 +258,7 @@ class Tracker:
             first_seen_s=t,
             last_seen_s=t,
         )
-        if det.type == "qr" and det.text:
+        if det.type in TEXT_TYPES and det.text:
             tr.text_votes[det.text] = 1
         self._next_id += 1
         self.tracks[tr.track_id] = tr
@@ -266,7 +271,7 @@ class Tracker:
         tr.probs = (tr.n_prob * tr.probs + q) / (tr.n_prob + 1)
         tr.n_prob += 1
         det = obs.detection
-        if tr.type == "qr" and det.text:
+        if tr.type in TEXT_TYPES and det.text:
             tr.text_votes[det.text] = tr.text_votes.get(det.text, 0) + 1
         tr.support += 1.0
         tr.n_detections += 1
@@ -275,7 +280,7 @@ class Tracker:
     def _ready(self, tr: Track) -> bool:
         if tr.n_detections < self.cfg.n_min or tr.max_std_m > self.cfg.settle_sigma_m:
             return False
-        return not (tr.type == "qr" and self.cfg.qr_requires_text and not tr.text)
+        return not (tr.type in TEXT_TYPES and self.cfg.qr_requires_text and not tr.text)
 
     def step(
         self,
