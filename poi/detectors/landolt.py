@@ -134,6 +134,7 @@ class LandoltReading:
 Ellipse = tuple[tuple[float, float], tuple[float, float], float]
 
 RHO_MAX = 1.15  # polar grid reaches past the outer edge, to the white card round it
+PROPOSAL_BLOCKS_PX = (31, 101)  # adaptive-threshold windows of the finder's proposals
 
 
 def _to_gray(rgb: np.ndarray) -> np.ndarray:
@@ -382,16 +383,19 @@ def propose_rings(
 ) -> list[tuple[float, float, float, float]]:
     """Boxes (x1, y1, x2, y2) of dark shapes in ``gray`` that could be a target's outer ring.
 
-    The image is thresholded against its local mean (``cv2.adaptiveThreshold``, a 31 px
-    window, 10 grey levels darker), so a black ring on a white card stands out under any
-    exposure. An outer contour is a candidate when its convex hull is an ellipse (hull area
+    The image is thresholded against its local mean (``cv2.adaptiveThreshold``, 10 grey
+    levels darker than the mean of a 31 px window, and again of a 101 px one: the small window
+    keeps a small blurred ring, the large one a ring whose stroke is wider than the small
+    window), so a black ring on a white card stands out under any exposure. An outer contour is a candidate when its convex hull is an ellipse (hull area
     within ``hull_fit_tol`` of the fitted ellipse's, axes ratio at least 0.5) at least
     ``min_diameter_px`` across, and it fills 35-100% of the hull (a C ring, about 60%, or a
     blurred one whose gap has closed). Largest first, at most ``max_candidates``.
     """
     g8 = np.clip(gray, 0, 255).astype(np.uint8)
-    dark = cv2.adaptiveThreshold(g8, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, 31, 10)
-    contours, _h = cv2.findContours(dark, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    contours: list[np.ndarray] = []
+    for block in PROPOSAL_BLOCKS_PX:
+        dark = cv2.adaptiveThreshold(g8, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, 10)
+        contours += cv2.findContours(dark, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)[0]
     min_area = math.pi * (min_diameter_px / 2.0) ** 2 * 0.35
     found: list[tuple[float, tuple[float, float, float, float]]] = []
     for c in contours:
@@ -412,7 +416,11 @@ def propose_rings(
         x, y, bw, bh = cv2.boundingRect(hull)
         found.append((hull_area, (float(x), float(y), float(x + bw), float(y + bh))))
     found.sort(key=lambda t: -t[0])
-    return [box for _a, box in found[:max_candidates]]
+    boxes: list[tuple[float, float, float, float]] = []
+    for _a, box in found:  # the two windows often find the same ring
+        if not any(_iou(box, b) > 0.8 for b in boxes):
+            boxes.append(box)
+    return boxes[:max_candidates]
 
 
 @register("landolt")
