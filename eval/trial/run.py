@@ -354,7 +354,10 @@ def run_trial(
         ]
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
-        sets = mount_sets + ["fiducials.enabled=true"] * wants_fiducials + list(pipeline_sets)
+        # and one that scores Landolt-C rings has Landolt-C targets reported once those rings read
+        rings = getattr(rules, "landolt_rings", None)
+        landolt_sets = [] if rings is None else [f"tracker.landolt_required_rings={list(rings)}"]
+        sets = mount_sets + ["fiducials.enabled=true"] * wants_fiducials + landolt_sets + list(pipeline_sets)
         cfg = _with_default_label_model(apply_overrides(cfg, sets), detector)
         replay = None
         if record is None:

@@ -386,8 +386,9 @@ def propose_rings(
     The image is thresholded against its local mean (``cv2.adaptiveThreshold``, 10 grey
     levels darker than the mean of a 31 px window, and again of a 101 px one: the small window
     keeps a small blurred ring, the large one a ring whose stroke is wider than the small
-    window), so a black ring on a white card stands out under any exposure. An outer contour is a candidate when its convex hull is an ellipse (hull area
-    within ``hull_fit_tol`` of the fitted ellipse's, axes ratio at least 0.5) at least
+    window), so a black ring on a white card stands out under any exposure. An outer
+    contour is a candidate when its convex hull is an ellipse (hull area within
+    ``hull_fit_tol`` of the fitted ellipse's, axes ratio at least 0.5) at least
     ``min_diameter_px`` across, and it fills 35-100% of the hull (a C ring, about 60%, or a
     blurred one whose gap has closed). Largest first, at most ``max_candidates``.
     """

@@ -17,8 +17,10 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    whose support falls below ``drop_support``, or not seen for ``t_max`` s ([Bouda2025]_
    2.2.5), is deleted. Confirmed tracks are never deleted.
 5. A tentative track is confirmed once it has ``n_min`` detections and the largest
-   standard deviation of Sigma is at most ``settle_sigma_m``; confirmed tracks get
-   report ids 0, 1, 2, ... in confirmation order.
+   standard deviation of Sigma is at most ``settle_sigma_m`` (a QR or Landolt-C track also
+   once it has text, a Landolt-C one once its rings read include
+   ``landolt_required_rings``); confirmed tracks get report ids 0, 1, 2, ... in
+   confirmation order.
 
 >>> mu, Sigma = kalman_update(np.zeros(3), np.eye(3), np.array([2.0, 0.0, 0.0]), np.eye(3))
 >>> mu.tolist(), np.diag(Sigma).tolist()
@@ -42,7 +44,7 @@ import numpy as np
 
 from poi.config import TrackerConfig
 from poi.core.assignment import optimal_assignment
-from poi.core.landolt import merge_orientation_votes
+from poi.core.landolt import merge_orientation_votes, parse_orientation_text
 from poi.core.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS
 from poi.core.types import Observation, TrackSnapshot
 from poi.estimation.covariance import Calibration
@@ -280,7 +282,14 @@ class Tracker:
     def _ready(self, tr: Track) -> bool:
         if tr.n_detections < self.cfg.n_min or tr.max_std_m > self.cfg.settle_sigma_m:
             return False
+        if tr.type == "landolt-c" and not self._landolt_rings_read(tr):
+            return False
         return not (tr.type in TEXT_TYPES and self.cfg.qr_requires_text and not tr.text)
+
+    def _landolt_rings_read(self, tr: Track) -> bool:
+        """Whether a Landolt-C track's rings read so far include ``landolt_required_rings``."""
+        rings = parse_orientation_text(tr.text) if tr.text else {}
+        return all(k in rings for k in self.cfg.landolt_required_rings)
 
     def step(
         self,
