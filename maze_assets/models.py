@@ -253,7 +253,15 @@ def _flat_texture(obj: PlacedObject, assets: SceneAssets) -> tuple[str, float]:
         digest = hashlib.sha1(obj.text.encode("utf-8")).hexdigest()[:12]
         key, draw = f"qr_{digest}", lambda: draw_qr(obj.text, TEXTURE_PX)
     elif obj.type == "landolt-c":
-        rings = parse_orientation_text(obj.text)
+        try:
+            rings = parse_orientation_text(obj.text)
+        except ValueError as e:
+            raise ModelError(f"object {obj.id} (landolt-c): {e}") from None
+        spec = LandoltSpec()
+        if sorted(rings) != list(range(1, spec.n_rings + 1)):
+            raise ModelError(
+                f"object {obj.id} (landolt-c): its text {obj.text!r} must give rings 1 to {spec.n_rings} once each"
+            )
         orient = [rings[k] for k in sorted(rings)]
         key = "landolt_" + "_".join(str(o) for o in orient)
         draw = lambda: draw_landolt(LandoltSpec(), orient, LANDOLT_TEXTURE_PX)  # noqa: E731
