@@ -69,7 +69,7 @@ from poi.core.landolt import (
 )
 from poi.core.types import Detection, Frame
 from poi.detectors.base import DetectorConfigError, make_detection, one_class_probs, register
-from poi.detectors.qr import _iou
+from poi.detectors.qr import box_iou
 
 
 @dataclass(kw_only=True, frozen=True)
@@ -419,7 +419,7 @@ def propose_rings(
     found.sort(key=lambda t: -t[0])
     boxes: list[tuple[float, float, float, float]] = []
     for _a, box in found:  # the two windows often find the same ring
-        if not any(_iou(box, b) > 0.8 for b in boxes):
+        if not any(box_iou(box, b) > 0.8 for b in boxes):
             boxes.append(box)
     return boxes[:max_candidates]
 
@@ -453,6 +453,8 @@ class LandoltFinder:
             )
         if int(self.max_candidates) < 1 or int(self.min_rings_read) < 1:
             raise DetectorConfigError("detector 'landolt': max_candidates and min_rings_read must be >= 1")
+        if not 0.0 <= float(self.dedupe_iou) <= 1.0:
+            raise DetectorConfigError(f"detector 'landolt': dedupe_iou must be in [0, 1], got {self.dedupe_iou}")
 
     def detect(self, frame: Frame) -> list[Detection]:
         gray = _to_gray(np.asarray(frame.rgb))
@@ -460,7 +462,7 @@ class LandoltFinder:
         cfg = LandoltReaderConfig()
         found: list[tuple[str, tuple[float, float, float, float]]] = []
         for box in propose_rings(gray, self.min_diameter_px, int(self.max_candidates)):
-            if any(_iou(box, b) > self.dedupe_iou or _inside(box, b) for _t, b in found):
+            if any(box_iou(box, b) > self.dedupe_iou or _inside(box, b) for _t, b in found):
                 continue
             reading = read_landolt(gray, box, cfg)
             if reading is None or reading.rings[0].orientation_deg is None:
