@@ -37,6 +37,14 @@ Reference points and extents, for a characteristic size ``s = obj.size_m``:
   the floor with its axis vertical and its cut face against the wall: from above, half a
   circle. The origin is on the axis (on the wall face) at half its length (floor at
   z = -0.25 m); one exact mesh (:func:`half_cylinder_mesh`), matte grey PVC.
+- landolt-c (the concentric Landolt-C target of the RMRC Sensor Cabinet and Linear Rail
+  Inspect tests, [RMRC2025]_; poi/core/landolt.py): a matte white card ``s`` square (the
+  rings' card, 64 mm for the default rings) printed with its rings (maze_assets.landolt,
+  ``LANDOLT_TEXTURE_PX``), drawn as a flat item. Its board or sensor cabinet
+  (``PlacedObject.holder``) is a body of its own (:func:`build_holder`, named
+  ``landolt_{holder}_{id}``, so only the card's pixels belong to the object): a plywood board
+  ``LANDOLT_BOARD_M`` on the wall, the card on its face; or a grey box open to the front,
+  ``LANDOLT_CABINET_M``, hung on the wall, the card on the inside of its back panel.
 
 >>> from maze_assets.mjcf import SceneAssets
 >>> from maze_assets.objects import PlacedObject
@@ -62,12 +70,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from maze_assets.hazmat import draw_hazmat, placard_style
+from maze_assets.landolt import draw_landolt
 from maze_assets.mjcf import SceneAssets, fmt
 from maze_assets.objects import PlacedObject
 from maze_assets.qr import QUIET_MODULES, draw_qr, qr_modules
 from maze_assets.signs import draw_exit_sign, draw_fire_extinguisher_sign
+from poi.core.landolt import LandoltSpec, parse_orientation_text
 
-FLAT_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign")
+FLAT_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign", "landolt-c")
 CARD_RGBA = (0.95, 0.95, 0.94, 1.0)  # the white card behind a flat item, and a QR page
 TEXTURE_PX = 256
 QUAD_OFFSET_M = 0.003  # the image floats this far in front of the wall face
@@ -96,6 +106,13 @@ FIDUCIAL_DIAMETER_M = (0.25, 0.35)
 FIDUCIAL_LENGTH_M = 0.50
 FIDUCIAL_RGBA = (0.62, 0.64, 0.66, 1.0)
 FIDUCIAL_SEGMENTS = 32
+# Landolt-C holders: a plywood board (width, height, thickness) on the wall; a sensor cabinet
+# (width, height, depth, wall thickness), a box open to the front hung on the wall.
+LANDOLT_TEXTURE_PX = 512  # ring 5's 0.33 mm gap is 2.6 texels of the 64 mm card
+LANDOLT_BOARD_M = (0.40, 0.30, 0.018)
+LANDOLT_BOARD_RGBA = (0.76, 0.62, 0.42, 1.0)  # light plywood
+LANDOLT_CABINET_M = (0.30, 0.30, 0.25, 0.012)
+LANDOLT_CABINET_RGBA = (0.35, 0.37, 0.40, 1.0)  # grey-painted sheet metal
 ARENA_SIZE_M: dict[str, float] = {
     "pillar-blue": PILLAR_HEIGHT_M,
     "pillar-red": PILLAR_HEIGHT_M,
@@ -253,6 +270,19 @@ def _flat_texture(obj: PlacedObject, assets: SceneAssets) -> tuple[str, float]:
     elif obj.type == "qr":
         digest = hashlib.sha1(obj.text.encode("utf-8")).hexdigest()[:12]
         key, draw = f"qr_{digest}", lambda: draw_qr(obj.text, TEXTURE_PX)
+    elif obj.type == "landolt-c":
+        try:
+            rings = parse_orientation_text(obj.text)
+        except ValueError as e:
+            raise ModelError(f"object {obj.id} (landolt-c): {e}") from None
+        spec = LandoltSpec()
+        if sorted(rings) != list(range(1, spec.n_rings + 1)):
+            raise ModelError(
+                f"object {obj.id} (landolt-c): its text {obj.text!r} must give rings 1 to {spec.n_rings} once each"
+            )
+        orient = [rings[k] for k in sorted(rings)]
+        key = "landolt_" + "_".join(str(o) for o in orient)
+        draw = lambda: draw_landolt(LandoltSpec(), orient, LANDOLT_TEXTURE_PX)  # noqa: E731
     elif obj.type == "exit-sign":
         key, draw = "exit_sign", lambda: draw_exit_sign(TEXTURE_PX)
     else:
@@ -567,6 +597,52 @@ def qr_side_m(text: str, module_m: float) -> float:
     """
     m = qr_modules(text).shape[0] + 2 * QUIET_MODULES
     return TEXTURE_PX / (TEXTURE_PX // m) * module_m
+
+
+def build_holder(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
+    """A Landolt-C target's board or sensor cabinet (module docstring) as a ``<body>`` of its own
+    named ``landolt_{holder}_{id}`` (no object owns its pixels), or None without a holder.
+
+    The body's origin is on the wall face behind the card (the card's reference point less
+    its standoff), its +x out of the wall."""
+    if obj.holder is None:
+        return None
+    yaw = obj.yaw
+    n = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    name = f"landolt_{obj.holder}_{obj.id}"
+    kw = {"contype": "0", "conaffinity": "0", "group": "0"}
+    if obj.holder == "board":
+        w, h, t = LANDOLT_BOARD_M
+        origin = obj.position - n * t
+        body = ET.Element("body", name=name, pos=fmt(origin), euler=fmt([0.0, 0.0, yaw]))
+        wood = _material(assets, "plywood", LANDOLT_BOARD_RGBA, specular=0.05, shininess=0.05)
+        ET.SubElement(
+            body,
+            "geom",
+            name=f"{name}_panel",
+            type="box",
+            material=wood,
+            pos=fmt([t / 2, 0.0, 0.0]),
+            size=fmt([t / 2, w / 2, h / 2]),
+            **kw,
+        )
+        return body
+    w, h, d, t = LANDOLT_CABINET_M
+    origin = obj.position - n * t
+    body = ET.Element("body", name=name, pos=fmt(origin), euler=fmt([0.0, 0.0, yaw]))
+    metal = _material(assets, "cabinet_grey", LANDOLT_CABINET_RGBA, specular=0.2, shininess=0.2)
+    panels = {  # (centre x, y, z), half sizes (x, y, z) in the body frame
+        "back": ((t / 2, 0.0, 0.0), (t / 2, w / 2, h / 2)),
+        "left": ((d / 2, -w / 2 + t / 2, 0.0), (d / 2, t / 2, h / 2)),
+        "right": ((d / 2, w / 2 - t / 2, 0.0), (d / 2, t / 2, h / 2)),
+        "top": ((d / 2, 0.0, h / 2 - t / 2), (d / 2, w / 2, t / 2)),
+        "bottom": ((d / 2, 0.0, -h / 2 + t / 2), (d / 2, w / 2, t / 2)),
+    }
+    for part, (pos, size) in panels.items():
+        ET.SubElement(
+            body, "geom", name=f"{name}_{part}", type="box", material=metal, pos=fmt(pos), size=fmt(size), **kw
+        )
+    return body
 
 
 def build_page(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:

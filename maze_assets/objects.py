@@ -20,6 +20,7 @@ import numpy as np
 from poi.core.names import TYPES
 
 MOUNTS = ("wall", "floor", "opening")
+LANDOLT_HOLDERS = ("board", "cabinet")
 
 _GEOM_RE = re.compile(r"^poi_(\d+)_([a-z\-]+)(?:_.*)?$")
 
@@ -58,12 +59,20 @@ class PlacedObject:
     # wall, not part of the object (maze_assets.models.build_page).
     page_m: tuple[float, float, float, float] | None = None
     module_m: float | None = None  # a QR code's module side, metres (None: whatever its size gives)
+    # What a Landolt-C target's card is fixed to (sim/placement.py, maze_assets.models.build_holder):
+    # None (the wall itself), "board" (a wooden board on the wall) or "cabinet" (the back of a
+    # sensor cabinet, a box open to the front hung on the wall); drawn apart from the object.
+    holder: str | None = None
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:
             raise ValueError(f"object {self.id}: unknown type {self.type!r}; expected one of {TYPES}")
         if self.mount not in MOUNTS:
             raise ValueError(f"object {self.id}: mount must be one of {MOUNTS}, got {self.mount!r}")
+        if self.holder is not None and (self.type != "landolt-c" or self.holder not in LANDOLT_HOLDERS):
+            raise ValueError(
+                f"object {self.id}: holder {self.holder!r} is for a landolt-c target, one of {LANDOLT_HOLDERS}"
+            )
         self.position = np.asarray(self.position, dtype=float).reshape(3)
 
     @property

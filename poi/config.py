@@ -65,9 +65,15 @@ class TrackerConfig:
     init: Literal["observation", "prior"] = "observation"
     mu0: tuple[float, float, float] = (0.0, 0.0, 1.0)
     Sigma0_diag: tuple[float, float, float] = number((100.0, 100.0, 4.0), lo=0.0, lo_open=True)
-    qr_requires_text: bool = True
+    qr_requires_text: bool = True  # a QR or Landolt-C track is confirmed only once it has text
+    landolt_required_rings: tuple[int, ...] = (3,)  # ...and a Landolt-C one once these rings read
 
     def __post_init__(self) -> None:
+        if any(isinstance(k, bool) or not isinstance(k, int) or k < 1 for k in self.landolt_required_rings):
+            raise FieldError(
+                "landolt_required_rings",
+                f"expected ring numbers >= 1 (1 = the outermost), got {list(self.landolt_required_rings)!r}",
+            )
         for t, g in self.gates.items():
             if t not in TYPES:
                 raise FieldError(f"gates.{t}", f"unknown type; expected one of {', '.join(TYPES)}")

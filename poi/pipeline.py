@@ -2,7 +2,9 @@
 
 Per frame (:meth:`Pipeline.process`):
 
-1. every detector's ``detect(frame)``; their detections are concatenated;
+1. every detector's ``detect(frame)``; their detections are concatenated; a Landolt-C
+   detection without text (a detector that gives boxes only) has its rings read from the
+   frame's pixels (poi.detectors.landolt.attach_landolt_text);
 2. a frame without a pose or a depth image stops here (``skipped_reason``): its
    detections get their QR text for display but nothing is localised or tracked;
 3. each detection is localised ([Avevor2022]_ 2.2-2.3); one without valid depth gives no
@@ -41,6 +43,7 @@ import numpy as np
 
 from poi.config import PipelineConfig, mount_matrix
 from poi.core.types import Detection, Frame, Observation, TrackSnapshot
+from poi.detectors.landolt import attach_landolt_text
 from poi.estimation.covariance import Calibration, load_calibration
 from poi.estimation.fiducials import FiducialMapper
 from poi.estimation.localize import localize
@@ -172,6 +175,8 @@ class Pipeline:
         detections: list[Detection] = []
         for det in self.detectors:
             detections.extend(det.detect(frame))
+        if frame.rgb.size and any(d.type == "landolt-c" and not d.text for d in detections):
+            detections = attach_landolt_text(frame.rgb, detections)
         t1 = time.perf_counter()
         timing["detect"] = 1e3 * (t1 - t0)
         reason = None

@@ -21,7 +21,9 @@ and false positives stay within the space; ``class_probs`` spread 1 - p over its
 other classes (0 elsewhere in :data:`poi.core.names.CLASSES`).
 
 QR text is left empty by default so the pipeline's QR reader decodes it from the
-pixels, as it would for a real detector (``qr_text: truth`` copies the truth).
+pixels, as it would for a real detector (``qr_text: truth`` copies the truth). In a world
+with Landolt-C targets the oracle knows their class too (:func:`target_confusion`); their
+text is always left empty: the pipeline reads the rings from the pixels.
 
 References
 ----------
@@ -43,6 +45,7 @@ from poi.core.names import (
     CLASSES,
     HAZMAT_LABELS,
     RESCUE_CLASSES,
+    TARGET_TYPES,
     class_to_identity,
     identity_to_class,
 )
@@ -115,9 +118,29 @@ def oracle_for(sim) -> OracleDetector:
     the TurtleBot goal arena)."""
     if sim.arena is not None:
         settings = OracleSettings(seed=sim.scenario.seed, classes=ARENA_TYPES, min_box_px=ARENA_MIN_BOX_PX)
+    elif any(o.type in TARGET_TYPES for o in sim.objects):
+        classes = RESCUE_CLASSES + TARGET_TYPES
+        settings = OracleSettings(seed=sim.scenario.seed, classes=classes, confusion=target_confusion(classes))
     else:
         settings = OracleSettings(seed=sim.scenario.seed)
     return OracleDetector(settings)
+
+
+def target_confusion(classes: tuple[str, ...]) -> np.ndarray:
+    """:func:`default_confusion` over ``classes`` with the Landolt-C target kept apart: no other
+    class is confused for it, and it is never confused (a ring target looks like nothing else).
+
+    >>> target_confusion(("door", "valve", "landolt-c")).tolist()
+    [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+    """
+    targets = [i for i, c in enumerate(classes) if c in TARGET_TYPES]
+    rest = tuple(c for c in classes if c not in TARGET_TYPES)
+    keep = [i for i, c in enumerate(classes) if c not in TARGET_TYPES]
+    M = np.zeros((len(classes), len(classes)))
+    M[np.ix_(keep, keep)] = default_confusion(rest)
+    for i in targets:
+        M[i, i] = 1.0
+    return M
 
 
 class OracleDetector:
@@ -179,6 +202,8 @@ class OracleDetector:
             typ, text = class_to_identity(self.classes[cls])
             if typ == "qr":
                 text = v.text if s.qr_text == "truth" and cls == actual else ""
+            elif typ in TARGET_TYPES:
+                text = ""  # read from the pixels by the pipeline
             box = (
                 float(np.clip(cx - w2 / 2, 0, W)),
                 float(np.clip(cy - h2 / 2, 0, H)),

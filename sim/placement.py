@@ -11,7 +11,10 @@ in pairs facing each other on walls") stand on the floor in pairs on the two opp
 a corridor cell, at the same place along it, each pair one pipe diameter drawn from
 250-350 mm (:func:`place_fiducials`). QR sheets (``objects.generate.qr_sheets``) are A4
 pages of codes in several module sizes on random wall faces at random heights
-(:func:`place_qr_sheets`).
+(:func:`place_qr_sheets`). Landolt-C targets (``counts.landolt-c``, ``objects.generate.landolt``;
+[RMRC2025]_ Sensor Cabinet and Linear Rail Inspect) hang on random wall faces at a height
+drawn from ``landolt.height_m``: on the wall itself, on a wooden board, or at the back of a
+sensor cabinet (:func:`place_landolt`); each ring's gap direction is drawn from the seed.
 
 References
 ----------
@@ -26,19 +29,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from maze_assets.landolt import card_side_mm
 from maze_assets.models import (
     ARENA_SIZE_M,
     BACKING_M,
     DOOR_PANELS,
     FIDUCIAL_DIAMETER_M,
     FIDUCIAL_LENGTH_M,
+    LANDOLT_BOARD_M,
+    LANDOLT_CABINET_M,
     door_height_m,
     door_panel_face_m,
     qr_side_m,
 )
 from maze_assets.objects import PlacedObject, fiducial_text
+from poi.core.landolt import LandoltSpec, orientation_text, random_orientations
 from poi.core.names import ARENA_TYPES, HAZMAT_LABELS
-from sim.scenario import ObjectsGenerate, ObjectSpec, QrSheets, Scenario
+from sim.scenario import LandoltTargets, ObjectsGenerate, ObjectSpec, QrSheets, Scenario
 
 RRL_CELL_M = 1.2
 
@@ -84,6 +91,8 @@ def default_size(type_: str, maze) -> float:
         return ARENA_SIZE_M[type_]
     if type_ == "fiducial":  # a real pipe: the middle of the rulebook's 250-350 mm
         return sum(FIDUCIAL_DIAMETER_M) / 2
+    if type_ == "landolt-c":  # a real print: the card of the rulebook's ring sizes (poi/core/landolt.py)
+        return card_side_mm(LandoltSpec()) / 1000
     return SIZE_AT_RRL_M[type_] * _scale(maze)
 
 
@@ -124,8 +133,10 @@ def object_at_face(
     size_m: float,
     maze,
     temperature_c: float | None,
+    holder: str | None = None,
 ) -> PlacedObject:
-    """Build a PlacedObject on/against a wall face (see module doc for each type's reference point)."""
+    """Build a PlacedObject on/against a wall face (see module doc for each type's reference point);
+    ``holder`` is a Landolt-C target's board or cabinet (None: on the wall)."""
     n = np.asarray(face.normal_xy, dtype=float)
     base = np.asarray(face.center_xy, dtype=float) + _along(n) * offset_m
     s = _scale(maze)
@@ -151,6 +162,10 @@ def object_at_face(
     elif type_ == "fiducial":  # standing on the floor, its cut face on the wall face
         pos = np.array([base[0], base[1], FIDUCIAL_LENGTH_M / 2])
         mount = "wall"
+    elif type_ == "landolt-c":  # the card's centre; a holder puts it out from the wall
+        xy = base + n * landolt_standoff_m(holder)
+        pos = np.array([xy[0], xy[1], height_m])
+        mount = "wall"
     else:
         raise PlacementError(f"object {obj_id}: type {type_!r} is not placed on a wall face")
     return PlacedObject(
@@ -163,7 +178,82 @@ def object_at_face(
         size_m=size_m,
         temperature_c=temperature_c,
         wall=face.wall,
+        holder=holder,
     )
+
+
+def landolt_standoff_m(holder: str | None) -> float:
+    """How far a Landolt-C card's face stands out from its wall face: the board's thickness,
+    or the cabinet's back panel (maze_assets.models); 0 on the wall itself."""
+    if holder == "board":
+        return LANDOLT_BOARD_M[2]
+    if holder == "cabinet":
+        return LANDOLT_CABINET_M[3]
+    return 0.0
+
+
+def landolt_extent_m(holder: str | None) -> tuple[float, float]:
+    """(width, height) a Landolt-C target takes on its wall: its card, board or cabinet."""
+    if holder == "board":
+        return LANDOLT_BOARD_M[0], LANDOLT_BOARD_M[1]
+    if holder == "cabinet":
+        return LANDOLT_CABINET_M[0], LANDOLT_CABINET_M[1]
+    side = default_size("landolt-c", None)
+    return side, side
+
+
+def landolt_text(rng: np.random.Generator) -> str:
+    """A target's truth text: a gap direction per ring drawn from ``rng`` (poi.core.landolt)."""
+    spec = LandoltSpec()
+    return orientation_text(random_orientations(spec.n_rings, rng))
+
+
+def place_landolt(
+    n: int,
+    opts: LandoltTargets,
+    maze,
+    rng: np.random.Generator,
+    objects: list[PlacedObject],
+    min_spacing_m: float,
+) -> None:
+    """Append ``n`` Landolt-C targets to ``objects``: ``opts.cabinets`` in sensor cabinets, then
+    ``opts.boards`` on boards, the rest on the wall (module docstring).
+
+    Each takes a random wall face long enough for its holder, a random place along it, a height
+    in ``opts.height_m`` (kept on the wall), and keeps ``min_spacing_m`` from every object
+    placed before; its text is its rings' gap directions (:func:`landolt_text`).
+    """
+    holders = ["cabinet"] * opts.cabinets + ["board"] * opts.boards + [None] * (n - opts.cabinets - opts.boards)
+    wall_h = maze.settings.wall_height_m
+    size = default_size("landolt-c", maze)
+    for k, holder in enumerate(holders):
+        w, h = landolt_extent_m(holder)
+        faces = [f for f in maze.wall_faces() if f.length_m >= w + 0.1]
+        lo, hi = opts.height_m
+        hi = min(hi, wall_h - h / 2 - 0.01)
+        lo = max(lo, h / 2 + 0.01)
+        if not faces or lo > hi:
+            raise PlacementError(
+                f"landolt: a {holder or 'wall'} target ({w:.2f} x {h:.2f} m) does not fit this maze's walls "
+                f"at heights {opts.height_m[0]:g}-{opts.height_m[1]:g} m"
+            )
+        text = landolt_text(rng)
+        for _attempt in range(400):
+            face = faces[int(rng.integers(len(faces)))]
+            margin = max(0.0, 0.5 * face.length_m - w / 2 - 0.05)
+            offset = float(rng.uniform(-margin, margin))
+            height = float(rng.uniform(lo, hi))
+            cand = object_at_face(len(objects), "landolt-c", text, face, height, offset, size, maze, None, holder)
+            if face.wall in {o.wall for o in objects if o.type in ("door", "fiducial")}:
+                continue
+            if all(np.linalg.norm(cand.position - o.position) >= min_spacing_m for o in objects):
+                objects.append(cand)
+                break
+        else:
+            raise PlacementError(
+                f"landolt: could not place target {k + 1} of {n} with min_spacing_m={min_spacing_m}: "
+                "the maze is too small"
+            )
 
 
 def door_in_wall(obj_id: int, segment, maze, size_m: float) -> PlacedObject:
@@ -197,6 +287,8 @@ def _explicit(spec: ObjectSpec, obj_id: int, maze, rng) -> PlacedObject:
     size = spec.size_m if spec.size_m is not None else default_size(spec.type, maze)
     temp = spec.temperature_c if spec.temperature_c is not None else _temperature(spec.type, rng)
     text = spec.text
+    if spec.type == "landolt-c" and not text:
+        text = landolt_text(rng)
     if spec.position is not None:
         mount = spec.mount or ("floor" if spec.type in FLOOR_TYPES + ARENA_TYPES else "wall")
         return PlacedObject(
@@ -574,4 +666,7 @@ def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedOb
             )
     if gen.qr_sheets is not None and gen.qr_sheets.count:
         place_qr_sheets(gen.qr_sheets, len(qrs), maze, rng, objects, gen.min_spacing_m * s)
+    n_landolt = counts.get("landolt-c", 0)
+    if n_landolt:  # last: a scenario without them draws exactly what it drew before
+        place_landolt(n_landolt, gen.landolt or LandoltTargets(), maze, rng, objects, gen.min_spacing_m * s)
     return objects

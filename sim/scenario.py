@@ -42,8 +42,9 @@ from typing import Literal
 
 import yaml
 
+from poi.core.landolt import DEFAULT_N_RINGS, parse_orientation_text
 from poi.core.loader import LoadError, number, safe_load
-from poi.core.names import MAPPING_TYPES, RESCUE_TYPES, TYPES
+from poi.core.names import MAPPING_TYPES, RESCUE_TYPES, TARGET_TYPES, TYPES
 from sim.schema import SchemaError, Source, build, convert, load_yaml, load_yaml_file, to_plain
 
 SCENARIO_VERSION = 1
@@ -111,6 +112,13 @@ class ObjectSpec:
             raise ValueError(f"unknown type {self.type!r}; expected one of {', '.join(TYPES)}")
         if (self.at is None) == (self.position is None):
             raise ValueError("give exactly one of 'at' (a wall spot) or 'position'")
+        if self.type == "landolt-c" and self.text:  # empty: the gap directions are drawn from the seed
+            rings = parse_orientation_text(self.text)
+            if sorted(rings) != list(range(1, DEFAULT_N_RINGS + 1)):
+                raise ValueError(
+                    f"text {self.text!r}: a landolt-c target's text gives rings 1 to {DEFAULT_N_RINGS} once each, "
+                    'e.g. "1:E 2:N 3:NE 4:S 5:W"'
+                )
 
 
 DEFAULT_COUNTS: dict[str, int] = {
@@ -153,7 +161,25 @@ class QrSheets:
             raise ValueError(f"height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}")
 
 
-GENERATED_TYPES: tuple[str, ...] = RESCUE_TYPES + MAPPING_TYPES
+@dataclass(kw_only=True)
+class LandoltTargets:
+    """Where the ``counts.landolt-c`` targets go (sim/placement.py ``place_landolt``): ``cabinets``
+    of them at the back of a sensor cabinet, ``boards`` on a wooden board, the rest on the wall
+    itself, each with its centre at a height drawn from ``height_m`` and its gap directions
+    drawn from the seed ([RMRC2025]_ Sensor Cabinet and Linear Rail Inspect; docs/RULES.md
+    "Landolt-C")."""
+
+    cabinets: int = number(0, lo=0, hi=100)
+    boards: int = number(0, lo=0, hi=100)
+    height_m: tuple[float, float] = (0.3, 1.0)
+
+    def __post_init__(self) -> None:
+        lo, hi = self.height_m
+        if not 0.0 < lo <= hi:
+            raise ValueError(f"height_m: expected [low, high] with 0 < low <= high, got {lo}, {hi}")
+
+
+GENERATED_TYPES: tuple[str, ...] = RESCUE_TYPES + MAPPING_TYPES + TARGET_TYPES
 
 
 @dataclass(kw_only=True)
@@ -161,7 +187,9 @@ class ObjectsGenerate:
     """Random placement: how many of each type, and the spacing rules.
 
     ``counts.fiducial`` places RMRC mapping fiducials in pairs facing each other across a
-    cell (so it must be even; sim/placement.py); ``qr_sheets`` adds pages of QR codes.
+    cell (so it must be even; sim/placement.py); ``qr_sheets`` adds pages of QR codes;
+    ``counts.landolt-c`` places Landolt-C targets, ``landolt`` says how many sit in a sensor
+    cabinet or on a board and at what heights.
     """
 
     counts: dict[str, int] = field(default_factory=lambda: dict(DEFAULT_COUNTS))
@@ -175,6 +203,7 @@ class ObjectsGenerate:
     # wall placards moved onto doors, one per door face (sim.placement.hang_placards_on_doors)
     hazmat_on_doors: int = number(0, lo=0, hi=100)
     qr_sheets: QrSheets | None = None
+    landolt: LandoltTargets | None = None  # where the landolt-c targets go (default: all on walls)
 
     def __post_init__(self) -> None:
         for t, n in self.counts.items():
@@ -193,6 +222,14 @@ class ObjectsGenerate:
         lo, hi = self.wall_height_m
         if not 0.0 <= lo <= hi:
             raise ValueError(f"wall_height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}")
+        if self.landolt is not None:
+            n = self.counts.get("landolt-c", 0)
+            held = self.landolt.cabinets + self.landolt.boards
+            if held > n:
+                raise ValueError(
+                    f"landolt: {self.landolt.cabinets} cabinets + {self.landolt.boards} boards need "
+                    f"{held} targets, but counts.landolt-c is {n}"
+                )
 
 
 @dataclass(kw_only=True)

@@ -21,7 +21,7 @@ import numpy as np
 import sim.gl  # noqa: F401  (must precede the mujoco import)
 from maze_assets.clutter import build_clutter, place_clutter  # noqa: E402
 from maze_assets.mjcf import SceneAssets, fmt  # noqa: E402
-from maze_assets.models import build_object, build_page, door_frame_extent_m  # noqa: E402
+from maze_assets.models import build_holder, build_object, build_page, door_frame_extent_m  # noqa: E402
 from maze_assets.objects import PlacedObject  # noqa: E402
 from maze_assets.surfaces import (  # noqa: E402
     FLOOR_KINDS,
@@ -325,6 +325,9 @@ def build_world_xml(
         page = build_page(obj, assets)  # the A4 sheet of a QR page (sim/placement.py)
         if page is not None:
             world.append(page)
+        holder = build_holder(obj, assets)  # a Landolt-C target's board or sensor cabinet
+        if holder is not None:
+            world.append(holder)
 
     rig = ET.SubElement(world, "body", name=RIG_BODY, mocap="true", pos="0 0 1")
     ET.SubElement(rig, "camera", name=CAMERA_NAME, **mujoco_camera_attrs(intr))

@@ -6,7 +6,8 @@ A 1 m checkerboard background (226,226,227)/(237,237,238) with grid lines every
 (120,0,240), 3 px, with an arrow at the start; each report a filled marker of
 radius 0.175 m with its id in white: victims (baby dolls) a red circle
 (240,10,10), QR codes a blue circle (10,10,240), hazards and other objects an
-orange diamond (255,100,30). On top of the conventions, for scoring: ground
+orange diamond (255,100,30), and (not in the conventions) Landolt-C targets a teal
+square (0,140,120). On top of the conventions, for scoring: ground
 truth as outlines of the same shapes with a 1 m circle (the locate radius of
 ex3) around each, false reports crossed with a black X and labelled ``false``,
 missed objects with a dashed outline labelled ``miss``, and reports identified
@@ -68,6 +69,7 @@ VICTIM_RGB = (240, 10, 10)
 QR_RGB = (10, 10, 240)
 HAZARD_RGB = (255, 100, 30)
 FALSE_RGB = (0, 0, 0)
+LANDOLT_RGB = (0, 140, 120)  # Landolt-C targets: not in the competition's conventions, a teal square
 # The goal arena's objects: circles in the colours they are painted (maze_assets/models.py).
 ARENA_RGB: dict[str, tuple[int, int, int]] = {
     "pillar-blue": (20, 60, 220),
@@ -182,11 +184,13 @@ def style_of(type_: str | None) -> tuple[str, tuple[int, int, int]]:
 
     >>> style_of("baby-doll"), style_of("qr"), style_of("valve")
     (('circle', (240, 10, 10)), ('circle', (10, 10, 240)), ('diamond', (255, 100, 30)))
-    >>> style_of("ball")
-    ('circle', (245, 210, 10))
+    >>> style_of("ball"), style_of("landolt-c")
+    (('circle', (245, 210, 10)), ('square', (0, 140, 120)))
     """
     if type_ in ARENA_RGB:
         return "circle", ARENA_RGB[type_]
+    if type_ == "landolt-c":
+        return "square", LANDOLT_RGB
     if type_ == "baby-doll":
         return "circle", VICTIM_RGB
     if type_ == "qr":
@@ -274,9 +278,12 @@ def draw_map(
     ax.set_ylabel("y (m)")
     if title:
         ax.set_title(title)
-    arena = sorted({t for t in [*(r.type for r in reps), *(o.type for o in objs)] if t in ARENA_RGB})
+    types = {*(r.type for r in reps), *(o.type for o in objs)}
+    arena = sorted(t for t in types if t in ARENA_RGB)
     ax.legend(
-        handles=_legend_handles(pt_per_px, truth_circle_m, arena, goal is not None, bool(fids)),
+        handles=_legend_handles(
+            pt_per_px, truth_circle_m, arena, goal is not None, bool(fids), "landolt-c" in types
+        ),
         loc="upper left",
         bbox_to_anchor=(1.02, 1.0),
         borderaxespad=0.0,
@@ -367,6 +374,9 @@ def _draw_background(ax: Any, xlim: tuple, ylim: tuple, pt_per_px: float) -> Non
 def _marker(shape: str, x: float, y: float, r: float, **kw: Any) -> Any:
     if shape == "circle":
         return Circle((x, y), r, **kw)
+    if shape == "square":
+        a = r / math.sqrt(2.0)  # the same area as the diamond's
+        return Polygon([(x + a, y + a), (x - a, y + a), (x - a, y - a), (x + a, y - a)], closed=True, **kw)
     return Polygon([(x + r, y), (x, y + r), (x - r, y), (x, y - r)], closed=True, **kw)
 
 
@@ -574,6 +584,7 @@ def _legend_handles(
     arena: Sequence[str] = (),
     goal: bool = False,
     fiducials: bool = False,
+    landolt: bool = False,
 ) -> list[Line2D]:
     """The legend: the competition's markers, or the arena's types when ``arena`` lists any."""
 
@@ -589,6 +600,8 @@ def _legend_handles(
         kinds = [_swatch(h, ARENA_LABELS.get(t, t), ARENA_RGB[t], ms) for t in arena]
     else:
         kinds = _competition_handles(h, ms)
+    if landolt:
+        kinds.append(_swatch(h, "Landolt-C target", LANDOLT_RGB, ms * 0.9, marker="s"))
     tail = [
         h(
             "identified, not located",

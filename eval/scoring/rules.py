@@ -47,6 +47,12 @@ A ``points`` rules file is a mapping with these fields (all required except
 ``qr_text_filter``
     Optional: a regular expression; only QR codes whose text matches it whole are scored (the
     others' objects and reports are ignored). The finals score only the 2 mm code: ``".* 2mm"``.
+``landolt_rings``, ``landolt_radius_m``
+    Required when ``types`` lists ``landolt-c`` (whose ``identity_uses_text`` must be true),
+    refused otherwise ([RMRC2025]_, docs/RULES.md "Landolt-C"): the ring numbers whose gap
+    directions a report must give right (1 = the outermost; RMRC Sensor Cabinet: ``[3]``,
+    Linear Rail Inspect finals: ``[3, 4]``), and how far a report may lie from its target
+    (metres, 3D) to pair with it.
 
 A ``map_error`` rules file (the TurtleBot goal arena, [Bouda2025]_ section 1; scored by
 eval/map_error.py) has these fields (all required except ``description``):
@@ -92,6 +98,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
+from poi.core.landolt import DEFAULT_N_RINGS, orientation_text, parse_orientation_text
 from poi.core.loader import LoadError, Source, is_finite_number, load_yaml_file, show
 from poi.core.names import TYPES
 
@@ -109,7 +116,16 @@ _AUTONOMY_FIELDS = (
     "qr_mapping_replaces_autonomy",
 )
 _FIDUCIAL_FIELDS = ("fiducial_tolerance_m", "fiducial_match_radius_m")
-_TOP_OPTIONAL = ("description", "scoring", *_AUTONOMY_FIELDS, "qr_mapping", *_FIDUCIAL_FIELDS, "qr_text_filter")
+_LANDOLT_FIELDS = ("landolt_rings", "landolt_radius_m")
+_TOP_OPTIONAL = (
+    "description",
+    "scoring",
+    *_AUTONOMY_FIELDS,
+    "qr_mapping",
+    *_FIDUCIAL_FIELDS,
+    "qr_text_filter",
+    *_LANDOLT_FIELDS,
+)
 _TYPE_FIELDS = ("points", "locate_radius_m", "located_points", "identity_uses_text")
 _MAP_ERROR_FIELDS = ("name", "scoring", "types", "max_pair_distance_m", "goal_type")
 
@@ -146,7 +162,35 @@ class Rules:
     fiducial_tolerance_m: float | None = None
     fiducial_match_radius_m: float | None = None
     qr_text_filter: str | None = None
+    landolt_rings: tuple[int, ...] | None = None
+    landolt_radius_m: float | None = None
     source: str = field(default="", compare=False)
+
+    def landolt_identity(self, text: str) -> str | None:
+        """The part of a Landolt-C text that is its identity: the ``landolt_rings`` as
+        "3:NE 4:S", or None when the text does not parse or lacks one of them.
+
+        >>> finals = load_rules("rmrc2026-finals")
+        >>> finals.landolt_identity("1:E 2:N 3:ne 4:S 5:W"), finals.landolt_identity("1:E 3:NE")
+        ('3:NE 4:S', None)
+        """
+        try:
+            rings = parse_orientation_text(text)
+        except ValueError:
+            return None
+        need = self.landolt_rings or ()
+        if any(k not in rings for k in need):
+            return None
+        return orientation_text({k: rings[k] for k in need})
+
+    def pair_radius(self, type_: str) -> float | None:
+        """How far apart a report and an object of ``type_`` may be to pair: ``identify_radius_m``,
+        and for a Landolt-C target at most ``landolt_radius_m`` (None: no limit)."""
+        radii = [self.identify_radius_m]
+        if type_ == "landolt-c":
+            radii.append(self.landolt_radius_m)
+        radii = [r for r in radii if r is not None]
+        return min(radii) if radii else None
 
     def is_scored(self, type_: str | None) -> bool:
         """Whether reports and objects of ``type_`` are scored at all."""
@@ -220,6 +264,11 @@ class Rules:
                 else {}
             ),
             **({} if self.qr_text_filter is None else {"qr_text_filter": self.qr_text_filter}),
+            **(
+                {}
+                if self.landolt_rings is None
+                else {"landolt_rings": list(self.landolt_rings), "landolt_radius_m": self.landolt_radius_m}
+            ),
             "source": self.source,
         }
 
@@ -350,6 +399,7 @@ def rules_from_dict(data: Any, *, source: str | Source = "<dict>") -> AnyRules:
             re.compile(text_filter)
         except re.error as e:
             raise _err(source, "qr_text_filter", f": not a regular expression ({e})") from None
+    landolt = _landolt_fields(data, types, source)
     return Rules(
         name=name,
         description=description,
@@ -362,8 +412,39 @@ def rules_from_dict(data: Any, *, source: str | Source = "<dict>") -> AnyRules:
         qr_mapping=mapping,
         **fiducial,
         qr_text_filter=text_filter,
+        **landolt,
         source=source.name,
     )
+
+
+def _landolt_fields(data: dict, types: dict[str, TypeRule], source: Source) -> dict[str, Any]:
+    """``landolt_rings`` and ``landolt_radius_m``: required with a ``landolt-c`` type, refused without."""
+    if "landolt-c" not in types:
+        for key in _LANDOLT_FIELDS:
+            if key in data:
+                raise _err(source, key, ": is set but types has no landolt-c; it has nothing to act on")
+        return {"landolt_rings": None, "landolt_radius_m": None}
+    if not types["landolt-c"].identity_uses_text:
+        raise _err(
+            source,
+            "types.landolt-c.identity_uses_text",
+            ": expected true (a target is identified by its rings' gap directions)",
+        )
+    for key in _LANDOLT_FIELDS:
+        if key not in data:
+            raise _err(source, key, f" is missing; expected {_EXPECTED[key]} (types lists landolt-c)")
+    rings = data["landolt_rings"]
+    if (
+        not isinstance(rings, list)
+        or not rings
+        or not all(isinstance(k, int) and not isinstance(k, bool) and 1 <= k <= DEFAULT_N_RINGS for k in rings)
+        or len(set(rings)) != len(rings)
+    ):
+        raise _err(source, "landolt_rings", f": expected {_EXPECTED['landolt_rings']}, got {show(rings)}")
+    radius = data["landolt_radius_m"]
+    if not _is_number(radius) or isinstance(radius, bool) or radius <= 0:
+        raise _err(source, "landolt_radius_m", f": expected {_EXPECTED['landolt_radius_m']}, got {show(radius)}")
+    return {"landolt_rings": tuple(sorted(rings)), "landolt_radius_m": float(radius)}
 
 
 def _name_and_description(data: dict, source: Source) -> tuple[str, str]:
@@ -471,6 +552,8 @@ _EXPECTED: dict[str, str] = {
     "fiducial_tolerance_m": "a distance in metres > 0 (RMRC: 0.30)",
     "fiducial_match_radius_m": "a distance in metres > 0 (a reported fiducial this near a true one stands for it)",
     "max_pair_distance_m": "a distance in metres > 0",
+    "landolt_rings": f"a list of distinct ring numbers from 1 to {DEFAULT_N_RINGS} (1 = the outermost; RMRC: [3])",
+    "landolt_radius_m": "a distance in metres > 0 (a Landolt-C report this near its target pairs with it)",
     "goal_type": "a type of 'types' (two objects of it mark the goal) or null",
 }
 

@@ -38,6 +38,11 @@ pairing and before autonomy.
 QR codes whose text the preset's ``qr_text_filter`` does not match (the finals' larger codes)
 are ignored, reports and objects alike.
 
+A Landolt-C target's identity is the gap directions of the preset's ``landolt_rings`` only
+(docs/RULES.md "Landolt-C": the 3rd ring under rmrc2026, the 3rd and 4th in the finals), so a
+report pairs with a target whose required rings it gives right, within ``landolt_radius_m``;
+a report with a required ring wrong, missing or too far from every such target is false.
+
 Types the rules do not list are ignored (their reports and objects are listed
 with status ``ignored`` and count for nothing). A hazmat report whose label is
 not one of the 16, or a text-identity report with empty text, pairs with nothing.
@@ -144,6 +149,9 @@ def identity_of(type_: str, text: str, rules: Rules) -> Identity | None:
     rule = rules.types[type_]
     if not rule.identity_uses_text:
         return (type_, "")
+    if type_ == "landolt-c":
+        ident = rules.landolt_identity(text)
+        return None if ident is None else (type_, ident)
     if not text or (type_ == "hazmat" and text not in HAZMAT_LABELS):
         return None
     return (type_, text)
@@ -188,11 +196,13 @@ def score(reports: PoiFile, truth: PoiFile, rules: AnyRules) -> ScoreResult | Ma
             continue
         ident = identity_of(rep.type, rep.text, rules)
         if ident is None:
-            why = (
-                f"unknown hazmat label {rep.text!r}"
-                if rep.text
-                else f"no text: a {rep.type} report is identified by its text"
-            )
+            if rep.type == "landolt-c":
+                rings = ", ".join(str(k) for k in rules.landolt_rings or ())
+                why = f"Landolt-C text {rep.text!r} does not give the gap direction of ring(s) {rings}"
+            elif rep.text:
+                why = f"unknown hazmat label {rep.text!r}"
+            else:
+                why = f"no text: a {rep.type} report is identified by its text"
             report_scores[rep.line] = report_outcome(rep, STATUS_FALSE, why, points=-rules.penalty(rep.type))
             continue
         groups_r.setdefault(ident, []).append(rep)
@@ -200,11 +210,11 @@ def score(reports: PoiFile, truth: PoiFile, rules: AnyRules) -> ScoreResult | Ma
     for prob in reports.problems:
         report_scores[prob.line] = unreadable_outcome(prob, rules, rules.penalty(prob.type))
 
-    radius = rules.identify_radius_m
     for ident in sorted(groups_r):
         reps = groups_r[ident]
         objs = groups_o.get(ident, [])
         rule = rules.types[ident[0]]
+        radius = rules.pair_radius(ident[0])
         P = np.array([[r.x, r.y, r.z] for r in reps])  # (n, 3)
         Q = np.array([[truth.rows[k].x, truth.rows[k].y, truth.rows[k].z] for k in objs])
         with np.errstate(over="ignore"):  # far-off coordinates give an inf distance: capped in optimal_pairs
@@ -440,11 +450,13 @@ def _no_identity_reason(rep: PoiRow, ident: Identity, truth: PoiFile, rules: Rul
     """Why a report whose identity no object has is false: wrong text or wrong type."""
     name = _ident_name(ident)
     same_type = [o for o in truth.rows if o.type == rep.type]
-    if ident[1] and same_type:
+    if ident[0] == "landolt-c" and same_type:
+        reason = f"wrong orientation: no landolt-c target has {ident[1]!r}"
+    elif ident[1] and same_type:
         reason = f"wrong text: no {rep.type} object reads {rep.text!r}"
     else:
         reason = f"no {name} in the ground truth"
-    limit = rules.identify_radius_m
+    limit = rules.pair_radius(rep.type)
     near = [(math.dist((rep.x, rep.y, rep.z), (o.x, o.y, o.z)), o) for o in truth.rows if rules.is_scored(o.type)]
     near = [(d, o) for d, o in near if limit is None or d <= limit + EPS_M]
     if near:

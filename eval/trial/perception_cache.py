@@ -55,7 +55,7 @@ import numpy as np
 
 from poi.core.types import Detection, Frame, Intrinsics
 
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2  # 2: detections carry class_probs over 29 classes (landolt-c added)
 CONF_FLOOR = 0.05  # ONNX detections are recorded down to this score; detector.conf below it runs in full
 TILE_PX = 32
 MAGIC = b"POIBPCR\x00"

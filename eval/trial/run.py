@@ -122,7 +122,10 @@ def onnx_settings_set(det_cfg) -> list[str]:
 
 
 def make_detectors(choice: str, cfg, sim, notes: list[str]):
-    """The detectors for a trial and the oracle (when used, it needs the truth of each frame)."""
+    """The detectors for a trial and the oracle (when used, it needs the truth of each frame).
+
+    In a world with Landolt-C targets the oracle gives their boxes (their rings are read from
+    the pixels by the pipeline); any other detector runs with the Landolt-C finder beside it."""
     from poi.detectors import build_detector, build_python_detector, is_team_detector
     from sim.oracle import oracle_for
 
@@ -155,6 +158,7 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
         wanted = {o.type for o in sim.truth_objects()}
         if cfg.thermal.enabled:
             wanted.discard("heat-source")  # the thermal detector reports those
+        wanted.discard("landolt-c")  # the Landolt-C finder reports those
         unknown = sorted(wanted - onnx.known_types)
         if choice == "default" and wanted and not wanted & onnx.known_types:
             # the shipped model is the rescue maze's; this world holds nothing it knows
@@ -170,6 +174,12 @@ def make_detectors(choice: str, cfg, sim, notes: list[str]):
             dets.append(onnx)
     if cfg.thermal.enabled:
         dets.append(build_detector({"name": "thermal"}))
+    if oracle is None and any(o.type == "landolt-c" for o in sim.truth_objects()):
+        # an RMRC test with Landolt-C targets: the finder proposes and reads them from pixels
+        dets.append(build_detector({"name": "landolt"}))
+        notes.append(
+            "the scenario has Landolt-C targets: the Landolt-C finder (poi/detectors/landolt.py) runs too"
+        )
     return dets, oracle
 
 
@@ -229,6 +239,7 @@ def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, 
     frame, keeping what the pipeline after detection reads (eval.trial.perception_cache)."""
     from eval.trial.perception_cache import CONF_FLOOR, FrameRecord, PerceptionRecord, TiledDepth
     from poi.config import apply_overrides
+    from poi.detectors.landolt import attach_landolt_text
     from poi.pipeline import find_qr_reader
     from sim.simulator import Simulation
 
@@ -247,6 +258,8 @@ def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, 
             dets = []
             for det in detectors:
                 dets.extend(det.detect(frame))
+            if any(d.type == "landolt-c" and not d.text for d in dets):  # read from pixels, as the pipeline does
+                dets = attach_landolt_text(frame.rgb, dets)
             texts = {}
             unread = [d for d in dets if d.type == "qr" and not d.text]
             if reader is not None and unread:  # every QR box: a replay may ask for any of them
@@ -346,7 +359,10 @@ def run_trial(
         mount_sets = mount_settings(T)
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
-        sets = mount_sets + ["fiducials.enabled=true"] * wants_fiducials + list(pipeline_sets)
+        # and one that scores Landolt-C rings has Landolt-C targets reported once those rings read
+        rings = getattr(rules, "landolt_rings", None)
+        landolt_sets = [] if rings is None else [f"tracker.landolt_required_rings={list(rings)}"]
+        sets = mount_sets + ["fiducials.enabled=true"] * wants_fiducials + landolt_sets + list(pipeline_sets)
         cfg = _with_default_label_model(apply_overrides(cfg, sets), detector)
         replay = None
         if record is None:

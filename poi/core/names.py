@@ -7,7 +7,8 @@ The detector's class space (``CLASSES``) is the 16 hazmat labels followed by the
 eight other rescue types (``RESCUE_CLASSES``, the 24 classes of the rescue
 detector's datasets and models), then the four types of the TurtleBot goal arena
 (``ARENA_TYPES``: [Bouda2025]_ section 1, the blue goal pillars, the other pillars and
-the ball), so one class name says both the type and, for hazmats, the label.
+the ball), then the Landolt-C target (``TARGET_TYPES``), so one class name says both the
+type and, for hazmats, the label.
 Rescue types and classes keep their order and indices; the arena's are appended.
 
 >>> canonical_type("QR Code")
@@ -24,8 +25,8 @@ Rescue types and classes keep their order and indices; the arena's are appended.
 'Oxidizer'
 >>> canonical_type("Blue pillar"), class_to_identity("ball"), display_name("pillar-blue")
 ('pillar-blue', ('ball', ''), 'Blue pillar')
->>> len(RESCUE_CLASSES), len(CLASSES), CLASSES[len(RESCUE_CLASSES):] == ARENA_TYPES
-(24, 28, True)
+>>> len(RESCUE_CLASSES), len(CLASSES), CLASSES[len(RESCUE_CLASSES):] == ARENA_TYPES + TARGET_TYPES
+(24, 29, True)
 
 References
 ----------
@@ -67,9 +68,14 @@ ARENA_TYPES: tuple[str, ...] = (
 # them, but the QR mapping bonus is judged by the distances to them (eval/scoring/scorer.py).
 MAPPING_TYPES: tuple[str, ...] = ("fiducial",)
 
+# Visual-acuity targets of the RMRC Sensor Cabinet and Linear Rail Inspect tests ([RMRC2025]_): the
+# concentric Landolt-C (poi/core/landolt.py). Their text is the rings' gap directions
+# (docs/RULES.md "Landolt-C"); a detector class of its own domain (no model confuses it).
+TARGET_TYPES: tuple[str, ...] = ("landolt-c",)
+
 # Every canonical type: the rescue types first (their order is part of the file formats
-# and the class indices), then the arena's, then the map landmarks.
-TYPES: tuple[str, ...] = RESCUE_TYPES + ARENA_TYPES + MAPPING_TYPES
+# and the class indices), then the arena's, then the map landmarks, then the targets.
+TYPES: tuple[str, ...] = RESCUE_TYPES + ARENA_TYPES + MAPPING_TYPES + TARGET_TYPES
 
 HAZMAT_LABELS: tuple[str, ...] = (
     "explosive",
@@ -111,6 +117,9 @@ TYPE_ALIASES: dict[str, str] = {
     "football": "ball",
     "fiducials": "fiducial",
     "mapping-fiducial": "fiducial",
+    "landolt": "landolt-c",
+    "landoltc": "landolt-c",
+    "landolt-ring": "landolt-c",
 }
 
 LABEL_ALIASES: dict[str, str] = {
@@ -130,7 +139,7 @@ LABEL_ALIASES: dict[str, str] = {
 # from a decoder, not the class. The rescue detector's datasets and models have exactly
 # RESCUE_CLASSES, a prefix of CLASSES, so their class indices are the same in both.
 RESCUE_CLASSES: tuple[str, ...] = HAZMAT_LABELS + tuple(t for t in RESCUE_TYPES if t != "hazmat")
-CLASSES: tuple[str, ...] = RESCUE_CLASSES + ARENA_TYPES
+CLASSES: tuple[str, ...] = RESCUE_CLASSES + ARENA_TYPES + TARGET_TYPES
 CLASS_INDEX: dict[str, int] = {name: i for i, name in enumerate(CLASSES)}
 
 # What an operator reads where the type name written as a sentence would read badly.
@@ -142,14 +151,18 @@ DISPLAY_NAMES: dict[str, str] = {
 
 
 def class_domain(class_name: str) -> tuple[str, ...]:
-    """The class space a class of CLASSES belongs to: ARENA_TYPES or RESCUE_CLASSES. A
-    detector of one domain never reports the other's classes, so it spreads a detection's
-    1 - p over its own domain ([Avevor2022]_ section 2.1.5).
+    """The class space a class of CLASSES belongs to: ARENA_TYPES, TARGET_TYPES or
+    RESCUE_CLASSES. A detector of one domain never reports the other's classes, so it spreads a
+    detection's 1 - p over its own domain ([Avevor2022]_ section 2.1.5).
 
-    >>> len(class_domain("door")), class_domain("ball") == ARENA_TYPES
-    (24, True)
+    >>> len(class_domain("door")), class_domain("ball") == ARENA_TYPES, class_domain("landolt-c")
+    (24, True, ('landolt-c',))
     """
-    return ARENA_TYPES if class_name in ARENA_TYPES else RESCUE_CLASSES
+    if class_name in ARENA_TYPES:
+        return ARENA_TYPES
+    if class_name in TARGET_TYPES:
+        return TARGET_TYPES
+    return RESCUE_CLASSES
 
 
 def normalise(name: str) -> str:

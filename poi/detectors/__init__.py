@@ -1,7 +1,7 @@
 """Detectors: frame in, list of detections out, built by name from a config.
 
 >>> sorted(REGISTRY)
-['onnx', 'qr', 'thermal']
+['landolt', 'onnx', 'qr', 'thermal']
 """
 
 from poi.detectors.base import (
@@ -12,6 +12,7 @@ from poi.detectors.base import (
     register,
     spread_class_probs,
 )
+from poi.detectors.landolt import LandoltFinder, attach_landolt_text, read_landolt
 from poi.detectors.onnx_yolo import OnnxModelError, OnnxYoloDetector
 from poi.detectors.plugins import (
     ENTRY_POINT_GROUP,
@@ -31,17 +32,20 @@ __all__ = [
     "Detector",
     "DetectorConfigError",
     "DetectorOutputError",
+    "LandoltFinder",
     "OnnxModelError",
     "OnnxYoloDetector",
     "QrDetector",
     "ThermalFrameError",
     "ThermalHotSpotDetector",
+    "attach_landolt_text",
     "attach_qr_text",
     "build_detector",
     "build_python_detector",
     "decode_qr",
     "entry_point_names",
     "is_team_detector",
+    "read_landolt",
     "register",
     "spread_class_probs",
 ]

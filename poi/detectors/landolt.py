@@ -1,4 +1,9 @@
-"""Concentric Landolt-C targets: read each ring's gap direction from pixels.
+"""Concentric Landolt-C targets: find them in a frame, and read each ring's gap direction from pixels.
+
+Finding (:class:`LandoltFinder`, detector ``landolt``): dark shapes whose outline is an
+ellipse are proposed (:func:`propose_rings`) and each is verified by reading it; a
+detector that gives boxes only (the oracle) has them read by :func:`attach_landolt_text`.
+Reading (:func:`read_landolt`):
 
 The reader knows the target's design (poi/core/landolt.py: every ring a Landolt C of
 stroke and gap D/5 [ISO8596]_, each ring ``ring_ratio`` times the one outside it), not
@@ -46,9 +51,10 @@ Full entries in docs/SOURCES.md.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -59,7 +65,11 @@ from poi.core.landolt import (
     DIRECTIONS_DEG,
     GAP_FRAC,
     STROKE_FRAC,
+    orientation_text,
 )
+from poi.core.types import Detection, Frame
+from poi.detectors.base import DetectorConfigError, make_detection, one_class_probs, register
+from poi.detectors.qr import box_iou
 
 
 @dataclass(kw_only=True, frozen=True)
@@ -124,6 +134,7 @@ class LandoltReading:
 Ellipse = tuple[tuple[float, float], tuple[float, float], float]
 
 RHO_MAX = 1.15  # polar grid reaches past the outer edge, to the white card round it
+PROPOSAL_BLOCKS_PX = (31, 101)  # adaptive-threshold windows of the finder's proposals
 
 
 def _to_gray(rgb: np.ndarray) -> np.ndarray:
@@ -333,3 +344,142 @@ def read_landolt(
         angle_deg=float(ang),
         rings=rings,
     )
+
+
+def reading_text(reading: LandoltReading | None) -> str:
+    """A reading as a target's text (poi.core.landolt.orientation_text): the rings whose gap was
+    read, "" when none was (or there was no target)."""
+    if reading is None:
+        return ""
+    return orientation_text([r.orientation_deg for r in reading.rings])
+
+
+def attach_landolt_text(
+    rgb: np.ndarray, detections: Sequence[Detection], config: LandoltReaderConfig | None = None
+) -> list[Detection]:
+    """Copies of ``detections`` with the rings read from pixels as the text of every
+    'landolt-c' one that has none ("" if nothing reads); others unchanged, inputs not modified.
+    A detector that gives boxes only (the oracle) gets its readings from here."""
+    out = []
+    for det in detections:
+        if det.type == "landolt-c" and not det.text:
+            box = det.box_xyxy
+            ok = box[2] > box[0] and box[3] > box[1]
+            det = dataclasses.replace(det, text=reading_text(read_landolt(rgb, box, config)) if ok else "")
+        out.append(det)
+    return out
+
+
+def _ellipse_box(reading: LandoltReading, w: int, h: int) -> tuple[float, float, float, float]:
+    """The axis-aligned box of a reading's outer ellipse, clipped to the image."""
+    (cx, cy), (A, B), ang = reading.centre_xy, reading.axes_px, math.radians(reading.angle_deg)
+    hx = math.hypot(A / 2 * math.cos(ang), B / 2 * math.sin(ang))
+    hy = math.hypot(A / 2 * math.sin(ang), B / 2 * math.cos(ang))
+    return (max(cx - hx, 0.0), max(cy - hy, 0.0), min(cx + hx, float(w)), min(cy + hy, float(h)))
+
+
+def propose_rings(
+    gray: np.ndarray, min_diameter_px: float, max_candidates: int, hull_fit_tol: float = 0.15
+) -> list[tuple[float, float, float, float]]:
+    """Boxes (x1, y1, x2, y2) of dark shapes in ``gray`` that could be a target's outer ring.
+
+    The image is thresholded against its local mean (``cv2.adaptiveThreshold``, 10 grey
+    levels darker than the mean of a 31 px window, and again of a 101 px one: the small window
+    keeps a small blurred ring, the large one a ring whose stroke is wider than the small
+    window), so a black ring on a white card stands out under any exposure. An outer
+    contour is a candidate when its convex hull is an ellipse (hull area within
+    ``hull_fit_tol`` of the fitted ellipse's, axes ratio at least 0.5) at least
+    ``min_diameter_px`` across, and it fills 35-100% of the hull (a C ring, about 60%, or a
+    blurred one whose gap has closed). Largest first, at most ``max_candidates``.
+    """
+    g8 = np.clip(gray, 0, 255).astype(np.uint8)
+    contours: list[np.ndarray] = []
+    for block in PROPOSAL_BLOCKS_PX:
+        dark = cv2.adaptiveThreshold(g8, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, 10)
+        contours += cv2.findContours(dark, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)[0]
+    min_area = math.pi * (min_diameter_px / 2.0) ** 2 * 0.35
+    found: list[tuple[float, tuple[float, float, float, float]]] = []
+    for c in contours:
+        area = cv2.contourArea(c)
+        if area < min_area or len(c) < 5:
+            continue
+        hull = cv2.convexHull(c)
+        if len(hull) < 5:
+            continue
+        (cx, cy), (A, B), _ang = cv2.fitEllipse(hull)
+        if min(A, B) < min_diameter_px or min(A, B) / max(A, B) < 0.5:
+            continue
+        hull_area = cv2.contourArea(hull)
+        if abs(hull_area / (math.pi * A * B / 4.0) - 1.0) > hull_fit_tol:
+            continue
+        if not 0.35 <= area / max(hull_area, 1e-9) <= 1.0:
+            continue
+        x, y, bw, bh = cv2.boundingRect(hull)
+        found.append((hull_area, (float(x), float(y), float(x + bw), float(y + bh))))
+    found.sort(key=lambda t: -t[0])
+    boxes: list[tuple[float, float, float, float]] = []
+    for _a, box in found:  # the two windows often find the same ring
+        if not any(box_iou(box, b) > 0.8 for b in boxes):
+            boxes.append(box)
+    return boxes[:max_candidates]
+
+
+@register("landolt")
+@dataclass(kw_only=True)
+class LandoltFinder:
+    """Finds concentric Landolt-C targets over the whole image and reads them.
+
+    Candidates come from :func:`propose_rings`; each is verified by the reader
+    (:func:`read_landolt` on the candidate's box): it is a target when the outer ring and at
+    least ``min_rings_read`` rings in all read a gap direction. A target becomes a Detection of
+    class 'landolt-c', its box the outer ellipse's, its text the rings read
+    (:func:`reading_text`). Candidates overlapping a target already found by more than
+    ``dedupe_iou`` are skipped (the rings inside a target are candidates too).
+    """
+
+    confidence: float = 0.9
+    min_diameter_px: float = 12.0
+    max_candidates: int = 12
+    min_rings_read: int = 2
+    dedupe_iou: float = 0.3
+    name: str = field(default="landolt", init=False)
+
+    def __post_init__(self) -> None:
+        if not 0.0 < float(self.confidence) <= 1.0:
+            raise DetectorConfigError(f"detector 'landolt': confidence must be in (0, 1], got {self.confidence}")
+        if not self.min_diameter_px >= 4:
+            raise DetectorConfigError(
+                f"detector 'landolt': min_diameter_px must be >= 4, got {self.min_diameter_px}"
+            )
+        if int(self.max_candidates) < 1 or int(self.min_rings_read) < 1:
+            raise DetectorConfigError("detector 'landolt': max_candidates and min_rings_read must be >= 1")
+        if not 0.0 <= float(self.dedupe_iou) <= 1.0:
+            raise DetectorConfigError(f"detector 'landolt': dedupe_iou must be in [0, 1], got {self.dedupe_iou}")
+
+    def detect(self, frame: Frame) -> list[Detection]:
+        gray = _to_gray(np.asarray(frame.rgb))
+        h, w = gray.shape
+        cfg = LandoltReaderConfig()
+        found: list[tuple[str, tuple[float, float, float, float]]] = []
+        for box in propose_rings(gray, self.min_diameter_px, int(self.max_candidates)):
+            if any(box_iou(box, b) > self.dedupe_iou or _inside(box, b) for _t, b in found):
+                continue
+            reading = read_landolt(gray, box, cfg)
+            if reading is None or reading.rings[0].orientation_deg is None:
+                continue
+            if sum(r.orientation_deg is not None for r in reading.rings) < self.min_rings_read:
+                continue
+            found.append((reading_text(reading), _ellipse_box(reading, w, h)))
+        probs = one_class_probs("landolt-c", float(self.confidence))
+        return [
+            make_detection(
+                "landolt-c", box, float(self.confidence), source="landolt", class_probs=probs.copy(), text=t
+            )
+            for t, box in found
+        ]
+
+
+def _inside(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
+    """Whether box ``a``'s centre lies inside box ``b``."""
+    cx, cy = (a[0] + a[2]) / 2, (a[1] + a[3]) / 2
+    return b[0] <= cx <= b[2] and b[1] <= cy <= b[3]

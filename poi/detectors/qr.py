@@ -123,7 +123,8 @@ def attach_qr_text(rgb: np.ndarray, detections: Sequence[Detection]) -> list[Det
     return out
 
 
-def _iou(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+def box_iou(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+    """Intersection over union of two boxes (x1, y1, x2, y2); 0 when both are empty."""
     ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
     iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
     inter = ix * iy
@@ -176,7 +177,7 @@ class QrDetector:
                 )
                 if box[2] <= box[0] or box[3] <= box[1]:
                     continue
-                if any(_iou(box, b) > self.dedupe_iou for _t, b in found):
+                if any(box_iou(box, b) > self.dedupe_iou for _t, b in found):
                     continue
                 found.append((text, box))
         probs = one_class_probs("qr", float(self.confidence))

@@ -18,8 +18,10 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    whose support falls below ``drop_support``, or not seen for ``t_max`` s ([Bouda2025]_
    2.2.5), is deleted. Confirmed tracks are never deleted.
 5. A tentative track is confirmed once it has ``n_min`` detections and the largest
-   standard deviation of Sigma is at most ``settle_sigma_m``; confirmed tracks get
-   report ids 0, 1, 2, ... in confirmation order.
+   standard deviation of Sigma is at most ``settle_sigma_m`` (a QR or Landolt-C track also
+   once it has text, a Landolt-C one once its rings read include
+   ``landolt_required_rings``); confirmed tracks get report ids 0, 1, 2, ... in
+   confirmation order.
 
 >>> mu, Sigma = kalman_update(np.zeros(3), np.eye(3), np.array([2.0, 0.0, 0.0]), np.eye(3))
 >>> mu.tolist(), np.diag(Sigma).tolist()
@@ -46,6 +48,7 @@ from filterpy.kalman import update as filterpy_update
 
 from poi.config import TrackerConfig
 from poi.core.assignment import optimal_assignment
+from poi.core.landolt import merge_orientation_votes, parse_orientation_text
 from poi.core.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS
 from poi.core.types import Observation, TrackSnapshot
 from poi.estimation.covariance import Calibration
@@ -53,6 +56,7 @@ from poi.estimation.covariance import Calibration
 N_CLASSES = len(CLASSES)
 IDENTITY3 = np.eye(3)  # H: a track's position is observed directly
 HAZMAT_SLICE = slice(0, len(HAZMAT_LABELS))  # hazmat labels come first in CLASSES
+TEXT_TYPES = ("qr", "landolt-c")  # types whose text is read from pixels and voted on over frames
 
 
 class TrackerError(ValueError):
@@ -168,12 +172,15 @@ class Track:
 
     @property
     def text(self) -> str:
-        """QR: the most voted decoded string (ties: the first seen); hazmat: the argmax label."""
+        """QR: the most voted decoded string (ties: the first seen); hazmat: the argmax label;
+        Landolt-C: per ring, the direction read most often (poi.core.landolt.merge_orientation_votes)."""
         if self.type == "hazmat":
             return HAZMAT_LABELS[int(np.argmax(self.probs[HAZMAT_SLICE]))]
         if self.type == "qr" and self.text_votes:
             best = max(self.text_votes.values())
             return next(t for t, n in self.text_votes.items() if n == best)
+        if self.type == "landolt-c" and self.text_votes:
+            return merge_orientation_votes(self.text_votes)
         return ""
 
     @property
@@ -258,7 +265,7 @@ class Tracker:
             first_seen_s=t,
             last_seen_s=t,
         )
-        if det.type == "qr" and det.text:
+        if det.type in TEXT_TYPES and det.text:
             tr.text_votes[det.text] = 1
         self._next_id += 1
         self.tracks[tr.track_id] = tr
@@ -271,7 +278,7 @@ class Tracker:
         tr.probs = (tr.n_prob * tr.probs + q) / (tr.n_prob + 1)
         tr.n_prob += 1
         det = obs.detection
-        if tr.type == "qr" and det.text:
+        if tr.type in TEXT_TYPES and det.text:
             tr.text_votes[det.text] = tr.text_votes.get(det.text, 0) + 1
         tr.support += 1.0
         tr.n_detections += 1
@@ -280,7 +287,14 @@ class Tracker:
     def _ready(self, tr: Track) -> bool:
         if tr.n_detections < self.cfg.n_min or tr.max_std_m > self.cfg.settle_sigma_m:
             return False
-        return not (tr.type == "qr" and self.cfg.qr_requires_text and not tr.text)
+        if tr.type == "landolt-c" and not self._landolt_rings_read(tr):
+            return False
+        return not (tr.type in TEXT_TYPES and self.cfg.qr_requires_text and not tr.text)
+
+    def _landolt_rings_read(self, tr: Track) -> bool:
+        """Whether a Landolt-C track's rings read so far include ``landolt_required_rings``."""
+        rings = parse_orientation_text(tr.text) if tr.text else {}
+        return all(k in rings for k in self.cfg.landolt_required_rings)
 
     def step(
         self,

@@ -7,7 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from maze_assets.models import FIDUCIAL_DIAMETER_M, FIDUCIAL_LENGTH_M, half_cylinder_mesh, qr_side_m
+from maze_assets.models import (
+    FIDUCIAL_DIAMETER_M,
+    FIDUCIAL_LENGTH_M,
+    LANDOLT_CABINET_M,
+    half_cylinder_mesh,
+    qr_side_m,
+)
 from maze_assets.objects import fiducial_diameter_m
 from maze_assets.qr import draw_qr
 from sim.maze import find_maze, load_maze
@@ -93,6 +99,8 @@ def test_bad_fiducial_and_sheet_settings_are_refused() -> None:
 
 
 def test_the_world_draws_each_page_once_and_no_object_owns_it(rmrc_objects) -> None:
+    """Also the Landolt-C targets' holders (tests/sim/test_landolt_objects.py has the rest): one
+    world build for both, it is the slow part."""
     import mujoco
 
     from poi.core.types import Intrinsics
@@ -109,3 +117,13 @@ def test_the_world_draws_each_page_once_and_no_object_owns_it(rmrc_objects) -> N
     assert len(fid) == 6 and sorted(int(world.geom_object_id[g]) for g in fid) == list(range(6))
     # a page lies flat on its wall, A4 in size (the box's half extents: depth, width, height)
     assert sorted(m.geom_size[pages[0]][1:] * 2) == pytest.approx(sorted(A4_M))
+    # Landolt-C: a cabinet (back, two sides, top, bottom) and two boards, owned by no object; the
+    # cards are the objects
+    cabinet = [g for g, n in enumerate(names) if n and n.startswith("landolt_cabinet_")]
+    boards = [g for g, n in enumerate(names) if n and n.startswith("landolt_board_")]
+    assert len(cabinet) == 5 and len(boards) == 2
+    assert all(world.geom_object_id[g] == -1 for g in cabinet + boards)
+    cards = [g for g, n in enumerate(names) if n and n.startswith("poi_") and "_landolt-c_" in n]
+    assert {int(world.geom_object_id[g]) for g in cards} == {o.id for o in objs if o.type == "landolt-c"}
+    back = next(g for g in cabinet if names[g].endswith("_back"))
+    assert sorted(m.geom_size[back][1:] * 2) == pytest.approx(sorted(LANDOLT_CABINET_M[:2]))

@@ -7,6 +7,7 @@ import pytest
 
 from poi.core.names import (
     ARENA_TYPES,
+    TARGET_TYPES,
     CLASS_INDEX,
     CLASSES,
     MAPPING_TYPES,
@@ -29,11 +30,12 @@ RESCUE_TYPES_V1 = [
 
 def test_rescue_types_and_classes_come_first_in_their_order():
     assert list(RESCUE_TYPES) == RESCUE_TYPES_V1
-    assert TYPES == RESCUE_TYPES + ARENA_TYPES + MAPPING_TYPES
+    assert TYPES == RESCUE_TYPES + ARENA_TYPES + MAPPING_TYPES + TARGET_TYPES
+    assert TARGET_TYPES == ("landolt-c",) and CLASSES[-1] == "landolt-c"  # its own class domain
     assert MAPPING_TYPES == ("fiducial",) and "fiducial" not in CLASSES  # a landmark, not a detector class
     assert ARENA_TYPES == ("pillar-blue", "pillar-red", "pillar-green", "ball")
     assert len(RESCUE_CLASSES) == 24 and CLASSES[:24] == RESCUE_CLASSES
-    assert CLASSES[24:] == ARENA_TYPES  # class = type for the arena
+    assert CLASSES[24:28] == ARENA_TYPES  # class = type for the arena
     assert RESCUE_CLASSES[16:] == tuple(RESCUE_TYPES_V1[1:])  # 16 hazmat labels, then the 8 others
     assert all(CLASS_INDEX[c] == i for i, c in enumerate(RESCUE_CLASSES))
 

@@ -110,3 +110,65 @@ def test_no_target_and_bad_input():
         read_landolt(np.zeros((8, 8, 4), np.uint8))
     with pytest.raises(ValueError, match="window_frac"):
         LandoltReaderConfig(window_frac=0.0)
+
+
+def _frame_with_target(truth, side_px: int, at: tuple[int, int], seed: int = 0):
+    """A 480 x 640 grey frame (noise sd 3) with a drawn target's card pasted at ``at`` (x, y), a
+    filled black disc and a black ring without a gap beside it (shapes that are not targets)."""
+    rng = np.random.default_rng(seed)
+    frame = np.clip(rng.normal(140, 3, (480, 640, 3)), 0, 255).astype(np.uint8)
+    x0, y0 = at
+    frame[y0 : y0 + side_px, x0 : x0 + side_px] = draw_landolt(SPEC, truth, side_px)
+    cv2.rectangle(frame, (420, 280), (520, 380), (245, 245, 245), -1)
+    cv2.circle(frame, (470, 330), 30, (0, 0, 0), -1)  # a filled disc
+    cv2.rectangle(frame, (60, 330), (160, 430), (245, 245, 245), -1)
+    cv2.circle(frame, (110, 380), 40, (0, 0, 0), 12)  # an O: a ring with no gap
+    return frame
+
+
+def test_the_finder_finds_the_target_and_reads_it_and_nothing_else():
+    from poi.core.landolt import orientation_text
+    from poi.core.types import Frame, Intrinsics
+    from poi.detectors import build_detector
+
+    truth = (90, 225, 315, 0, 135)
+    frame_rgb = _frame_with_target(truth, 121, (250, 60))
+    intr = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=320.0, ppy=240.0)
+    frame = Frame(index=0, timestamp_s=0.0, rgb=frame_rgb, depth_m=None, pose=None, intrinsics=intr)
+    dets = build_detector({"name": "landolt"}).detect(frame)
+    assert len(dets) == 1
+    (d,) = dets
+    assert (d.type, d.class_name, d.source) == ("landolt-c", "landolt-c", "landolt")
+    # a sharp drawn card (121 px): every ring reads, ring 5's 0.6 px gap too
+    assert d.text == orientation_text(truth) == "1:N 2:SW 3:SE 4:E 5:NW"
+    # the box is the outer ring's: 49 / 63.7 of the card, centred on it
+    side = 121 * 49.0 / card_side_mm(SPEC)
+    assert d.box_xyxy == pytest.approx((310 - side / 2, 120 - side / 2, 310 + side / 2, 120 + side / 2), abs=1.5)
+
+
+def test_boxes_without_text_get_their_rings_read_from_pixels():
+    from poi.core.types import Detection
+    from poi.detectors.landolt import attach_landolt_text
+
+    truth = (180, 45, 270, 90, 0)
+    frame = _frame_with_target(truth, 121, (250, 60))
+    box = (250.0, 60.0, 371.0, 181.0)
+    dets = [
+        Detection(
+            class_name="landolt-c", type="landolt-c", text="", box_xyxy=box, confidence=0.8, source="oracle"
+        ),
+        Detection(class_name="landolt-c", type="landolt-c", text="1:E", box_xyxy=box, confidence=0.8, source="x"),
+        Detection(class_name="door", type="door", text="", box_xyxy=box, confidence=0.8, source="oracle"),
+        # the O ring: no gap reads, so no text
+        Detection(
+            class_name="landolt-c",
+            type="landolt-c",
+            text="",
+            box_xyxy=(60, 330, 160, 430),
+            confidence=0.8,
+            source="oracle",
+        ),
+    ]
+    out = attach_landolt_text(frame, dets)
+    assert [d.text for d in out] == ["1:W 2:NE 3:S 4:N", "1:E", "", ""]
+    assert dets[0].text == ""  # the inputs are not changed

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from poi.core.names import CLASSES
 from poi.core.types import Frame, Intrinsics
 from poi.detectors import (
     CheckedDetector,
@@ -133,8 +134,8 @@ def test_bad_boxes_confidences_and_types_are_refused():
     assert "x1 <= x2" in check_detection(det(box_xyxy=(5, 2, 3, 4)))
     assert "confidence 1.5 is not in [0, 1]" in check_detection(det(confidence=1.5))
     assert "class_probs of shape (3,)" in check_detection(det(class_probs=np.ones(3) / 3))
-    assert "positive sum" in check_detection(det(class_probs=np.zeros(28)))
-    assert check_detection(det(class_probs=np.full(28, 1 / 28))) is None
+    assert "positive sum" in check_detection(det(class_probs=np.zeros(len(CLASSES))))
+    assert check_detection(det(class_probs=np.full(len(CLASSES), 1 / len(CLASSES)))) is None
 
 
 def _install_dist(site: Path, entries: dict[str, str]) -> None:

@@ -224,6 +224,23 @@ def test_qr_text_rule():
     assert [(s.text, s.n_detections) for s in res.newly_confirmed] == [("Chart C", 4)]
 
 
+def test_landolt_rings_are_voted_per_ring_and_ring_3_is_needed():
+    # the default landolt_required_rings [3]: rings 1-2 read in two frames is not enough
+    tr = Tracker(cfg(n_min=2))
+    for k, text in enumerate(["1:E 2:N", "1:E 2:S", ""]):
+        assert tr.step([obs([0, 0, 0], "landolt-c", text=text)], 0.1 * k).newly_confirmed == []
+    # ring 3 reads once: confirmed; per ring the direction read most often (ring 1: E twice
+    # against W once; ring 2: S twice against N once)
+    res = tr.step([obs([0, 0, 0], "landolt-c", text="1:W 2:S 3:NE")], 0.3)
+    assert [s.text for s in res.newly_confirmed] == ["1:E 2:S 3:NE"]
+    # the finals' [3, 4]: ring 4 must read too
+    fin = Tracker(cfg(n_min=1, landolt_required_rings=(3, 4)))
+    assert fin.step([obs([0, 0, 0], "landolt-c", text="3:NE")], 0.0).newly_confirmed == []
+    assert [s.text for s in fin.step([obs([0, 0, 0], "landolt-c", text="4:S")], 0.1).newly_confirmed] == [
+        "3:NE 4:S"
+    ]
+
+
 def test_mean_fusion():
     p1 = np.full(len(CLASSES), 0.0)
     p1[CLASS_INDEX["door"]] = 1.0
