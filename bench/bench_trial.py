@@ -50,7 +50,7 @@ class ThreadCpu:
         self._seen: dict[int, tuple[str, float]] = {}
         self._stop = threading.Event()
         self._tick = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
-        self._thread = threading.Thread(target=self._run, args=(period_s,), daemon=True)
+        self._thread = threading.Thread(target=self._run, args=(period_s,), name="bench sampler", daemon=True)
         self.available = Path("/proc/self/task").is_dir()
 
     def _sample(self) -> None:
