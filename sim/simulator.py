@@ -262,6 +262,11 @@ class Simulation:
         self.colour_lux = self._decoded_one_lux(col)
         self._camera = ColourCamera(col, d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
         self._meters: dict[int, float] = {}  # frame index -> auto-exposure meter of its render
+        # FrameTruth.visible and .object_mask come from a full-size segmentation render (with the
+        # visible-object boxes, about 13 ms of CPU a frame); a caller that reads neither (a trial
+        # with a trained detector) switches it off before asking for frames (eval.trial.run)
+        self.truth_boxes: bool = sc.sensors.truth_boxes
+        self._tilt_rad = tilt
         self._renderer: SceneRenderer | None = None
         self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
         self._pools: tuple[NoisePool | None, NoisePool | None] = (
@@ -464,12 +469,12 @@ class Simulation:
         """Object ids at full size when ground-truth boxes are on, geom ids at
         ``THERMAL_SUPERSAMPLE`` times the thermal size when the thermal camera is on (GL thread)."""
         sens = self.scenario.sensors
-        if not sens.truth_boxes and not sens.thermal.enabled:
+        if not self.truth_boxes and not sens.thermal.enabled:
             return SegmentationRender(object_ids=None, thermal_geoms=None)
         r = self._renderer_ready()
         self._set_camera(k)
         r.update(self.world.data)
-        objects = r.geom_segmentation(relabel=self.world.geom_object_id) if sens.truth_boxes else None
+        objects = r.geom_segmentation(relabel=self.world.geom_object_id) if self.truth_boxes else None
         thermal = None
         if sens.thermal.enabled:
             w = min(sens.thermal.width * THERMAL_SUPERSAMPLE, self.intrinsics.width)

@@ -248,6 +248,7 @@ def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, 
     try:
         notes: list[str] = []
         detectors, oracle = make_detectors(detector, rec_cfg, sim, notes)
+        sim.truth_boxes = oracle is not None  # only the oracle reads the frames' truth boxes
         labelled = any(getattr(d, "label_model", None) is not None for d in detectors)
         reader = find_qr_reader()
         n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
@@ -368,6 +369,9 @@ def run_trial(
         if record is None:
             detectors, oracle = make_detectors(detector, cfg, sim, notes)
             uses_oracle = oracle is not None
+            # nothing but the oracle and an on_frame caller reads the frames' truth boxes: without
+            # them the object segmentation render is left out (the same files, less CPU)
+            sim.truth_boxes = uses_oracle or on_frame is not None
         else:
             from eval.trial.perception_cache import ReplayDetector
 

@@ -307,8 +307,8 @@ class OnnxYoloDetector:
     only to a multiple of the model's stride; dynamic models only);
     ``providers`` onnxruntime execution providers in order of preference, those
     this onnxruntime lacks skipped and named in ``notes`` (one line), the CPU
-    always last; ``threads`` onnxruntime intra-op threads (1: a second one
-    costs CPU spinning and gives the same boxes); ``read_qr`` decode
+    always last; ``threads`` onnxruntime intra-op threads (1: a second one,
+    its spinning off, costs about 17% more CPU for the same boxes; 2.5x with it on); ``read_qr`` decode
     the text of every 'qr' detection here (:func:`poi.detectors.qr.attach_qr_text`;
     off by default because poi.pipeline does it after all detectors);
     ``label_model`` a hazmat label classifier (:mod:`poi.detectors.hazmat_labels`)
@@ -332,7 +332,7 @@ class OnnxYoloDetector:
     layout: str = "auto"
     letterbox: str = "square"
     providers: Sequence[str] | None = None
-    threads: int = 1  # a second intra-op thread mostly spins: +50-60% CPU, same boxes (issue 18)
+    threads: int = 1  # a second intra-op thread: +17% CPU (spinning off), same boxes (issue 18)
     read_qr: bool = False
     label_model: str | Path | None = None
     name: str = field(default="onnx", init=False)

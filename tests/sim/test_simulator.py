@@ -149,6 +149,21 @@ def test_frames_are_independent_of_which_frames_were_rendered():
     assert np.array_equal(f1.depth_m, f2.depth_m) and np.array_equal(f1.rgb, f2.rgb)
 
 
+def test_frames_without_truth_boxes_are_the_same_frames_without_boxes():
+    """Switching the truth boxes off (a trial with a trained detector) leaves out the object
+    segmentation render and nothing else: the same pixels, depth, thermal image and pose."""
+    sc = load_scenario("default")
+    with Simulation(sc) as sim:
+        k = 280  # a QR code and the heat source in view
+        f1, t1 = sim.frame(k)
+        sim.truth_boxes = False
+        f2, t2 = sim.frame(k)
+    assert t1.visible and t1.object_mask is not None
+    assert t2.visible == [] and t2.object_mask is None
+    assert np.array_equal(f1.rgb, f2.rgb) and np.array_equal(f1.depth_m, f2.depth_m)
+    assert np.array_equal(f1.thermal_c, f2.thermal_c) and np.array_equal(f1.pose, f2.pose)
+
+
 def test_ground_truth_positions_are_in_the_map_frame():
     sc = load_scenario("default")
     with Simulation(sc) as sim:

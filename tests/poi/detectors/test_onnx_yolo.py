@@ -326,3 +326,14 @@ def test_qr_box_gets_its_text(tmp_path):
     (d,) = OnnxYoloDetector(model=path, read_qr=True).detect(_frame(rgb))
     assert np.allclose(d.box_xyxy, (200, 180, 300, 280), atol=EXACT)
     assert (d.type, d.text) == ("qr", "Chart M")
+
+
+def test_onnx_sessions_block_instead_of_spinning():
+    """Every session the detectors open has its intra-op threads' spinning off (two spinning
+    threads cost twice the CPU of one for the same boxes, issue 18) and the threads asked for."""
+    from poi.detectors.base import open_onnx_session
+
+    model = Path(__file__).parents[3] / "poi" / "models" / "default_labels.onnx"
+    opts = open_onnx_session(model, 2, OnnxModelError).get_session_options()
+    assert opts.get_session_config_entry("session.intra_op.allow_spinning") == "0"
+    assert opts.intra_op_num_threads == 2
