@@ -7,12 +7,12 @@ import pytest
 
 from poi.core.names import (
     ARENA_TYPES,
-    TARGET_TYPES,
     CLASS_INDEX,
     CLASSES,
     MAPPING_TYPES,
     RESCUE_CLASSES,
     RESCUE_TYPES,
+    TARGET_TYPES,
     TYPES,
     canonical_type,
     class_to_identity,
