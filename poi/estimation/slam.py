@@ -2,7 +2,10 @@
 
 The state (eq. 9) is the robot's planar pose and the positions of the static
 landmarks it has mapped, ``x = [x, y, theta, x_1, y_1, ..., x_n, y_n]``; each
-landmark's class is kept beside the state (2.2.2). One step:
+landmark's class is kept beside the state (2.2.2). The robot part also carries the
+odometry's systematic errors, each when its prior sigma is > 0 (all are, by default): the
+scale factor k, the drift rate (b_x, b_y) and the heading drift c,
+``x = [x, y, theta, k, b_x, b_y, c, x_1, y_1, ...]`` (see the departures below). One step:
 
 * :meth:`UkfSlam.predict` with an odometry increment in the robot frame
   (eq. 10-12) and the process noise ``Q = J Q_c J^T`` (eq. 13-15), by the
@@ -49,9 +52,26 @@ Where this departs from the document, on purpose:
   the price is sigma points at ``sqrt(n)`` standard deviations (the robot's
   heading spread widens with the map), measured with ``poibench consistency`` (README,
   "Covariance consistency"). Should rounding still leave P indefinite (no Cholesky
-  factor), it is repaired by raising its eigenvalues to ``START_POSE_SIGMA^2``, and every
+  factor), it is repaired by raising its eigenvalues to ``REPAIR_VARIANCE`` (1e-8), and every
   repair is counted (:attr:`UkfSlam.repairs`) and logged as a warning; nothing is
   clipped silently.
+* The odometry's systematic errors are in the state. A visual-inertial tracker's error
+  is mostly systematic over minutes: a scale error (the T265 reports 10% and more short
+  or long over a run, [T265Issues]_; ``rrl-hard`` simulates it), a position drift of about
+  1% of the distance in a slowly turning direction and a heading drift per metre. Errors
+  that persist are not the white noise ``Q_c`` describes: white noise of the same size per
+  step grows as the square root of the steps where these grow linearly, so a filter
+  without them is over-confident on long stretches without landmarks, and a ``Q_c`` large
+  enough to cover them throws away what odometry knows. With them in the state, f moves
+  the robot by ``k R(theta) Delta_l + b d`` and turns it by ``dtheta_l + c d`` for a step
+  of d metres; landmarks observe k, b and c through the pose, and each follows a slow
+  random walk (``Q[k, k] = (scale_sigma_per_m d)^2``, ``Q[b, b] = drift_sigma_per_sqrt_m^2
+  d`` per axis, ``Q[c, c] = heading_drift_sigma_per_sqrt_m^2 d``). A prior sigma of 0
+  leaves a parameter out; all three at 0 give the document's state. The start
+  covariance is ``diag(start_sigma_m^2, start_sigma_m^2, start_sigma_rad^2, scale_sigma^2)``:
+  the map frame is the odometry's start pose, but the first pose the filter gets is
+  already the tracker's, latency and all (a few mm off), and an exact start (the former
+  1e-4 m) made the first frames' pose NEES reach 10^4.
 * The update draws fresh sigma points from the predicted (x, P), which carry
   ``Q``; the document reuses the propagated points.
 * A promoted landmark is not added with ``P = blkdiag(P, P_ln)`` and a fixed
@@ -60,13 +80,14 @@ Where this departs from the document, on purpose:
   pose, ``l = g(x, z) = (x, y) + R(theta) z`` (eq. 16), carries that pose's error, so it
   gets the standard EKF/UKF-SLAM augmentation ([Bailey2006]_, [BarShalom2001]_):
   ``P_new = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]]`` with ``J_x = dg/dx``
-  (``[I_2, dR(theta)/dtheta z, 0]``), ``J_z = R(theta)``, ``z`` the candidate's mean
-  in the robot frame and ``R`` its latest sighting's covariance. The mean of n sightings
-  is at least as good as one, so R is an upper bound on its noise; the sightings, all
-  within ``t_max_s`` of each other, are taken to share the current pose's error. Without
-  the cross-covariance a landmark's pose error is counted as independent information,
-  and the map and pose become over-confident (measured with ``poibench consistency``:
-  README, "Covariance consistency").
+  (``[I_2, dR(theta)/dtheta z, 0, ...]``, zero for the odometry errors and the landmarks),
+  ``J_z = R(theta)``, ``z`` the candidate's mean in the robot frame and ``R`` its latest
+  sighting's covariance. The mean of n sightings is at least as good as one, so R is an
+  upper bound on its noise; the sightings, all within ``t_max_s`` of each other, are
+  taken to share the current pose's error. Without the cross-covariance a landmark's
+  pose error is counted as independent information, and the map and pose become
+  over-confident (measured with ``poibench consistency``: README, "Covariance
+  consistency").
 
 References
 ----------
@@ -99,10 +120,9 @@ from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
 from poi.config import SlamConfig
 from poi.core.geometry import wrap_angle
 
-ROBOT_DIM = 3  # x, y, theta
-# The map frame is the robot's start pose (docs/DESIGN.md), so the first pose is known; a tiny
-# variance keeps P positive definite for the Cholesky factor of the sigma points.
-START_POSE_SIGMA = 1e-4
+POSE_DIM = 3  # x, y, theta
+# An indefinite P is repaired by raising its eigenvalues to this variance (module docstring).
+REPAIR_VARIANCE = 1e-8
 
 
 LOG = logging.getLogger(__name__)
@@ -124,7 +144,7 @@ class LandmarkObservation:
 
 @dataclass(kw_only=True)
 class Landmark:
-    """A mapped landmark: its slot in the state (``3 + 2 * slot``) and class."""
+    """A mapped landmark: its slot in the state (``robot_dim + 2 * slot``) and class."""
 
     slot: int
     class_name: str
@@ -186,16 +206,28 @@ def _symmetric(P: np.ndarray) -> np.ndarray:
 
 
 class UkfSlam:
-    """The filter. ``x`` (3 + 2n,) and ``P`` are the state and covariance; ``landmarks`` the
-    mapped ones by slot, ``candidates`` the candidate map."""
+    """The filter. ``x`` (robot_dim + 2n,) and ``P`` are the state and covariance (robot_dim:
+    the pose's 3 and the odometry error parameters switched on); ``landmarks`` the mapped
+    ones by slot, ``candidates`` the candidate map."""
 
     def __init__(self, params: SlamConfig, pose0: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         self.params = params
-        self.x = np.array(pose0, dtype=float)
-        self.P = START_POSE_SIGMA**2 * np.eye(ROBOT_DIM)
+        # x, y, theta, then the odometry's error parameters that are switched on (module
+        # docstring): scale k (starts at 1), drift rate (b_x, b_y) and heading drift c (at 0)
+        x0, sd0 = [*pose0], [params.start_sigma_m, params.start_sigma_m, params.start_sigma_rad]
+        self.i_scale = self.i_drift = self.i_heading_drift = None
+        if params.scale_sigma > 0.0:
+            self.i_scale, x0, sd0 = len(x0), [*x0, 1.0], [*sd0, params.scale_sigma]
+        if params.drift_sigma > 0.0:
+            self.i_drift, x0, sd0 = len(x0), [*x0, 0.0, 0.0], [*sd0, params.drift_sigma, params.drift_sigma]
+        if params.heading_drift_sigma > 0.0:
+            self.i_heading_drift, x0, sd0 = len(x0), [*x0, 0.0], [*sd0, params.heading_drift_sigma]
+        self.robot_dim = len(x0)
+        self.x = np.array(x0, dtype=float)
+        self.P = np.diag(np.square(sd0))
         self.landmarks: list[Landmark] = []
         self.candidates: list[Candidate] = []
-        self._points: MerweScaledSigmaPoints = sigma_points(ROBOT_DIM, params)
+        self._points: MerweScaledSigmaPoints = sigma_points(self.robot_dim, params)
         self.repairs = 0  # times P had no Cholesky factor and was repaired (see the module docstring)
 
     # --- state ---------------------------------------------------------------------------
@@ -206,18 +238,32 @@ class UkfSlam:
     @property
     def pose(self) -> np.ndarray:
         """(x, y, theta) of the robot in the map."""
-        return self.x[:ROBOT_DIM].copy()
+        return self.x[:POSE_DIM].copy()
 
     @property
     def pose_covariance(self) -> np.ndarray:
-        return self.P[:ROBOT_DIM, :ROBOT_DIM].copy()
+        return self.P[:POSE_DIM, :POSE_DIM].copy()
+
+    @property
+    def odometry_scale(self) -> float:
+        """The estimated factor k by which the odometry's distances are multiplied (1 when
+        the state does not carry it)."""
+        return 1.0 if self.i_scale is None else float(self.x[self.i_scale])
+
+    @property
+    def odometry_drift(self) -> tuple[np.ndarray, float]:
+        """The estimated drift rates: (b_x, b_y) in metres and c in radians per metre travelled
+        (zeros for those the state does not carry)."""
+        b = np.zeros(2) if self.i_drift is None else self.x[self.i_drift : self.i_drift + 2].copy()
+        c = 0.0 if self.i_heading_drift is None else float(self.x[self.i_heading_drift])
+        return b, c
 
     def landmark_xy(self, slot: int) -> np.ndarray:
-        i = ROBOT_DIM + 2 * slot
+        i = self.robot_dim + 2 * slot
         return self.x[i : i + 2].copy()
 
     def landmark_covariance(self, slot: int) -> np.ndarray:
-        i = ROBOT_DIM + 2 * slot
+        i = self.robot_dim + 2 * slot
         return self.P[i : i + 2, i : i + 2].copy()
 
     def _sigmas(self) -> np.ndarray:
@@ -228,7 +274,7 @@ class UkfSlam:
             return self._points.sigma_points(self.x, self.P)
 
     def _repair_covariance(self) -> None:
-        """P has no Cholesky factor: raise its eigenvalues to START_POSE_SIGMA^2, count the
+        """P has no Cholesky factor: raise its eigenvalues to REPAIR_VARIANCE, count the
         repair and log it (the caller retries)."""
         w, V = np.linalg.eigh(self.P)
         self.repairs += 1
@@ -237,10 +283,10 @@ class UkfSlam:
             "eigenvalues raised to %.3g (repair %d)",
             float(w[0]),
             self.n,
-            START_POSE_SIGMA**2,
+            REPAIR_VARIANCE,
             self.repairs,
         )
-        self.P = _symmetric((V * np.maximum(w, START_POSE_SIGMA**2)) @ V.T)
+        self.P = _symmetric((V * np.maximum(w, REPAIR_VARIANCE)) @ V.T)
 
     # --- prediction (2.2.3) --------------------------------------------------------------
     def process_noise(self, delta: np.ndarray) -> np.ndarray:
@@ -251,74 +297,97 @@ class UkfSlam:
         s_xy = p.sigma_xy_m + p.sigma_xy_per_m * dist
         s_th = p.sigma_theta_rad + p.sigma_theta_per_rad * abs(float(delta[2])) + p.sigma_theta_per_m * dist
         Qc = np.diag([s_xy**2, s_xy**2, s_th**2])
-        J = np.eye(ROBOT_DIM)
+        J = np.eye(POSE_DIM)
         J[:2, :2] = rot2(self.x[2])
         Q = np.zeros((self.n, self.n))
-        Q[:ROBOT_DIM, :ROBOT_DIM] = J @ Qc @ J.T
+        Q[:POSE_DIM, :POSE_DIM] = J @ Qc @ J.T
+        # the odometry's error parameters follow random walks in the distance travelled
+        if self.i_scale is not None:
+            Q[self.i_scale, self.i_scale] = (p.scale_sigma_per_m * dist) ** 2
+        if self.i_drift is not None:
+            i = self.i_drift
+            Q[i, i] = Q[i + 1, i + 1] = p.drift_sigma_per_sqrt_m**2 * dist
+        if self.i_heading_drift is not None:
+            i = self.i_heading_drift
+            Q[i, i] = p.heading_drift_sigma_per_sqrt_m**2 * dist
         return Q
 
     def predict(self, delta: np.ndarray) -> None:
         """Move the robot by ``delta`` = (dx_l, dy_l, dtheta_l) given in its own frame
-        (eq. 10 with eq. 12 evaluated at each sigma point's heading, then eq. 7).
+        (eq. 10 with eq. 12 evaluated at each sigma point's heading, then eq. 7): f moves
+        (x, y) by ``k R(theta) (dx_l, dy_l) + b d`` and theta by ``dtheta_l + c d``, with
+        d = |(dx_l, dy_l)| and k, b, c the state's odometry errors (1, 0, 0 where it has none).
 
         This is the unscented transform of eq. 6-7 over all 2n + 1 sigma points, computed
         in O(n) rather than O(n^3) from the structure of the problem: with the sigma points
         of eq. 1 taken from the upper Cholesky factor U (U^T U = (n + lambda) P, filterpy's
-        convention), rows k >= 3 of U are zero in the robot columns, so those 2(n - 3)
-        points keep the robot at its mean and f moves them all alike; f leaves landmarks
-        unchanged, so their mean and covariance block are exact as they are, and each such
-        pair's share of the robot-landmark covariance cancels. What is left needs rows 0-2
-        of U only: U_rr = chol(A_rr), U_rl = U_rr^-T A_rl with A = (n + lambda) P. (A test
-        checks this against filterpy's transform over all points. Measured with 40
-        landmarks on 2 loaded cores: 0.1 ms, against 0.5 ms single-threaded and 14-19 ms
-        with a multi-threaded BLAS for the full transform.)
+        convention), rows i >= r of U are zero in the robot columns (r = 3 plus the odometry
+        error parameters), so those 2(n - r) points keep the robot at its mean and f moves
+        them all alike; f leaves landmarks unchanged, so their mean and covariance block
+        are exact as they are, and each such pair's share of the robot-landmark covariance
+        cancels. What is left needs the robot's r rows of U only: U_rr = chol(A_rr),
+        U_rl = U_rr^-T A_rl with A = (n + lambda) P. (A test checks this against filterpy's
+        transform over all points. Measured with 40 landmarks on 2 loaded cores: 0.1 ms,
+        against 0.5 ms single-threaded and 14-19 ms with a multi-threaded BLAS for the full
+        transform.)
         """
         delta = np.asarray(delta, dtype=float)
         if delta.shape != (3,) or not np.all(np.isfinite(delta)):
             raise SlamError(f"odometry increment: expected 3 finite values, got {delta!r}")
-        Q = self.process_noise(delta)[:ROBOT_DIM, :ROBOT_DIM]
+        rd = self.robot_dim
+        Q = self.process_noise(delta)[:rd, :rd]
         Wm, Wc = self._points.Wm, self._points.Wc
         w = Wm[1]  # 1 / (2 (n + lambda)) for every point but the first
-        scale = 0.5 / w  # n + lambda
-        U = self._robot_rows(scale)  # (3, n)
+        spread = 0.5 / w  # n + lambda
+        U = self._robot_rows(spread)  # (rd, n)
+
+        dist = float(np.hypot(delta[0], delta[1]))
+        ik, ib, ic = self.i_scale, self.i_drift, self.i_heading_drift
 
         def f(r: np.ndarray) -> np.ndarray:
             c, s = np.cos(r[..., 2]), np.sin(r[..., 2])
+            k = 1.0 if ik is None else r[..., ik]
             out = r.copy()
-            out[..., 0] += c * delta[0] - s * delta[1]
-            out[..., 1] += s * delta[0] + c * delta[1]
+            out[..., 0] += k * (c * delta[0] - s * delta[1])
+            out[..., 1] += k * (s * delta[0] + c * delta[1])
             out[..., 2] += delta[2]
+            if ib is not None:
+                out[..., 0] += r[..., ib] * dist
+                out[..., 1] += r[..., ib + 1] * dist
+            if ic is not None:
+                out[..., 2] += r[..., ic] * dist
             return out
 
-        xr = self.x[:ROBOT_DIM]
+        xr = self.x[:rd]
         y0 = f(xr)
-        yp = f(xr + U[:, :ROBOT_DIM])  # points 1..3
-        ym = f(xr - U[:, :ROBOT_DIM])  # points n+1..n+3
+        yp = f(xr + U[:, :rd])  # points 1..r
+        ym = f(xr - U[:, :rd])  # points n+1..n+r
         for y in (yp, ym):
             y[:, 2] = y0[2] + wrap_angle(y[:, 2] - y0[2])
-        n_still = 2 * (self.n - ROBOT_DIM)  # points whose robot part is the mean
+        n_still = 2 * (self.n - rd)  # points whose robot part is the mean
         mean = (Wm[0] + n_still * w) * y0 + w * (yp.sum(axis=0) + ym.sum(axis=0))
         d0, dp, dm = y0 - mean, yp - mean, ym - mean
         P_rr = (Wc[0] + n_still * w) * np.outer(d0, d0) + w * (dp.T @ dp + dm.T @ dm) + Q
-        P_rl = w * (yp - ym).T @ U[:, ROBOT_DIM:]
+        P_rl = w * (yp - ym).T @ U[:, rd:]
         x = self.x.copy()
-        x[:ROBOT_DIM] = mean
+        x[:rd] = mean
         x[2] = wrap_angle(mean[2])
         P = self.P.copy()
-        P[:ROBOT_DIM, :ROBOT_DIM] = _symmetric(P_rr)
-        P[:ROBOT_DIM, ROBOT_DIM:] = P_rl
-        P[ROBOT_DIM:, :ROBOT_DIM] = P_rl.T
+        P[:rd, :rd] = _symmetric(P_rr)
+        P[:rd, rd:] = P_rl
+        P[rd:, :rd] = P_rl.T
         self.x, self.P = x, P
 
-    def _robot_rows(self, scale: float) -> np.ndarray:
-        """Rows 0-2 of the upper Cholesky factor of ``scale * P``."""
-        A_rr = scale * self.P[:ROBOT_DIM, :ROBOT_DIM]
-        A_rl = scale * self.P[:ROBOT_DIM, ROBOT_DIM:]
+    def _robot_rows(self, spread: float) -> np.ndarray:
+        """The robot's rows (pose and odometry errors) of the upper Cholesky factor of ``spread * P``."""
+        rd = self.robot_dim
+        A_rr = spread * self.P[:rd, :rd]
+        A_rl = spread * self.P[:rd, rd:]
         try:
             U_rr = np.linalg.cholesky(A_rr).T
         except np.linalg.LinAlgError:
             self._repair_covariance()
-            return self._robot_rows(scale)
+            return self._robot_rows(spread)
         U_rl = np.linalg.solve(U_rr.T, A_rl)
         return np.hstack([U_rr, U_rl])
 
@@ -356,7 +425,7 @@ class UkfSlam:
         chi = _unwrap_heading(self._sigmas())
         k = len(pairs)
         slots = np.array([slot for _, slot in pairs])
-        cols = ROBOT_DIM + 2 * slots
+        cols = self.robot_dim + 2 * slots
         L = np.stack([chi[:, cols], chi[:, cols + 1]], axis=2)  # (2n+1, k, 2)
         d = L - chi[:, None, :2]
         c, s = np.cos(chi[:, 2])[:, None], np.sin(chi[:, 2])[:, None]

@@ -5,7 +5,11 @@ Per frame, with the odometry pose ``T_map_tracker`` = (Q, t) the frame carries (
 wheel odometry, drift included):
 
 1. the planar pose (x, y, theta) of the tracker is read from (Q, t) (theta = the heading
-   of Q's x axis); the increment from the previous frame's pose ([Bouda2025]_ eq. 11) drives
+   of Q's x axis) and extrapolated over the odometry's latency (``slam.odometry_latency_s``)
+   at the velocity of the last two reports, so that the filter estimates the pose at the
+   frame's time (a T265 reports the pose of 10 ms earlier: turning at 1.6 rad/s, as the
+   robot's look-around does, that is 0.9 degrees); the increment from the previous
+   frame's extrapolated pose ([Bouda2025]_ eq. 11) drives
    :meth:`poi.estimation.slam.UkfSlam.predict`;
 2. observations of static types (``slam.landmark_types``) within ``slam.max_range_m``
    are expressed in the levelled robot frame: ``p_l = Rz(theta)^T (p_map - t)``, which
@@ -76,15 +80,32 @@ class SlamLocalizer:
         self.cfg = cfg
         self.landmark_types = frozenset(cfg.landmark_types)
         self.slam: UkfSlam | None = None
-        self._last_odometry: np.ndarray | None = None
+        self._last_odometry: np.ndarray | None = None  # as reported, and its time
+        self._last_t_s = 0.0
+        self._last_filter_odometry: np.ndarray | None = None  # extrapolated to the frame time
+
+    def frame_time_odometry(self, odom: np.ndarray, t_s: float) -> np.ndarray:
+        """The reported planar pose extrapolated over ``slam.odometry_latency_s`` at the
+        velocity of the last two reports: the pose at the frame's time (what librealsense's
+        pose prediction does). At frame 0, or with latency 0, the pose as reported."""
+        lat = self.cfg.odometry_latency_s
+        if lat <= 0.0 or self._last_odometry is None or t_s <= self._last_t_s:
+            return odom
+        d = odom - self._last_odometry
+        d[2] = wrap_angle(d[2])
+        out = odom + d * (lat / (t_s - self._last_t_s))
+        out[2] = wrap_angle(out[2])
+        return out
 
     def step(self, T_odom: np.ndarray, observations: list[Observation], t_s: float) -> SlamStep:
-        odom = planar_pose(T_odom)
+        reported = planar_pose(T_odom)
+        odom = self.frame_time_odometry(reported, t_s)
         if self.slam is None:
             self.slam = UkfSlam(self.cfg, pose0=tuple(odom))
         else:
-            self.slam.predict(odometry_increment(self._last_odometry, odom))
-        self._last_odometry = odom
+            self.slam.predict(odometry_increment(self._last_filter_odometry, odom))
+        self._last_odometry, self._last_t_s, self._last_filter_odometry = reported, t_s, odom
+        odom = reported  # the observations were placed with the reported pose
         prior_pose, prior_P = self.slam.pose, self.slam.pose_covariance  # before this frame's update
 
         Rz_T = rot_z(odom[2]).T

@@ -27,6 +27,9 @@ from poi.estimation.slam import (
     sigma_points,
 )
 
+# the document's state: the pose and landmarks only, no odometry error parameters
+DOCUMENT_STATE = {"scale_sigma": 0.0, "drift_sigma": 0.0, "heading_drift_sigma": 0.0}
+
 
 def test_weights_match_eq_2_to_5_by_hand():
     # n = 5, alpha = 0.5, beta = 2, kappa = 3 - n = -2 (the document's choice)
@@ -59,7 +62,7 @@ def test_odometry_increment_and_prediction_rotate_correctly():
     d = odometry_increment(np.array([0.0, 0.0, math.pi / 2]), np.array([0.0, 1.0, math.pi]))
     assert d.tolist() == pytest.approx([1.0, 0.0, math.pi / 2])
     # the filter thinks it faces -x: the same increment moves it 1 m along -x
-    slam = UkfSlam(SlamConfig(), pose0=(2.0, 3.0, math.pi))
+    slam = UkfSlam(SlamConfig(start_sigma_m=1e-4, start_sigma_rad=1e-4), pose0=(2.0, 3.0, math.pi))
     slam.predict(d)
     assert slam.pose.tolist() == pytest.approx([1.0, 3.0, -math.pi / 2], abs=1e-6)
 
@@ -93,10 +96,10 @@ def test_landmark_promoted_only_after_more_than_n_min_sightings():
     truth = {"valve": np.array([2.0, 0.5])}
     for k in range(3):
         res = _observe(slam, truth, np.zeros(3), rng, 0.01, 0.1 * k)
-        assert not res.promoted and slam.n == 3
+        assert not res.promoted and slam.n == slam.robot_dim
     assert slam.candidates[0].n_seen == 3
     res = _observe(slam, truth, np.zeros(3), rng, 0.01, 0.3)
-    assert res.promoted == [0] and slam.n == 5 and not slam.candidates
+    assert res.promoted == [0] and slam.n == slam.robot_dim + 2 and not slam.candidates
     assert slam.landmark_xy(0) == pytest.approx([2.0, 0.5], abs=0.02)
 
 
@@ -136,14 +139,16 @@ def test_association_is_per_class_and_mutual_nearest():
 
 def test_static_robot_converges_on_fixed_landmarks():
     rng = np.random.default_rng(1)
-    slam = UkfSlam(SlamConfig(n_min=3))
+    # a start known to 0.1 mm: a robot standing still cannot learn the map frame's heading from
+    # the landmarks it maps itself, so a start heading sigma bounds theirs (0.02 rad x 3 m)
+    slam = UkfSlam(SlamConfig(n_min=3, start_sigma_m=1e-4, start_sigma_rad=1e-4))
     truth = {"valve": np.array([2.0, 1.0]), "door": np.array([3.0, -1.5]), "qr": np.array([-1.0, 2.5])}
     traces = []
     for k in range(200):
         slam.predict(np.zeros(3))
         _observe(slam, truth, np.zeros(3), rng, 0.05, 0.1 * k)
         if len(slam.landmarks) == 3:
-            traces.append(np.trace(slam.P))
+            traces.append(np.trace(slam.P) - slam.P[3, 3])  # k is not observable standing still
     assert len(slam.landmarks) == 3
     for lm in slam.landmarks:
         assert slam.landmark_xy(lm.slot) == pytest.approx(truth[lm.class_name], abs=0.03)
@@ -169,7 +174,7 @@ def test_augmentation_keeps_p_symmetric_positive_definite():
         assert np.linalg.eigvalsh(slam.P).min() > 0.0
     assert len(seen_ever) >= 10
     assert sorted(lm.class_name for lm in slam.landmarks) == sorted(seen_ever)
-    assert slam.n == 3 + 2 * len(seen_ever)
+    assert slam.n == slam.robot_dim + 2 * len(seen_ever)
 
 
 def test_drift_corrected_by_landmarks():
@@ -221,10 +226,12 @@ def test_structured_prediction_equals_the_full_unscented_transform():
     pts = slam._points
     chi = pts.sigma_points(slam.x, slam.P)
     Y = chi.copy()
-    c, s = np.cos(chi[:, 2]), np.sin(chi[:, 2])
-    Y[:, 0] += c * delta[0] - s * delta[1]
-    Y[:, 1] += s * delta[0] + c * delta[1]
-    Y[:, 2] += delta[2]
+    # k, b, c: the odometry scale, drift rate and heading drift
+    c, s, k = np.cos(chi[:, 2]), np.sin(chi[:, 2]), chi[:, slam.i_scale]
+    d = math.hypot(delta[0], delta[1])
+    Y[:, 0] += k * (c * delta[0] - s * delta[1]) + chi[:, slam.i_drift] * d
+    Y[:, 1] += k * (s * delta[0] + c * delta[1]) + chi[:, slam.i_drift + 1] * d
+    Y[:, 2] += delta[2] + chi[:, slam.i_heading_drift] * d
     Y[:, 2] = Y[0, 2] + wrap_angle(Y[:, 2] - Y[0, 2])
     x_ref, P_ref = unscented_transform(Y, pts.Wm, pts.Wc, slam.process_noise(delta))
     x_ref[2] = wrap_angle(x_ref[2])
@@ -235,7 +242,7 @@ def test_structured_prediction_equals_the_full_unscented_transform():
 
 def test_augmentation_carries_the_pose_cross_covariance_by_hand():
     """P_new = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]] ([Bouda2025]_ eq. 16 as g)."""
-    slam = UkfSlam(SlamConfig(n_min=0), pose0=(1.0, 2.0, math.pi / 2))
+    slam = UkfSlam(SlamConfig(n_min=0, **DOCUMENT_STATE), pose0=(1.0, 2.0, math.pi / 2))
     slam.P = np.diag([0.01, 0.04, 0.0025])
     R = np.diag([0.0009, 0.0004])  # robot frame
     # facing +y, 2 m ahead: the landmark is at (1, 4) in the map
@@ -271,3 +278,86 @@ def test_an_indefinite_covariance_is_repaired_counted_and_logged(caplog):
     assert slam.repairs == 1
     assert "not positive definite" in caplog.text
     assert np.linalg.eigvalsh(slam.P).min() > 0.0
+
+
+def test_scale_prediction_by_hand():
+    """x' = x + k R(theta) Delta with k in the state: for Delta = (2, 0, 0) at theta = 0,
+    var(x') = var(x) + 4 var(k), cov(x', k) = 2 var(k), var(y') = var(y) + 4 var(theta)."""
+    cfg = SlamConfig(
+        sigma_xy_m=0.0,
+        sigma_xy_per_m=0.0,
+        sigma_theta_rad=0.0,
+        sigma_theta_per_rad=0.0,
+        sigma_theta_per_m=0.0,
+        scale_sigma=0.1,
+        scale_sigma_per_m=0.0,
+        drift_sigma=0.0,
+        heading_drift_sigma=0.0,
+        start_sigma_m=1e-4,
+        start_sigma_rad=1e-4,
+    )
+    slam = UkfSlam(cfg)
+    assert slam.robot_dim == 4 and slam.odometry_scale == 1.0
+    slam.predict(np.array([2.0, 0.0, 0.0]))
+    assert slam.pose == pytest.approx([2.0, 0.0, 0.0], abs=1e-7)
+    assert slam.P[0, 0] == pytest.approx(1e-8 + 4 * 0.01, rel=1e-6)
+    assert slam.P[0, 3] == pytest.approx(2 * 0.01, rel=1e-6)
+    assert slam.P[1, 1] == pytest.approx(1e-8 + 4 * 1e-8, rel=1e-6)
+    assert slam.P[1, 2] == pytest.approx(2 * 1e-8, rel=1e-6)
+    assert slam.P[3, 3] == pytest.approx(0.01, rel=1e-12)
+    # the random walk of k: (scale_sigma_per_m * d)^2 for d = 2 m
+    slam = UkfSlam(SlamConfig(scale_sigma_per_m=0.01))
+    assert slam.process_noise(np.array([1.2, 1.6, 0.0]))[3, 3] == pytest.approx(4e-4)
+    assert UkfSlam(SlamConfig(**DOCUMENT_STATE)).robot_dim == 3
+
+
+def _short_odometry_run(cfg: SlamConfig) -> tuple[UkfSlam, np.ndarray]:
+    """160 steps of 0.05 m along x, odometry reporting 10% short; four valves in the first
+    4 m, seen within 2.5 m; then 4 m with nothing in view."""
+    rng = np.random.default_rng(5)
+    slam = UkfSlam(cfg)
+    truth = {f"v{i}": np.array([1.0 + i, 1.0 if i % 2 else -1.0]) for i in range(4)}
+    robot = np.zeros(3)
+    step = np.array([0.05, 0.0, 0.0])
+    for k in range(160):
+        robot = robot + step
+        slam.predict(0.9 * step)
+        seen = {c: p for c, p in truth.items() if np.linalg.norm(p - robot[:2]) < 2.5}
+        _observe(slam, seen, robot, rng, 0.02, 0.1 * k)
+    return slam, robot
+
+
+def test_a_short_odometry_scale_is_learnt_and_the_pose_stays_consistent():
+    white = {"n_min": 2, "sigma_xy_per_m": 0.01, "sigma_theta_per_m": 0.005}
+    cfg = SlamConfig(**white, drift_sigma=0.0, heading_drift_sigma=0.0)
+    slam, robot = _short_odometry_run(cfg)
+    assert slam.odometry_scale == pytest.approx(1 / 0.9, abs=0.03)
+    e = slam.pose - robot
+    nees = float(e @ np.linalg.solve(slam.pose_covariance, e))
+    assert nees < 16.27  # chi-square 3 dof, 99.9%
+    # without the odometry's error parameters the same run ends far outside its covariance:
+    # the scale error is not white noise
+    fixed, robot = _short_odometry_run(SlamConfig(**white, **DOCUMENT_STATE))
+    e = fixed.pose - robot
+    assert float(e @ np.linalg.solve(fixed.pose_covariance, e)) > 100.0
+
+
+def test_a_heading_drift_is_learnt_on_a_circuit():
+    """A robot circling four landmarks while its odometry turns 0.01 rad per metre too far:
+    c converges on -0.01 (the correction) and the pose ends inside its covariance."""
+    rng = np.random.default_rng(6)
+    cfg = SlamConfig(n_min=2, sigma_xy_per_m=0.01, sigma_theta_per_m=0.002, heading_drift_sigma=0.02)
+    truth = {f"c{i}": 2.5 * np.array([math.cos(a), math.sin(a)]) for i, a in enumerate(np.linspace(0.3, 5.0, 4))}
+    robot = np.array([1.0, 0.0, math.pi / 2])
+    slam = UkfSlam(cfg, pose0=tuple(robot))
+    step = np.array([0.04, 0.0, 0.04])  # a circle of 1 m radius
+    for k in range(300):
+        robot = robot + np.r_[rot2(robot[2]) @ step[:2], step[2]]
+        slam.predict(step + np.array([0.0, 0.0, 0.01 * 0.04]))
+        seen = {c: p for c, p in truth.items() if np.linalg.norm(p - robot[:2]) < 3.0}
+        _observe(slam, seen, robot, rng, 0.02, 0.1 * k)
+    b, c = slam.odometry_drift
+    assert c == pytest.approx(-0.01, abs=0.003)
+    e = slam.pose - robot
+    e[2] = wrap_angle(e[2])
+    assert float(e @ np.linalg.solve(slam.pose_covariance, e)) < 16.27

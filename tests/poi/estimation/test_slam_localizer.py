@@ -28,7 +28,7 @@ def _obs(p_map, sigma=0.02) -> Observation:
 
 
 def test_observations_are_mapped_with_the_pose_before_their_own_update():
-    loc = SlamLocalizer(SlamConfig(n_min=0))
+    loc = SlamLocalizer(SlamConfig(n_min=0, start_sigma_m=1e-4, start_sigma_rad=1e-4, odometry_latency_s=0.0))
     T0 = np.eye(4)
     loc.step(T0, [_obs([2.0, 0.0, 0.5])], 0.0)  # the valve becomes a landmark at (2, 0)
     # odometry says the robot moved 0.5 m along x; the valve is seen 0.1 m off where the map has it
@@ -46,3 +46,20 @@ def test_observations_are_mapped_with_the_pose_before_their_own_update():
     # larger than the updated one
     assert step.observations[0].R[0, 0] > 0.02**2
     assert np.trace(slam.pose_covariance) < np.trace(step.observations[0].R)
+
+
+def test_reported_poses_are_extrapolated_over_the_odometry_latency():
+    # reported: (0, 0, 0) at 0 s, (0.05, 0, 0.1) at 0.1 s; with 10 ms latency the frame-time
+    # pose is the second plus a tenth of the step: (0.055, 0, 0.11)
+    cfg = SlamConfig(odometry_latency_s=0.01, start_sigma_m=1e-4, start_sigma_rad=1e-4)
+    loc = SlamLocalizer(cfg)
+    loc.step(np.eye(4), [], 0.0)
+    step = loc.step(make_transform(rot_z(0.1), [0.05, 0.0, 0.0]), [], 0.1)
+    assert loc.slam.pose == pytest.approx([0.055, 0.0, 0.11], abs=1e-5)
+    # the frame's pose is the filter's; height, roll and pitch stay the reported ones
+    assert planar_pose(step.pose) == pytest.approx([0.055, 0.0, 0.11], abs=1e-5)
+    # latency 0: the pose as reported
+    loc = SlamLocalizer(SlamConfig(odometry_latency_s=0.0, start_sigma_m=1e-4, start_sigma_rad=1e-4))
+    loc.step(np.eye(4), [], 0.0)
+    loc.step(make_transform(rot_z(0.1), [0.05, 0.0, 0.0]), [], 0.1)
+    assert loc.slam.pose == pytest.approx([0.05, 0.0, 0.1], abs=1e-5)
