@@ -62,6 +62,7 @@ class TrackerConfig:
     drop_support: float = 0.0
     fusion: Literal["mean", "confusion"] = "mean"
     sigma_eps_m: float = number(0.05, lo=0.0)
+    shared_errors: bool = True
     init: Literal["observation", "prior"] = "observation"
     mu0: tuple[float, float, float] = (0.0, 0.0, 1.0)
     Sigma0_diag: tuple[float, float, float] = number((100.0, 100.0, 4.0), lo=0.0, lo_open=True)
@@ -123,6 +124,8 @@ class LocalizeConfig:
     min_depth_m: float = number(0.28, lo=0.0)
     max_depth_m: float = number(10.0, lo=0.0, lo_open=True)
     center_sigma_px: CenterSigmaConfig = field(default_factory=CenterSigmaConfig)
+    mount_sigma_deg: float = number(0.5, lo=0.0, hi=10.0)
+    mount_sigma_m: float = number(0.005, lo=0.0, hi=0.5)
     # Per type, the spread (m) between where depth hits an object's surface and its reference
     # point (centroid); added as extent^2 I to R so views from different sides pair.
     extent_sigma_m: dict[str, float] = field(
@@ -170,6 +173,7 @@ class SlamConfig:
     drift_sigma_per_sqrt_m: float = number(0.002, lo=0.0)
     heading_drift_sigma: float = number(0.003, lo=0.0)
     heading_drift_sigma_per_sqrt_m: float = number(0.0003, lo=0.0)
+    sigma_eps_m: float = number(0.012, lo=0.0)
     odometry_latency_s: float = number(0.01, lo=0.0, hi=1.0)
     start_sigma_m: float = number(0.005, lo=0.0, lo_open=True)
     start_sigma_rad: float = number(0.02, lo=0.0, lo_open=True)

@@ -150,6 +150,9 @@ class Observation:
     position_cam: np.ndarray  # (3,) in the camera optical frame
     Sigma_c: np.ndarray  # (3, 3) covariance in the camera frame ([Avevor2022] 2.2.2)
     depth_m: float
+    # (3, 3) the part of R whose error repeats over an object's successive observations (the
+    # pose's, Sigma_eps, the object's extent); None: all of R is fresh each frame
+    R_shared: np.ndarray | None = None
 
 
 @dataclass(kw_only=True)

@@ -152,6 +152,24 @@ def map_covariance(Sigma_c: np.ndarray, Q: np.ndarray, Q0: np.ndarray, sigma_eps
     return 0.5 * (R + R.T)
 
 
+def mount_covariance(q: np.ndarray, sigma_rad: float, sigma_m: float) -> np.ndarray:
+    """The map-frame covariance of a point from an error in the camera's mount calibration.
+
+    The pipeline places a point by the nominal mount (Q0, t0); if the true one is
+    Q0 exp([delta]_x), t0 + delta_t, the point moves by Q Q0 (delta x p_c) + Q delta_t =
+    -[q]_x (Q Q0 delta) + Q delta_t with q = Q Q0 p_c the camera-to-point vector in the map
+    frame (first order). For isotropic delta ~ N(0, sigma_rad^2 I) and delta_t ~ N(0,
+    sigma_m^2 I): ``sigma_rad^2 (|q|^2 I - q q^T) + sigma_m^2 I``, since
+    [q]_x [q]_x^T = |q|^2 I - q q^T. A rotation error moves far points more, and never along
+    the line of sight.
+
+    >>> mount_covariance(np.array([2.0, 0.0, 0.0]), 0.01, 0.0).diagonal().round(8).tolist()
+    [0.0, 0.0004, 0.0004]
+    """
+    q = np.asarray(q, dtype=float)
+    return sigma_rad**2 * (float(q @ q) * np.eye(3) - np.outer(q, q)) + sigma_m**2 * np.eye(3)
+
+
 @dataclass(kw_only=True)
 class CenterVariance:
     """sigma_u^2(w) = sum_k u[k] w^k, sigma_v^2(h) = sum_k v[k] h^k in px^2 ([Avevor2022]_ 2.1.4)."""

@@ -38,6 +38,7 @@ from poi.estimation.covariance import (
     deprojection_jacobian,
     depth_jacobian,
     map_covariance,
+    mount_covariance,
 )
 
 BOX_CORNER_TO_CENTER_PX = 0.5  # corner-convention coordinate minus this = pixel-centre coordinate
@@ -147,7 +148,8 @@ def localize(
     """Place a detection in the map frame with its covariance R ([Avevor2022]_ 2.2-2.3).
 
     p_map = Q (Q0 p_c + t0) + t with (Q, t) = ``frame.pose`` (T_map_tracker) and (Q0, t0)
-    = ``T_tracker_camera``; R = Q Q0 Sigma_c Q0^T Q^T + sigma_eps^2 I, with J2 the Jacobian of
+    = ``T_tracker_camera``; R = Q Q0 Sigma_c Q0^T Q^T + sigma_eps^2 I + R_mount
+    (:func:`poi.estimation.covariance.mount_covariance`) + extent^2 I, with J2 the Jacobian of
     the deprojection and, for a round object, of its centre offset (:func:`surface_to_center`).
     None when the frame
     has no pose or no depth, no valid depth lies in the box, or the depth is out of range.
@@ -199,10 +201,19 @@ def localize(
     Q0, t0 = T_tracker_camera[:3, :3], T_tracker_camera[:3, 3]
     # p_map = Q (Q0 p_c + t0) + t
     p_map = Q @ (Q0 @ p_c + t0) + t
-    R = map_covariance(Sigma_c, Q, Q0, cfg.tracker.sigma_eps_m)
+    # Sigma_eps: the pose error as delivered (t265 mode), or what the planar SLAM, which adds
+    # its own pose covariance later, leaves (height, roll, pitch: slam mode)
+    sigma_eps = cfg.slam.sigma_eps_m if lc.mode == "slam" else cfg.tracker.sigma_eps_m
+    R = map_covariance(Sigma_c, Q, Q0, sigma_eps)
     extent = cfg.localize.extent_sigma_m.get(detection.type, 0.0)
     if extent > 0.0:
         R = R + extent**2 * np.eye(3)
+    # the mount calibration's error (a range-dependent part of what Sigma_eps lumps together)
+    R_mount = mount_covariance(Q @ Q0 @ p_c, np.deg2rad(lc.mount_sigma_deg), lc.mount_sigma_m)
+    R = R + R_mount
+    # Sigma_eps, the mount and the extent (which part of the object the depth hits) repeat
+    # from frame to frame; the detection and depth noise in Sigma_c does not
+    R_shared = (sigma_eps**2 + extent**2) * np.eye(3) + R_mount
     return Observation(
         detection=detection,
         timestamp_s=frame.timestamp_s,
@@ -211,4 +222,5 @@ def localize(
         position_cam=p_c,
         Sigma_c=Sigma_c,
         depth_m=d,
+        R_shared=R_shared,
     )

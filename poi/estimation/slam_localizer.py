@@ -130,8 +130,11 @@ class SlamLocalizer:
             J = np.zeros((3, 3))
             J[0, 0] = J[1, 1] = 1.0
             J[0, 2], J[1, 2] = -p_rel[1], p_rel[0]  # d(Rz(theta) v)/d theta = (-v_y, v_x)
-            R = Rd @ obs.R @ Rd.T + J @ prior_P @ J.T
-            corrected.append(dataclasses.replace(obs, position_map=p, R=R))
+            pose_part = J @ prior_P @ J.T
+            R = Rd @ obs.R @ Rd.T + pose_part
+            # the filter's pose error repeats from frame to frame: it is shared, not fresh
+            shared = pose_part if obs.R_shared is None else Rd @ obs.R_shared @ Rd.T + pose_part
+            corrected.append(dataclasses.replace(obs, position_map=p, R=R, R_shared=shared))
         return SlamStep(pose=corrected_pose(T_odom, odom, self.slam.pose), observations=corrected)
 
     @property

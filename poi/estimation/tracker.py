@@ -9,7 +9,8 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    QR track that has a different text. Pairs need m^2 < gate (strict).
 2. Pairing: the greedy loop of [Avevor2022]_ 2.4.3, or an optimal (Hungarian) assignment.
 3. Paired tracks get the Kalman update with H = I ([Avevor2022]_ 2.4.4; covariance in Joseph's
-   form, :func:`kalman_update`), support + 1 and
+   form, :func:`kalman_update`; with the errors that repeat over frames kept apart, see
+   below), support + 1 and
    their class distribution fused. An unpaired observation inside the gate of a
    track already taken this frame (or started by an earlier observation of this
    frame) is a duplicate detection of that object (two detectors, or two boxes on one
@@ -22,6 +23,21 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    once it has text, a Landolt-C one once its rings read include
    ``landolt_required_rings``); confirmed tracks get report ids 0, 1, 2, ... in
    confirmation order.
+
+Errors that repeat (``tracker.shared_errors``, on by default). The document fuses every
+observation as if its error were fresh. Part of it is not: the pose error (the SLAM's, or
+``Sigma_eps``), and which side of an object the depth hits, are nearly the same in
+successive frames, so averaging n observations does not shrink them, and a track's
+``Sigma`` came out over-confident (``poibench consistency``: README, "Covariance
+consistency"). Each observation's R is split into a fresh part ``R_w`` and a shared part
+``R_s = L_o L_o^T`` (:attr:`poi.core.types.Observation.R_shared`, ``L_o`` its symmetric
+square root), modelled as one common error ``L_o z``, z ~ N(0, I) for all of a track's
+observations (the "consider" idea of the Schmidt-Kalman filter in its simplest form: the
+shared error is carried, not estimated). The track keeps ``Sigma_w`` and ``L``: the gain
+``K = Sigma_w (Sigma_w + R_w)^-1`` weighs the fresh errors only, ``Sigma_w`` gets Joseph's
+form with ``R_w``, and ``L`` goes where the mean goes, ``L+ = (I - K) L + K L_o``; the track
+reports ``Sigma = Sigma_w + L L^T``, which never falls below the shared part
+(:func:`shared_error_update`). The gate uses that ``Sigma`` plus the observation's whole R.
 
 >>> mu, Sigma = kalman_update(np.zeros(3), np.eye(3), np.array([2.0, 0.0, 0.0]), np.eye(3))
 >>> mu.tolist(), np.diag(Sigma).tolist()
@@ -76,6 +92,39 @@ def kalman_update(
     """
     mu_new, Sigma_new = filterpy_update(mu, Sigma, o, R, H=IDENTITY3)
     return mu_new, 0.5 * (Sigma_new + Sigma_new.T)
+
+
+def symmetric_sqrt(S: np.ndarray) -> np.ndarray:
+    """The symmetric square root L of a positive semidefinite S (L L^T = L^2 = S), by
+    eigendecomposition; negative rounding in the eigenvalues is taken as 0.
+
+    >>> symmetric_sqrt(np.diag([4.0, 9.0, 0.0])).diagonal().tolist()
+    [2.0, 3.0, 0.0]
+    """
+    w, V = np.linalg.eigh(0.5 * (S + S.T))
+    return (V * np.sqrt(np.clip(w, 0.0, None))) @ V.T
+
+
+def shared_error_update(
+    mu: np.ndarray, Sigma_w: np.ndarray, L: np.ndarray, o: np.ndarray, R_w: np.ndarray, L_o: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One update with the errors that repeat kept apart (module docstring): the Kalman
+    update of (mu, Sigma_w) with the fresh part R_w (:func:`kalman_update`), and the shared
+    error's factor carried as the mean is, ``L+ = (I - K) L + K L_o`` with
+    ``K = Sigma_w (Sigma_w + R_w)^-1``. The track's covariance is ``Sigma_w+ + L+ L+^T``.
+
+    With equal shared parts the shared covariance stays as it is, however many
+    observations are fused; the fresh part shrinks as 1/n:
+
+    >>> L = np.eye(3)
+    >>> mu, Sw, L = shared_error_update(np.zeros(3), np.eye(3), L, np.ones(3), np.eye(3), np.eye(3))
+    >>> np.diag(Sw).tolist(), np.diag(L @ L.T).tolist()
+    ([0.5, 0.5, 0.5], [1.0, 1.0, 1.0])
+    """
+    K = np.linalg.solve(Sigma_w + R_w, Sigma_w).T  # Sigma_w (Sigma_w + R_w)^-1, both symmetric
+    mu_new, Sigma_w_new = kalman_update(mu, Sigma_w, o, R_w)
+    L_new = (IDENTITY3 - K) @ L + K @ L_o
+    return mu_new, Sigma_w_new, L_new
 
 
 def mahalanobis2(o: np.ndarray, mu: np.ndarray, Sigma: np.ndarray, R: np.ndarray) -> float:
@@ -169,6 +218,9 @@ class Track:
     last_seen_s: float = 0.0
     confirmed: bool = False
     report_id: int | None = None
+    # Sigma = Sigma_w + L L^T: the fresh part and the shared error's factor (module docstring)
+    Sigma_w: np.ndarray | None = None
+    L_shared: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
 
     @property
     def text(self) -> str:
@@ -247,14 +299,26 @@ class Tracker:
                         D[i, j] = m2
         return D
 
+    def _split(self, obs: Observation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The observation's position, fresh covariance R_w and shared factor L_o (zero when
+        ``tracker.shared_errors`` is off or the observation has no shared part)."""
+        o, R = np.asarray(obs.position_map, float), np.asarray(obs.R, float)
+        if not self.cfg.shared_errors or obs.R_shared is None:
+            return o, R, np.zeros((3, 3))
+        R_s = np.asarray(obs.R_shared, float)
+        return o, R - R_s, symmetric_sqrt(R_s)
+
     def _new_track(self, obs: Observation, t: float) -> Track:
         c = self.cfg
-        o, R = np.asarray(obs.position_map, float), np.asarray(obs.R, float)
+        o, R_w, L_o = self._split(obs)
         if c.init == "prior":
-            mu, Sigma = kalman_update(np.array(c.mu0), np.diag(c.Sigma0_diag), o, R)
+            mu, Sigma_w, L = shared_error_update(
+                np.array(c.mu0), np.diag(c.Sigma0_diag), np.zeros((3, 3)), o, R_w, L_o
+            )
         else:
             # the Kalman update from an uninformative prior: mu = o, Sigma = R
-            mu, Sigma = o.copy(), R.copy()
+            mu, Sigma_w, L = o.copy(), R_w.copy(), L_o.copy()
+        Sigma = Sigma_w + L @ L.T
         det = obs.detection
         tr = Track(
             track_id=self._next_id,
@@ -264,6 +328,8 @@ class Tracker:
             probs=observation_probs(obs, c.fusion, self.confusion),
             first_seen_s=t,
             last_seen_s=t,
+            Sigma_w=Sigma_w,
+            L_shared=L,
         )
         if det.type in TEXT_TYPES and det.text:
             tr.text_votes[det.text] = 1
@@ -272,7 +338,10 @@ class Tracker:
         return tr
 
     def _update(self, tr: Track, obs: Observation, t: float) -> None:
-        tr.mu, tr.Sigma = kalman_update(tr.mu, tr.Sigma, np.asarray(obs.position_map, float), obs.R)
+        o, R_w, L_o = self._split(obs)
+        Sigma_w = tr.Sigma - tr.L_shared @ tr.L_shared.T if tr.Sigma_w is None else tr.Sigma_w
+        tr.mu, tr.Sigma_w, tr.L_shared = shared_error_update(tr.mu, Sigma_w, tr.L_shared, o, R_w, L_o)
+        tr.Sigma = tr.Sigma_w + tr.L_shared @ tr.L_shared.T
         # mean of the distributions ([Avevor2022] 2.4.5): running mean over paired detections
         q = observation_probs(obs, self.cfg.fusion, self.confusion)
         tr.probs = (tr.n_prob * tr.probs + q) / (tr.n_prob + 1)

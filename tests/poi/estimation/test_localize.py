@@ -111,7 +111,9 @@ def test_against_pyrealsense2_if_installed():
 
 
 def test_localize_places_the_box_centre_in_the_map():
-    cfg = apply_overrides(load_config(), ["localize.extent_sigma_m={}"])  # R of the sensors alone
+    # R of the sensors alone: no extent, a mount known exactly
+    sensors_only = ["localize.extent_sigma_m={}", "localize.mount_sigma_deg=0", "localize.mount_sigma_m=0"]
+    cfg = apply_overrides(load_config(), sensors_only)
     # box centre cx = 370 (corner convention) is pixel u = 369.5 = ppx + 50, v = ppy
     d = det((360.0, 230.0, 380.0, 250.0))
     # camera optical frame in the tracker frame: the nominal mount, 45 mm up
@@ -131,8 +133,25 @@ def test_localize_places_the_box_centre_in_the_map():
     expect_xx = (2 / 500) ** 2 * 1.6**2 + (50 / 500) ** 2 * sigma_z**2
     assert obs.Sigma_c[0, 0] == pytest.approx(expect_xx, rel=1e-6)
     # map covariance: optical z (depth) -> tracker x -> map y after the 90 degree turn
-    assert obs.R[1, 1] == pytest.approx(sigma_z**2 + 0.05**2, rel=1e-9)
+    # plus Sigma_eps: slam.sigma_eps_m in slam mode (the default), tracker.sigma_eps_m in t265 mode
+    assert obs.R[1, 1] == pytest.approx(sigma_z**2 + 0.012**2, rel=1e-9)
     assert np.allclose(obs.R, obs.R.T)
+    t265 = localize(d, frame(pose=pose), apply_overrides(cfg, ["localize.mode=t265"]), T_tc)
+    assert t265.R[1, 1] == pytest.approx(sigma_z**2 + 0.05**2, rel=1e-9)
+    # Sigma_eps repeats from frame to frame: it is the shared part
+    assert obs.R_shared == pytest.approx(0.012**2 * np.eye(3), rel=1e-12)
+    # a mount known to 1 degree and 1 cm: q = (0.2, 2, 0) from the camera to the point in the
+    # map, R gains s_r^2 (|q|^2 I - q q^T) + s_t^2 I: 4 s_r^2 + s_t^2 across the line of sight
+    # (x), 0.04 s_r^2 + s_t^2 along it (y), 4.04 s_r^2 + s_t^2 vertically; shared as well
+    mount = apply_overrides(
+        load_config(), [sensors_only[0], "localize.mount_sigma_deg=1", "localize.mount_sigma_m=0.01"]
+    )
+    obs_m = localize(d, frame(pose=pose), mount, T_tc)
+    s_r2, s_t2 = np.deg2rad(1.0) ** 2, 1e-4
+    added = np.diag([4.0 * s_r2, 0.04 * s_r2, 4.04 * s_r2]) + s_t2 * np.eye(3)
+    added[0, 1] = added[1, 0] = -0.4 * s_r2
+    np.testing.assert_allclose(obs_m.R - obs.R, added, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(obs_m.R_shared - obs.R_shared, added, rtol=0, atol=1e-12)
 
 
 def test_a_round_object_is_placed_at_its_centre_behind_the_surface_seen():
