@@ -150,6 +150,9 @@ class Observation:
     position_cam: np.ndarray  # (3,) in the camera optical frame
     Sigma_c: np.ndarray  # (3, 3) covariance in the camera frame ([Avevor2022] 2.2.2)
     depth_m: float
+    # (3, 3) spread of a 3-D object's reference point about position_cam (camera frame; R holds
+    # Sigma_c + this, rotated); None: none (poi.estimation.localize.extent_covariance)
+    Sigma_extent_c: np.ndarray | None = None
 
 
 @dataclass(kw_only=True)
