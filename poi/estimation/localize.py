@@ -200,16 +200,18 @@ def flat_item(
     when the plane is seen edge-on.
 
     The plane passes through the box centre's point p(u, v, d) with the depth gradient
-    ``grad`` (:func:`box_depth_plane`); each box corner's ray meets it at a point. Perspective
-    makes a sign seen at an angle larger in the image at its near edge, and the box spans that
-    edge, so the box centre is not the sign centre's image (1-2 cm off at 0.5-1 m and 45
-    degrees). For a wall sign (the plane turned about the image's vertical) a rectangle's
-    height is its near side (the shorter of the box's two vertical sides on the plane), its
-    width the distance between the lines of the two sides, and its centre halfway between
-    those lines at the middle of the near side. A diamond (a hazmat placard) touches its box at
-    the middle of each side: its height is the segment its centre column cuts from the box's
-    top and bottom rows, its centre that segment's middle. A floor sign: the same with rows
-    and columns swapped. Corner convention: column x1 is pixel coordinate x1 - 0.5.
+    ``grad`` (:func:`box_depth_plane`); the rays of the box's sides meet it in lines. A wall
+    sign (the plane turned about the image's vertical) lies between the lines of the box's
+    two vertical sides: its width is their distance, its centre line halfway. Perspective makes
+    its near edge larger in the image, and off the camera's height also higher or lower, so the
+    box centre is not the image of the sign's centre (1-2 cm off at 0.5-1 m and 45 degrees).
+    Heights along the sides, X . e (e the sides' direction on the plane), are 0 at the
+    camera's height: a rectangle's top edge reaches the box's top row at its near side when it
+    lies above the camera (seen nearer, it reaches higher), else at its far side, and its bottom
+    edge alike; the centre is halfway between the two on the centre line. A diamond (a hazmat
+    placard) touches its box's top and bottom rows at its own centre column. A floor sign: the
+    same with rows and columns swapped. Corner convention: column x1 is pixel coordinate
+    x1 - 0.5. The model ignores an in-plane turn (a placard hung at an angle).
 
     >>> k = Intrinsics(width=640, height=480, fx=500.0, fy=500.0, ppx=320.0, ppy=240.0)
     >>> f = flat_item(k, 319.5, 239.5, 2.0, (0.0, 0.0), (270, 215, 370, 265))
