@@ -152,7 +152,8 @@ def box_depth_plane(
         return None
     # at most about PLANE_MAX_PIXELS pixels: a box filling the image fits as well from a grid
     step = max(1, math.ceil(math.sqrt((r1 - r0 + 1) * (c1 - c0 + 1) / PLANE_MAX_PIXELS)))
-    patch = np.asarray(depth_m[r0 : r1 + 1 : step, c0 : c1 + 1 : step], dtype=float)
+    # whole-pixel slices only: a depth image may be an array-like that takes no step
+    patch = np.asarray(depth_m[r0 : r1 + 1, c0 : c1 + 1], dtype=float)[::step, ::step]
     rows, cols = np.mgrid[r0 : r1 + 1 : step, c0 : c1 + 1 : step]
     ok = np.isfinite(patch) & (patch > 0.0)
     if int(ok.sum()) < PLANE_MIN_PIXELS:

@@ -405,3 +405,21 @@ def test_a_cut_sign_widens_its_centre_sigma_and_a_corner_gives_none():
     assert localize(
         det(corner, class_name="qr"), f, apply_overrides(cfg, ["localize.flat_reject_corner=false"]), T
     )
+
+
+def test_the_depth_plane_takes_a_depth_image_that_only_slices_whole_pixels():
+    """A replay's depth (eval.trial.perception_cache.TiledDepth) takes slices without a step;
+    a large box's plane is fitted on a grid taken after slicing."""
+
+    class NoStep:
+        def __init__(self, a: np.ndarray) -> None:
+            self.a, self.shape = a, a.shape
+
+        def __getitem__(self, key):
+            if any(isinstance(k, slice) and k.step not in (None, 1) for k in key):
+                raise IndexError("slices with a step are not supported")
+            return self.a[key]
+
+    depth = _wall(1.0, 0.002, 0.0, np.random.default_rng(0))
+    pl = box_depth_plane(NoStep(depth), (0.0, 0.0, 640.0, 480.0), 1.0)  # 307200 pixels: a grid
+    assert pl.g_u == pytest.approx(0.002, rel=1e-4) and abs(pl.g_v) < 1e-6
