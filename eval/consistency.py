@@ -203,9 +203,9 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                     continue
                 t = obs.detection.type
                 p_true = truth_map[oid]
-                extent = cfg.localize.extent_sigma_m.get(t, 0.0)
                 e_cam = obs.position_cam - transform_points(T_cam_map, p_true)
-                samples.add(f"R cam {t}", 3, nees(e_cam, obs.Sigma_c + extent**2 * np.eye(3)))
+                Sigma_cam = obs.Sigma_c if obs.Sigma_extent_c is None else obs.Sigma_c + obs.Sigma_extent_c
+                samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam))
                 samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R))
             det_ids = match_detections(res.detections, truth.visible)
             for det, oid in zip(res.detections, det_ids, strict=True):

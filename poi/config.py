@@ -126,29 +126,87 @@ class LocalizeConfig:
     center_sigma_px: CenterSigmaConfig = field(default_factory=CenterSigmaConfig)
     mount_sigma_deg: float = number(0.5, lo=0.0, hi=10.0)
     mount_sigma_m: float = number(0.005, lo=0.0, hi=0.5)
-    # Per type, the spread (m) between where depth hits an object's surface and its reference
-    # point (centroid); added as extent^2 I to R so views from different sides pair.
+    # How J1's depth gradient (dd/du, dd/dv) is read: plane (a least-squares plane through the
+    # valid depths of the inner box, poi.estimation.localize.box_depth_gradient) or central
+    # (central differences at the box centre's pixel, poi.estimation.covariance.depth_jacobian).
+    depth_gradient: Literal["plane", "central"] = "plane"
+    # Side (px) of the window over which the depth camera's errors correlate (the stereo
+    # matching window): the depth plane's slope variances are scaled by its square.
+    depth_window_px: float = number(7.0, lo=1.0)
+    # Per type, the spread (m) of the reference point about the observation across the camera
+    # ray (a 3-D object's silhouette centre is not its centroid's projection).
     extent_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
             "door": 0.2,
-            "valve": 0.1,
-            "fire-extinguisher": 0.08,
-            "baby-doll": 0.12,
-            "heat-source": 0.12,
+            "valve": 0.02,
+            "fire-extinguisher": 0.008,
+            "baby-doll": 0.01,
+            "heat-source": 0.024,
         }
     )
-    # Per type, how far behind the surface the depth hits its reference point lies (m): the
-    # radius of a round object (the goal arena's pillars and ball), whose centre is reported.
-    surface_to_center_m: dict[str, float] = field(
-        default_factory=lambda: {"pillar-blue": 0.025, "pillar-red": 0.025, "pillar-green": 0.025, "ball": 0.105}
+    # Per type, the spread (m) along the camera ray: how far behind the surface the depth hits
+    # the reference point lies varies with the side seen. A type listed only in extent_sigma_m
+    # spreads as much along the ray as across it.
+    extent_ray_sigma_m: dict[str, float] = field(
+        default_factory=lambda: {
+            "door": 0.2,
+            "valve": 0.06,
+            "fire-extinguisher": 0.0,
+            "baby-doll": 0.03,
+            "heat-source": 0.03,
+        }
     )
+    # Per type, how far behind the surface the depth hits its reference point lies (m), on
+    # average over the sides seen: the radius of a round object, half the depth of a box.
+    surface_to_center_m: dict[str, float] = field(
+        default_factory=lambda: {
+            "pillar-blue": 0.025,
+            "pillar-red": 0.025,
+            "pillar-green": 0.025,
+            "ball": 0.105,
+            "fire-extinguisher": 0.06,
+            "baby-doll": 0.1,
+            "heat-source": 0.115,
+            "door": 0.09,
+        }
+    )
+    # Per flat type, its width over its height (a square QR code, hazmat placard or
+    # fire-extinguisher sign: 1; an exit sign: 2). A box shorter on one axis than this shape,
+    # foreshortened as the depth plane says, was cut by the image border or an occluder: its
+    # centre is uncertain by half the hidden length on that axis (poi.estimation.localize).
+    aspect: dict[str, float] = field(
+        default_factory=lambda: {"hazmat": 1.0, "qr": 1.0, "fire-extinguisher-sign": 1.0, "exit-sign": 2.0}
+    )
+    # A flat item of ``aspect`` is placed at its centre measured on the depth plane (undoing
+    # the perspective that puts its box's centre off its centre's image), not at the box centre.
+    flat_center: bool = True
+    # A flat item is measured on the depth plane (centre, truncation) only when the plane's
+    # tilt is known to this standard deviation (of its tangent) or better.
+    flat_max_slope_sigma: float = number(0.2, lo=0.0)
+    # A box side within this many pixels of the image's edge touches it (the item may go on).
+    border_px: float = number(8.0, lo=0.0)
+    # A flat item whose box touches the image border on both axes gives no observation.
+    flat_reject_corner: bool = True
+    # The flat types of ``aspect`` that are diamonds (a box touches them at its sides' middles).
+    diamond_types: list[str] = field(default_factory=lambda: ["hazmat"])
+    # A box counts as cut on an axis when it is shorter than the aspect says by more than this
+    # fraction (the detector's box sizes jitter: the oracle's by 5% a side, 7% in the ratio).
+    truncation_tolerance: float = number(0.05, lo=0.0, hi=1.0, hi_open=True)
 
     def __post_init__(self) -> None:
-        for t, r in self.surface_to_center_m.items():
-            if t not in TYPES:
-                raise FieldError(f"surface_to_center_m.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
-            if not 0.0 <= r < 1.0:
-                raise FieldError(f"surface_to_center_m.{t}", f"expected metres in [0, 1), got {r!r}")
+        for key in ("surface_to_center_m", "extent_sigma_m", "extent_ray_sigma_m", "aspect"):
+            for t, r in getattr(self, key).items():
+                if t not in TYPES:
+                    raise FieldError(f"{key}.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
+                if key == "aspect" and not r > 0.0:
+                    raise FieldError(f"{key}.{t}", f"expected a width / height ratio > 0, got {r!r}")
+                if key != "aspect" and not 0.0 <= r < 1.0:
+                    raise FieldError(f"{key}.{t}", f"expected metres in [0, 1), got {r!r}")
+        for i, t in enumerate(self.diamond_types):
+            if t not in self.aspect:
+                raise FieldError(
+                    f"diamond_types[{i}]", f"{t!r} has no aspect; expected one of {', '.join(self.aspect)}"
+                )
         if self.max_depth_m <= self.min_depth_m:
             raise FieldError(
                 "max_depth_m", f"expected a value > min_depth_m ({self.min_depth_m:g}), got {self.max_depth_m!r}"

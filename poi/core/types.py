@@ -153,6 +153,9 @@ class Observation:
     # (3, 3) the part of R whose error repeats over an object's successive observations (the
     # pose's, Sigma_eps, the object's extent); None: all of R is fresh each frame
     R_shared: np.ndarray | None = None
+    # (3, 3) spread of a 3-D object's reference point about position_cam (camera frame; R holds
+    # Sigma_c + this, rotated); None: none (poi.estimation.localize.extent_covariance)
+    Sigma_extent_c: np.ndarray | None = None
 
 
 @dataclass(kw_only=True)

@@ -25,6 +25,7 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -43,10 +44,44 @@ from poi.estimation.covariance import (
 
 BOX_CORNER_TO_CENTER_PX = 0.5  # corner-convention coordinate minus this = pixel-centre coordinate
 BROWN_CONRADY_ITERATIONS = 10  # as librealsense's rs2_deproject_pixel_to_point
+# The depth plane of box_depth_gradient: at least this many valid pixels (three fix a plane; a
+# few more keep one noisy pixel from tilting it), at most about this many (a grid over a large
+# box), and one refit without residuals beyond this many robust sigmas (the wall behind a
+# valve's spokes, flying pixels at the box's edge).
+PLANE_MIN_PIXELS = 9
+PLANE_MAX_PIXELS = 4096
+PLANE_OUTLIER_SIGMAS = 3.0
+# flat_item: a ray within this cosine of the depth plane (87 degrees off its normal) sees
+# it edge-on, and the plane says nothing of the item's size
+EDGE_ON_COS = 0.05
 
 
 class LocalizeError(ValueError):
     """Inputs to localisation that do not fit together (e.g. depth and intrinsics sizes)."""
+
+
+def _inner_span(shape: tuple[int, int], box_xyxy, inner_fraction: float) -> tuple[int, int, int, int]:
+    """(r0, r1, c0, c1), inclusive: the pixels whose centres lie in the box (corner convention)
+    shrunk about its centre to ``inner_fraction`` of its width and height (at least the pixel
+    holding the centre), clipped to the image; r1 < r0 or c1 < c0 when none is left."""
+    if not 0.0 < inner_fraction <= 1.0:
+        raise LocalizeError(f"inner_fraction: expected a value in (0, 1], got {inner_fraction!r}")
+    H, W = shape
+    x1, y1, x2, y2 = (float(c) for c in box_xyxy)
+    cx, cy = 0.5 * (x1 + x2), 0.5 * (y1 + y2)
+    hw, hh = 0.5 * inner_fraction * (x2 - x1), 0.5 * inner_fraction * (y2 - y1)
+
+    def span(c: float, half: float, n: int) -> tuple[int, int]:
+        # pixels i with centre i + 0.5 in [c - half, c + half]
+        lo = math.ceil(c - half - 0.5)
+        hi = math.floor(c + half - 0.5)
+        if hi < lo:
+            lo = hi = math.floor(c)
+        return max(lo, 0), min(hi, n - 1)
+
+    c0, c1 = span(cx, hw, W)
+    r0, r1 = span(cy, hh, H)
+    return r0, r1, c0, c1
 
 
 def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float) -> float | None:
@@ -62,23 +97,7 @@ def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float) -> float | N
     >>> box_depth(np.zeros((10, 10)), (0, 0, 10, 10), 0.5) is None
     True
     """
-    if not 0.0 < inner_fraction <= 1.0:
-        raise LocalizeError(f"inner_fraction: expected a value in (0, 1], got {inner_fraction!r}")
-    H, W = depth_m.shape
-    x1, y1, x2, y2 = (float(c) for c in box_xyxy)
-    cx, cy = 0.5 * (x1 + x2), 0.5 * (y1 + y2)
-    hw, hh = 0.5 * inner_fraction * (x2 - x1), 0.5 * inner_fraction * (y2 - y1)
-
-    def span(c: float, half: float, n: int) -> tuple[int, int]:
-        # pixels i with centre i + 0.5 in [c - half, c + half]
-        lo = math.ceil(c - half - 0.5)
-        hi = math.floor(c + half - 0.5)
-        if hi < lo:
-            lo = hi = math.floor(c)
-        return max(lo, 0), min(hi, n - 1)
-
-    c0, c1 = span(cx, hw, W)
-    r0, r1 = span(cy, hh, H)
+    r0, r1, c0, c1 = _inner_span(depth_m.shape, box_xyxy, inner_fraction)
     if c1 < c0 or r1 < r0:
         return None
     patch = np.asarray(depth_m[r0 : r1 + 1, c0 : c1 + 1], dtype=float)
@@ -86,6 +105,279 @@ def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float) -> float | N
     if valid.size == 0:
         return None
     return float(np.median(valid))
+
+
+@dataclass(kw_only=True)
+class DepthPlane:
+    """The depth plane of a box (:func:`box_depth_plane`): slopes in metres per pixel and their
+    variances (m^2 / px^2)."""
+
+    g_u: float
+    g_v: float
+    var_g_u: float
+    var_g_v: float
+
+
+def box_depth_plane(
+    depth_m: np.ndarray,
+    box_xyxy,
+    inner_fraction: float,
+    window_px: float = 1.0,
+    noise_sigma_m: float | None = None,
+) -> DepthPlane | None:
+    """The least-squares plane d = a + g_u (u - c_u) + g_v (v - c_v) through the valid depths of
+    the same inner box as :func:`box_depth`, refitted once without the pixels more than
+    ``PLANE_OUTLIER_SIGMAS`` robust standard deviations (1.4826 MAD) off the first plane.
+    None with fewer than ``PLANE_MIN_PIXELS`` valid pixels or when they do not span both axes.
+
+    J1 needs how the box's depth changes when the box moves by a pixel. Central differences
+    of single pixels at the centre (:func:`poi.estimation.covariance.depth_jacobian`) read the
+    D435's per-pixel noise instead: at 1 m its sigma_z (4 mm) is larger than the slope of a
+    wall seen at 45 degrees (about 1.7 mm per pixel), so the gradient they give points anywhere,
+    and Sigma_c, which is thin across the surface, came out thin in the wrong direction. The
+    plane averages that noise over the box.
+
+    The slopes' variances are the least-squares ones, s^2 (A^T A)^-1, times ``window_px``^2:
+    stereo matching correlates the noise of neighbouring pixels over its window, so N pixels
+    hold about N / window^2 independent errors. s is ``noise_sigma_m``, the depth camera's
+    per-pixel noise, when given (a 3-D object's curvature leaves residuals that are no noise,
+    and would count as slope error), else the residuals' standard deviation.
+
+    >>> v, u = np.mgrid[0:20, 0:20]
+    >>> pl = box_depth_plane(2.0 + 0.01 * u + 0.002 * v, (0, 0, 20, 20), 0.5)
+    >>> round(pl.g_u, 6), round(pl.g_v, 6), pl.var_g_u < 1e-20
+    (0.01, 0.002, True)
+    """
+    r0, r1, c0, c1 = _inner_span(depth_m.shape, box_xyxy, inner_fraction)
+    if c1 <= c0 or r1 <= r0:
+        return None
+    # at most about PLANE_MAX_PIXELS pixels: a box filling the image fits as well from a grid
+    step = max(1, math.ceil(math.sqrt((r1 - r0 + 1) * (c1 - c0 + 1) / PLANE_MAX_PIXELS)))
+    # whole-pixel slices only: a depth image may be an array-like that takes no step
+    patch = np.asarray(depth_m[r0 : r1 + 1, c0 : c1 + 1], dtype=float)[::step, ::step]
+    rows, cols = np.mgrid[r0 : r1 + 1 : step, c0 : c1 + 1 : step]
+    ok = np.isfinite(patch) & (patch > 0.0)
+    if int(ok.sum()) < PLANE_MIN_PIXELS:
+        return None
+    d = patch[ok]
+    du = cols[ok] - 0.5 * (c0 + c1)
+    dv = rows[ok] - 0.5 * (r0 + r1)
+    if np.ptp(du) == 0 or np.ptp(dv) == 0:
+        return None
+    A = np.stack([np.ones_like(d), du, dv], axis=1)  # (N, 3)
+    coef = np.linalg.lstsq(A, d, rcond=None)[0]
+    res = d - A @ coef
+    s = 1.4826 * float(np.median(np.abs(res - np.median(res))))
+    keep = np.abs(res) <= PLANE_OUTLIER_SIGMAS * s if s > 0.0 else np.ones(d.size, bool)
+    if PLANE_MIN_PIXELS <= int(keep.sum()) < d.size and np.ptp(du[keep]) > 0 and np.ptp(dv[keep]) > 0:
+        A, d = A[keep], d[keep]
+        coef = np.linalg.lstsq(A, d, rcond=None)[0]
+    res = d - A @ coef
+    s2 = float(res @ res) / max(d.size - 3, 1) if noise_sigma_m is None else noise_sigma_m**2
+    # each sample of the grid stands for step^2 pixels; the window correlates window^2 of them
+    cov = s2 * max(window_px / step, 1.0) ** 2 * np.linalg.pinv(A.T @ A)  # (3, 3)
+    return DepthPlane(g_u=float(coef[1]), g_v=float(coef[2]), var_g_u=float(cov[1, 1]), var_g_v=float(cov[2, 2]))
+
+
+@dataclass(kw_only=True)
+class FlatItem:
+    """A flat item framed by a box, measured on its depth plane (:func:`flat_item`): its
+    width and height (m) and the camera-frame point of its centre."""
+
+    width_m: float
+    height_m: float
+    center: np.ndarray
+
+
+def flat_item(
+    intr: Intrinsics,
+    u: float,
+    v: float,
+    d: float,
+    grad: tuple[float, float],
+    box_xyxy,
+    diamond: bool = False,
+) -> FlatItem | None:
+    """The size and centre of the flat item (a sign) a box frames, on the depth plane; None
+    when the plane is seen edge-on.
+
+    The plane passes through the box centre's point p(u, v, d) with the depth gradient
+    ``grad`` (:func:`box_depth_plane`); the rays of the box's sides meet it in lines. A wall
+    sign (the plane turned about the image's vertical) lies between the lines of the box's
+    two vertical sides: its width is their distance, its centre line halfway. Perspective makes
+    its near edge larger in the image, and off the camera's height also higher or lower, so the
+    box centre is not the image of the sign's centre (1-2 cm off at 0.5-1 m and 45 degrees).
+    Heights along the sides, X . e (e the sides' direction on the plane), are 0 at the
+    camera's height: a rectangle's top edge reaches the box's top row at its near side when it
+    lies above the camera (seen nearer, it reaches higher), else at its far side, and its bottom
+    edge alike; the centre is halfway between the two on the centre line. A diamond (a hazmat
+    placard) touches its box's top and bottom rows at its own centre column. A floor sign: the
+    same with rows and columns swapped. Corner convention: column x1 is pixel coordinate
+    x1 - 0.5. The model ignores an in-plane turn (a placard hung at an angle).
+
+    >>> k = Intrinsics(width=640, height=480, fx=500.0, fy=500.0, ppx=320.0, ppy=240.0)
+    >>> f = flat_item(k, 319.5, 239.5, 2.0, (0.0, 0.0), (270, 215, 370, 265))
+    >>> round(f.width_m, 6), round(f.height_m, 6), f.center.round(6).tolist()
+    (0.4, 0.2, [-0.002, -0.002, 2.0])
+    """
+    x1, y1, x2, y2 = (float(c) - BOX_CORNER_TO_CENTER_PX for c in box_xyxy)
+    gu, gv = grad
+    P0 = deproject_pixel_to_point(intr, u, v, d)
+    n = np.cross(
+        deproject_pixel_to_point(intr, u + 1.0, v, d + gu) - P0,
+        deproject_pixel_to_point(intr, u, v + 1.0, d + gv) - P0,
+    )
+    if not np.any(n):
+        return None
+    n = n / np.linalg.norm(n)
+
+    def on_plane(a: float, b: float) -> np.ndarray | None:
+        r = deproject_pixel_to_point(intr, a, b, 1.0)
+        nr = float(n @ r)
+        if abs(nr) < EDGE_ON_COS * float(np.linalg.norm(r)):
+            return None
+        t = float(n @ P0) / nr
+        return t * r if t > 0.0 else None
+
+    wall = abs(n[0]) >= abs(n[1])
+
+    def at(side: float, end: float) -> np.ndarray | None:
+        # the plane point on box side ``side`` (a column for a wall, a row for a floor) at ``end``
+        return on_plane(side, end) if wall else on_plane(end, side)
+
+    (sa, sb), (e0, e1) = ((x1, x2), (y1, y2)) if wall else ((y1, y2), (x1, x2))
+    C = [at(sa, e0), at(sa, e1), at(sb, e0), at(sb, e1)]
+    if any(c is None for c in C):
+        return None
+    a0, a1, b0, b1 = C
+    la, lb = float(np.linalg.norm(a1 - a0)), float(np.linalg.norm(b1 - b0))
+    if la <= 0.0 or lb <= 0.0:
+        return None
+    e = (a1 - a0) / la + (b1 - b0) / lb  # along the sides, from end e0 to end e1
+    e = e / float(np.linalg.norm(e))
+    gap = b0 - a0
+    gap = gap - (gap @ e) * e  # from side a's line to side b's, across
+    across = float(np.linalg.norm(gap))
+    mid = 0.5 * (a0 + a1) + 0.5 * gap  # on the item's centre line
+    if diamond:
+        # the corners touching ends e0 and e1 lie on the centre line
+        uv = project_point_to_pixel(intr, mid)
+        c = float(uv[0] if wall else uv[1])
+        T, B = at(c, e0), at(c, e1)
+        if T is None or B is None:
+            return None
+        lo, hi = float(T @ e), float(B @ e)
+    else:
+        # X @ e is a point's height along the sides, 0 at the camera's: a rectangle's edge at
+        # end e0 meets the box there at its near side when it lies before the camera's height
+        # (seen from nearer, it reaches further out), else at its far side; end e1 alike
+        near_a = float(np.linalg.norm(a0 + a1)) <= float(np.linalg.norm(b0 + b1))
+        (n0, n1), (f0, f1) = ((a0, a1), (b0, b1)) if near_a else ((b0, b1), (a0, a1))
+        lo = float(n0 @ e) if float(n0 @ e) <= 0.0 else float(f0 @ e)
+        hi = float(n1 @ e) if float(n1 @ e) >= 0.0 else float(f1 @ e)
+    along = max(hi - lo, 0.0)
+    center = mid + (0.5 * (lo + hi) - float(mid @ e)) * e
+    w_m, h_m = (across, along) if wall else (along, across)
+    return FlatItem(width_m=w_m, height_m=h_m, center=center)
+
+
+def hidden_lengths_px(
+    size_wh: tuple[float, float], size_m: tuple[float, float], aspect: float, tolerance: float
+) -> tuple[float, float]:
+    """How many pixels of a flat item of width / height ``aspect`` a w x h box leaves out,
+    (across u, across v); at most one is non-zero.
+
+    ``size_m`` is the box's (width, height) measured on the item's plane
+    (:func:`flat_item`). q = (W / H) / aspect is 1 for the whole item (a cut box is
+    only ever shorter than the item); q < 1 - ``tolerance`` says its width was cut (by the
+    image border or an occluder in front) and about w / q - w pixels are hidden;
+    1 / q < 1 - ``tolerance`` says the same of its height. The box then holds the visible part,
+    and its centre is off the item's by up to half the hidden length, on a side the box does
+    not say (:func:`localize` widens sigma_u or sigma_v by that half).
+
+    >>> hidden_lengths_px((50.0, 100.0), (0.1, 0.2), 1.0, 0.1)
+    (50.0, 0.0)
+    >>> hidden_lengths_px((95.0, 100.0), (0.19, 0.2), 1.0, 0.1)
+    (0.0, 0.0)
+    """
+    w, h = size_wh
+    W, H = size_m
+    if w <= 0.0 or h <= 0.0 or W <= 0.0 or H <= 0.0 or aspect <= 0.0:
+        return 0.0, 0.0
+    q = W / H / aspect
+    if q < 1.0 - tolerance:
+        return w / q - w, 0.0
+    if 1.0 / q < 1.0 - tolerance:
+        return 0.0, h * q - h
+    return 0.0, 0.0
+
+
+def box_at_border(box_xyxy, width: int, height: int, border_px: float) -> tuple[bool, bool]:
+    """Whether a box (corner convention) comes within ``border_px`` of the image's left or right
+    edge, and of its top or bottom edge.
+
+    >>> box_at_border((0.0, 100.0, 50.0, 200.0), 640, 480, 2.0), box_at_border((3, 3, 637, 477), 640, 480, 2.0)
+    ((True, False), (False, False))
+    """
+    x1, y1, x2, y2 = (float(c) for c in box_xyxy)
+    return x1 <= border_px or x2 >= width - border_px, y1 <= border_px or y2 >= height - border_px
+
+
+def measure_flat_item(
+    detection: Detection,
+    intr: Intrinsics,
+    u: float,
+    v: float,
+    d: float,
+    grad: tuple[float, float],
+    var_g: tuple[float, float],
+    lc,
+) -> tuple[np.ndarray | None, float, float]:
+    """(centre, hidden_w, hidden_h) of a flat item of ``lc.aspect``: its centre measured on
+    the depth plane (:func:`flat_item`) when the plane's tilt is known to
+    ``lc.flat_max_slope_sigma`` (of its tangent: the slope's standard error times f / d), else
+    None, and the pixels its box leaves out across u and v (:func:`hidden_lengths_px`).
+
+    The shape is judged on the plane when its tilt is known; a plane tilted by its error theta
+    lengthens a side by 1 / cos(theta) - 1, about theta^2 / 2, so the tolerance then grows by
+    slope_sigma^2 (two sigmas' worth). Else (a far sign's few noisy pixels fix no tilt) the
+    item is measured as if seen face-on, the widest it can look, so the hidden length is an
+    upper bound. A box touching the image border (within ``lc.border_px``) on an axis counts
+    as cut there whenever it is short of the shape at all (no tolerance on that axis).
+    """
+    t = detection.type
+    diamond = t in lc.diamond_types
+    slope_sigma = max(math.sqrt(var_g[0]) * intr.fx, math.sqrt(var_g[1]) * intr.fy) / d
+    fitted = slope_sigma <= lc.flat_max_slope_sigma
+    item = flat_item(intr, u, v, d, grad, detection.box_xyxy, diamond)
+    # the shape is judged on the plane when it is known, else face-on (the widest it can look)
+    shape = item if fitted else flat_item(intr, u, v, d, (0.0, 0.0), detection.box_xyxy, diamond)
+    w, h = detection.size_wh
+    hid_w = hid_h = 0.0
+    if shape is not None:
+        size_m = (shape.width_m, shape.height_m)
+        tol = lc.truncation_tolerance + (slope_sigma**2 if fitted else 0.0)
+        hid_w, hid_h = hidden_lengths_px((w, h), size_m, lc.aspect[t], tol)
+        at_u, at_v = box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)
+        if at_u or at_v:
+            bw, bh = hidden_lengths_px((w, h), size_m, lc.aspect[t], 0.0)
+            hid_w = max(hid_w, bw) if at_u else hid_w
+            hid_h = max(hid_h, bh) if at_v else hid_h
+    centre = item.center if item is not None and fitted else None
+    return centre, hid_w, hid_h
+
+
+def extent_covariance(p_c: np.ndarray, sigma_lat_m: float, sigma_ray_m: float) -> np.ndarray:
+    """Sigma_ext = sigma_ray^2 r r^T + sigma_lat^2 (I - r r^T), r = p_c / |p_c|: an object's
+    reference point spreads about the observation by ``sigma_ray_m`` along the camera ray (how
+    deep behind the surface seen it lies depends on the side seen) and ``sigma_lat_m`` across it.
+
+    >>> np.diag(extent_covariance(np.array([0.0, 0.0, 2.0]), 0.1, 0.3)).round(6).tolist()
+    [0.01, 0.01, 0.09]
+    """
+    r = p_c / float(np.linalg.norm(p_c))
+    rr = np.outer(r, r)
+    return sigma_ray_m**2 * rr + sigma_lat_m**2 * (np.eye(3) - rr)
 
 
 def deproject_pixel_to_point(intr: Intrinsics, u: float, v: float, depth: float) -> np.ndarray:
@@ -148,11 +440,28 @@ def localize(
     """Place a detection in the map frame with its covariance R ([Avevor2022]_ 2.2-2.3).
 
     p_map = Q (Q0 p_c + t0) + t with (Q, t) = ``frame.pose`` (T_map_tracker) and (Q0, t0)
-    = ``T_tracker_camera``; R = Q Q0 Sigma_c Q0^T Q^T + sigma_eps^2 I + R_mount
-    (:func:`poi.estimation.covariance.mount_covariance`) + extent^2 I, with J2 the Jacobian of
-    the deprojection and, for a round object, of its centre offset (:func:`surface_to_center`).
-    None when the frame
-    has no pose or no depth, no valid depth lies in the box, or the depth is out of range.
+    = ``T_tracker_camera``; R = Q Q0 (Sigma_c + Sigma_ext) Q0^T Q^T + sigma_eps^2 I + R_mount,
+    where
+
+    * Sigma_c = J2 J1 Sigma_1 J1^T J2^T is the detection and depth model: J1 holds the depth
+      gradient of the box (``localize.depth_gradient``: by default the plane through its
+      inner depths, :func:`box_depth_gradient`), J2 the Jacobian of the deprojection and, for
+      a type with ``surface_to_center_m``, of its centre offset (:func:`surface_to_center`);
+      Sigma_1's centre variances grow by (hidden / 2)^2 on an axis along which a flat item of
+      known ``localize.aspect`` is cut (:func:`hidden_lengths_px`);
+    * Sigma_ext (:func:`extent_covariance`, ``Observation.Sigma_extent_c``) is the spread of
+      a 3-D object's reference point about the observation, ``extent_ray_sigma_m`` along the
+      camera ray and ``extent_sigma_m`` across it;
+    * sigma_eps is ``slam.sigma_eps_m`` in slam mode, ``tracker.sigma_eps_m`` in t265 mode,
+      and R_mount the mount calibration's error
+      (:func:`poi.estimation.covariance.mount_covariance`).
+
+    Sigma_eps, R_mount and Sigma_ext repeat from frame to frame: they are the observation's
+    shared part (``Observation.R_shared``, :mod:`poi.estimation.tracker`).
+
+    None when the frame has no pose or no depth, no valid depth lies in the box, the depth
+    is out of range, or (``localize.flat_reject_corner``) the box of a flat item touches the
+    image border on both axes.
     """
     if frame.pose is None or frame.depth_m is None:
         return None
@@ -173,14 +482,29 @@ def localize(
     cx, cy = detection.center_uv
     u, v = cx - BOX_CORNER_TO_CENTER_PX, cy - BOX_CORNER_TO_CENTER_PX
     w, h = detection.size_wh
-    to_center = cfg.localize.surface_to_center_m.get(detection.type, 0.0)
+    t = detection.type
+    to_center = lc.surface_to_center_m.get(t, 0.0)
 
     def point(a: float, b: float, c: float) -> np.ndarray:
-        # a round object: the depth is its front surface, the report names its centre
+        # a 3-D object: the depth is its front surface, the report names its centre
         return surface_to_center(deproject_pixel_to_point(intr, a, b, c), to_center)
 
     p_c = point(u, v, d)
 
+    # J1: the depth gradient of the box, from its depth plane or central differences
+    var_g = (0.0, 0.0)
+    plane = None
+    if lc.depth_gradient == "plane":
+        J1 = np.eye(3)
+        sigma_px = depth_sigma_m(
+            d_med, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m
+        )
+        plane = box_depth_plane(depth, detection.box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_px)
+        if plane is not None:
+            J1[2, :2] = lc.depth_scale * plane.g_u, lc.depth_scale * plane.g_v
+            var_g = (lc.depth_scale**2 * plane.var_g_u, lc.depth_scale**2 * plane.var_g_v)
+    else:
+        J1 = depth_jacobian(depth, u, v, lc.depth_scale)
     # Sigma_1 = diag(sigma_u^2, sigma_v^2, sigma_d^2)
     sigma_u, sigma_v = center_sigmas_px(
         detection.class_name,
@@ -190,30 +514,41 @@ def localize(
         b=lc.center_sigma_px.b,
         calibration=calibration,
     )
+    if t in lc.aspect:
+        if lc.flat_reject_corner and all(box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)):
+            # cut by two borders: its shape cannot say how much of it is hidden
+            return None
+        centre, hid_w, hid_h = measure_flat_item(detection, intr, u, v, d, (J1[2, 0], J1[2, 1]), var_g, lc)
+        if centre is not None and lc.flat_center:
+            p_c = centre
+        # a cut box: its centre is off the item's by up to half the hidden length
+        sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
+        sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
     sigma_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
-    Sigma_1 = np.diag([sigma_u**2, sigma_v**2, sigma_d**2])
-    J1 = depth_jacobian(depth, u, v, lc.depth_scale)
-    J2 = deprojection_jacobian(point, u, v, d)  # with the centre offset, for a round object
+    # the slope's own error times the centre's: var(g du) = g^2 var(du) (in J1) + var(g) var(du)
+    var_d = sigma_d**2 + var_g[0] * sigma_u**2 + var_g[1] * sigma_v**2
+    Sigma_1 = np.diag([sigma_u**2, sigma_v**2, var_d])
+    J2 = deprojection_jacobian(point, u, v, d)  # with the centre offset, for a 3-D object
     Sigma_c = camera_covariance(J1, J2, Sigma_1)
+    sigma_lat = lc.extent_sigma_m.get(t, 0.0)
+    sigma_ray = lc.extent_ray_sigma_m.get(t, sigma_lat)
+    Sigma_ext = extent_covariance(p_c, sigma_lat, sigma_ray)
 
     pose = np.asarray(frame.pose, dtype=float)
-    Q, t = pose[:3, :3], pose[:3, 3]
+    Q, t_map = pose[:3, :3], pose[:3, 3]
     Q0, t0 = T_tracker_camera[:3, :3], T_tracker_camera[:3, 3]
     # p_map = Q (Q0 p_c + t0) + t
-    p_map = Q @ (Q0 @ p_c + t0) + t
+    p_map = Q @ (Q0 @ p_c + t0) + t_map
     # Sigma_eps: the pose error as delivered (t265 mode), or what the planar SLAM, which adds
     # its own pose covariance later, leaves (height, roll, pitch: slam mode)
     sigma_eps = cfg.slam.sigma_eps_m if lc.mode == "slam" else cfg.tracker.sigma_eps_m
-    R = map_covariance(Sigma_c, Q, Q0, sigma_eps)
-    extent = cfg.localize.extent_sigma_m.get(detection.type, 0.0)
-    if extent > 0.0:
-        R = R + extent**2 * np.eye(3)
+    QQ0 = Q @ Q0
     # the mount calibration's error (a range-dependent part of what Sigma_eps lumps together)
-    R_mount = mount_covariance(Q @ Q0 @ p_c, np.deg2rad(lc.mount_sigma_deg), lc.mount_sigma_m)
-    R = R + R_mount
+    R_mount = mount_covariance(QQ0 @ p_c, np.deg2rad(lc.mount_sigma_deg), lc.mount_sigma_m)
+    R = map_covariance(Sigma_c + Sigma_ext, Q, Q0, sigma_eps) + R_mount
     # Sigma_eps, the mount and the extent (which part of the object the depth hits) repeat
     # from frame to frame; the detection and depth noise in Sigma_c does not
-    R_shared = (sigma_eps**2 + extent**2) * np.eye(3) + R_mount
+    R_shared = sigma_eps**2 * np.eye(3) + QQ0 @ Sigma_ext @ QQ0.T + R_mount
     return Observation(
         detection=detection,
         timestamp_s=frame.timestamp_s,
@@ -223,4 +558,5 @@ def localize(
         Sigma_c=Sigma_c,
         depth_m=d,
         R_shared=R_shared,
+        Sigma_extent_c=Sigma_ext,
     )
