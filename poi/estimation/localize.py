@@ -439,7 +439,9 @@ def localize(
     """Place a detection in the map frame with its covariance R ([Avevor2022]_ 2.2-2.3).
 
     p_map = Q (Q0 p_c + t0) + t with (Q, t) = ``frame.pose`` (T_map_tracker) and (Q0, t0)
-    = ``T_tracker_camera``; R = Q Q0 (Sigma_c + Sigma_ext) Q0^T Q^T + sigma_eps^2 I, where
+    = ``T_tracker_camera``; R = Q Q0 (Sigma_c + Sigma_ext) Q0^T Q^T + sigma_eps^2 I
+    + repeat^2 I (``localize.repeat_sigma_m``: the part of a 3-D object's error that repeats
+    from frame to frame, which the tracker would otherwise average away), where
 
     * Sigma_c = J2 J1 Sigma_1 J1^T J2^T is the detection and depth model: J1 holds the depth
       gradient of the box (``localize.depth_gradient``: by default the plane through its
@@ -532,6 +534,8 @@ def localize(
     # p_map = Q (Q0 p_c + t0) + t
     p_map = Q @ (Q0 @ p_c + t0) + t_map
     R = map_covariance(Sigma_c + Sigma_ext, Q, Q0, cfg.tracker.sigma_eps_m)
+    # the part of the object's error that repeats from frame to frame, for the tracker
+    R = R + lc.repeat_sigma_m.get(t, 0.0) ** 2 * np.eye(3)
     return Observation(
         detection=detection,
         timestamp_s=frame.timestamp_s,

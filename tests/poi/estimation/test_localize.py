@@ -121,7 +121,12 @@ def test_localize_places_the_box_centre_in_the_map():
     # R of the sensors alone, the box centre's point (no object offset)
     cfg = apply_overrides(
         load_config(),
-        ["localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}", "localize.surface_to_center_m={}"],
+        [
+            "localize.extent_sigma_m={}",
+            "localize.extent_ray_sigma_m={}",
+            "localize.repeat_sigma_m={}",
+            "localize.surface_to_center_m={}",
+        ],
     )
     # box centre cx = 370 (corner convention) is pixel u = 369.5 = ppx + 50, v = ppy
     d = det((360.0, 230.0, 380.0, 250.0))
@@ -215,9 +220,10 @@ def test_in_view():
 def test_object_extent_widens_r_along_and_across_the_ray_only_for_3d_types():
     """Sigma_ext = sigma_ray^2 r r^T + sigma_lat^2 (I - r r^T) in the camera frame, rotated into
     R; a type in extent_sigma_m alone spreads as much along the ray as across it."""
-    base = apply_overrides(load_config(), ["localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}"])
+    none = ["localize.repeat_sigma_m={}"]  # the repeated part, R's alone: below
+    base = apply_overrides(load_config(), ["localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}", *none])
     wide = apply_overrides(
-        load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={door: 0.2}"]
+        load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={door: 0.2}", *none]
     )
     iso = apply_overrides(
         load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={}"]
@@ -241,6 +247,12 @@ def test_object_extent_widens_r_along_and_across_the_ray_only_for_3d_types():
     assert np.allclose(
         localize(hazmat, frame(pose=pose), wide, T_tc).R, localize(hazmat, frame(pose=pose), base, T_tc).R
     )
+    # the repeated part: in R only, repeat^2 I, not in the camera-frame spread
+    rep = localize(door, frame(pose=pose), apply_overrides(wide, ["localize.repeat_sigma_m={door: 0.3}"]), T_tc)
+    np.testing.assert_allclose(rep.R - o1.R, 0.3**2 * np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(rep.Sigma_extent_c, o1.Sigma_extent_c, atol=1e-15)
+    with pytest.raises(ConfigError, match="repeat_sigma_m.cube: unknown type"):
+        apply_overrides(base, ["localize.repeat_sigma_m={cube: 0.1}"])
     with pytest.raises(ConfigError, match="extent_ray_sigma_m.cube: unknown type"):
         apply_overrides(base, ["localize.extent_ray_sigma_m={cube: 0.1}"])
     with pytest.raises(ConfigError, match="diamond_types"):
