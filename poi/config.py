@@ -137,7 +137,7 @@ class LocalizeConfig:
     # ray (a 3-D object's silhouette centre is not its centroid's projection).
     extent_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.2,
+            "door": 0.055,
             "valve": 0.02,
             "fire-extinguisher": 0.008,
             "baby-doll": 0.01,
@@ -149,11 +149,23 @@ class LocalizeConfig:
     # spreads as much along the ray as across it.
     extent_ray_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.2,
+            "door": 0.045,
             "valve": 0.06,
             "fire-extinguisher": 0.0,
             "baby-doll": 0.03,
             "heat-source": 0.03,
+        }
+    )
+    # Per type, the part of the spread (m) that repeats from frame to frame (the same side seen,
+    # the same detector's view); added to R as repeat^2 I for the tracker, which fuses
+    # observations as if independent, not to the camera-frame spread (Sigma_extent_c).
+    repeat_sigma_m: dict[str, float] = field(
+        default_factory=lambda: {
+            "door": 0.2,
+            "valve": 0.1,
+            "fire-extinguisher": 0.08,
+            "baby-doll": 0.12,
+            "heat-source": 0.12,
         }
     )
     # Per type, how far behind the surface the depth hits its reference point lies (m), on
@@ -194,7 +206,7 @@ class LocalizeConfig:
     truncation_tolerance: float = number(0.05, lo=0.0, hi=1.0, hi_open=True)
 
     def __post_init__(self) -> None:
-        for key in ("surface_to_center_m", "extent_sigma_m", "extent_ray_sigma_m", "aspect"):
+        for key in ("surface_to_center_m", "extent_sigma_m", "extent_ray_sigma_m", "repeat_sigma_m", "aspect"):
             for t, r in getattr(self, key).items():
                 if t not in TYPES:
                     raise FieldError(f"{key}.{t}", f"unknown type; expected one of {', '.join(TYPES)}")

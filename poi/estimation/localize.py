@@ -440,8 +440,9 @@ def localize(
     """Place a detection in the map frame with its covariance R ([Avevor2022]_ 2.2-2.3).
 
     p_map = Q (Q0 p_c + t0) + t with (Q, t) = ``frame.pose`` (T_map_tracker) and (Q0, t0)
-    = ``T_tracker_camera``; R = Q Q0 (Sigma_c + Sigma_ext) Q0^T Q^T + sigma_eps^2 I + R_mount,
-    where
+    = ``T_tracker_camera``; R = Q Q0 (Sigma_c + Sigma_ext) Q0^T Q^T + sigma_eps^2 I + R_mount
+    + repeat^2 I (``localize.repeat_sigma_m``: the part of a 3-D object's error that repeats
+    from frame to frame), where
 
     * Sigma_c = J2 J1 Sigma_1 J1^T J2^T is the detection and depth model: J1 holds the depth
       gradient of the box (``localize.depth_gradient``: by default the plane through its
@@ -545,10 +546,12 @@ def localize(
     QQ0 = Q @ Q0
     # the mount calibration's error (a range-dependent part of what Sigma_eps lumps together)
     R_mount = mount_covariance(QQ0 @ p_c, np.deg2rad(lc.mount_sigma_deg), lc.mount_sigma_m)
-    R = map_covariance(Sigma_c + Sigma_ext, Q, Q0, sigma_eps) + R_mount
-    # Sigma_eps, the mount and the extent (which part of the object the depth hits) repeat
-    # from frame to frame; the detection and depth noise in Sigma_c does not
-    R_shared = sigma_eps**2 * np.eye(3) + QQ0 @ Sigma_ext @ QQ0.T + R_mount
+    # the part of a 3-D object's error that repeats from frame to frame (the same side seen)
+    R_repeat = lc.repeat_sigma_m.get(t, 0.0) ** 2 * np.eye(3)
+    R = map_covariance(Sigma_c + Sigma_ext, Q, Q0, sigma_eps) + R_mount + R_repeat
+    # Sigma_eps, the mount, the extent and its repeating part recur from frame to frame: the
+    # shared part the tracker does not average away; the detection and depth noise does not
+    R_shared = sigma_eps**2 * np.eye(3) + QQ0 @ Sigma_ext @ QQ0.T + R_mount + R_repeat
     return Observation(
         detection=detection,
         timestamp_s=frame.timestamp_s,

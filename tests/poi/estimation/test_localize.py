@@ -122,6 +122,7 @@ def test_localize_places_the_box_centre_in_the_map():
     sensors_only = [
         "localize.extent_sigma_m={}",
         "localize.extent_ray_sigma_m={}",
+        "localize.repeat_sigma_m={}",
         "localize.surface_to_center_m={}",
         "localize.mount_sigma_deg=0",
         "localize.mount_sigma_m=0",
@@ -164,7 +165,7 @@ def test_localize_places_the_box_centre_in_the_map():
     # map, R gains s_r^2 (|q|^2 I - q q^T) + s_t^2 I: 4 s_r^2 + s_t^2 across the line of sight
     # (x), 0.04 s_r^2 + s_t^2 along it (y), 4.04 s_r^2 + s_t^2 vertically; shared as well
     mount = apply_overrides(
-        load_config(), [*sensors_only[:3], "localize.mount_sigma_deg=1", "localize.mount_sigma_m=0.01"]
+        load_config(), [*sensors_only[:4], "localize.mount_sigma_deg=1", "localize.mount_sigma_m=0.01"]
     )
     obs_m = localize(d, frame(pose=pose), mount, T_tc)
     s_r2, s_t2 = np.deg2rad(1.0) ** 2, 1e-4
@@ -236,9 +237,10 @@ def test_in_view():
 def test_object_extent_widens_r_along_and_across_the_ray_only_for_3d_types():
     """Sigma_ext = sigma_ray^2 r r^T + sigma_lat^2 (I - r r^T) in the camera frame, rotated into
     R; a type in extent_sigma_m alone spreads as much along the ray as across it."""
-    base = apply_overrides(load_config(), ["localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}"])
+    none = ["localize.repeat_sigma_m={}"]  # the repeated part, R's alone: below
+    base = apply_overrides(load_config(), ["localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}", *none])
     wide = apply_overrides(
-        load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={door: 0.2}"]
+        load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={door: 0.2}", *none]
     )
     iso = apply_overrides(
         load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={}"]
@@ -262,6 +264,12 @@ def test_object_extent_widens_r_along_and_across_the_ray_only_for_3d_types():
     assert np.allclose(
         localize(hazmat, frame(pose=pose), wide, T_tc).R, localize(hazmat, frame(pose=pose), base, T_tc).R
     )
+    # the repeated part: in R only, repeat^2 I, not in the camera-frame spread
+    rep = localize(door, frame(pose=pose), apply_overrides(wide, ["localize.repeat_sigma_m={door: 0.3}"]), T_tc)
+    np.testing.assert_allclose(rep.R - o1.R, 0.3**2 * np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(rep.Sigma_extent_c, o1.Sigma_extent_c, atol=1e-15)
+    with pytest.raises(ConfigError, match="repeat_sigma_m.cube: unknown type"):
+        apply_overrides(base, ["localize.repeat_sigma_m={cube: 0.1}"])
     with pytest.raises(ConfigError, match="extent_ray_sigma_m.cube: unknown type"):
         apply_overrides(base, ["localize.extent_ray_sigma_m={cube: 0.1}"])
     with pytest.raises(ConfigError, match="diamond_types"):
