@@ -246,7 +246,7 @@ class SlamConfig:
     sigma_eps_m: float = number(0.012, lo=0.0)
     odometry_latency_s: float = number(0.01, lo=0.0, hi=1.0)
     start_sigma_m: float = number(0.005, lo=0.0, lo_open=True)
-    start_sigma_rad: float = number(0.02, lo=0.0, lo_open=True)
+    start_sigma_rad: float = number(0.003, lo=0.0, lo_open=True)
     associate_m: float = number(0.5, lo=0.0, lo_open=True)
     n_min: int = number(4, lo=0)
     t_max_s: float = number(3.0, lo=0.0, lo_open=True)
