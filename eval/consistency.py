@@ -162,9 +162,10 @@ def match_detections(detections, visible) -> list[int | None]:
 def pipeline_settings(sim, extra: list[str]) -> list[str]:
     """The settings a consistency run gives the pipeline: the nominal mount (as a trial does),
     no thermal detector (the oracle boxes heat sources), then ``extra``."""
-    from eval.trial.run import mount_settings
+    from eval.trial.run import mount_settings, odometry_latency_settings
 
-    return mount_settings(sim.T_tracker_optical_nominal) + ["thermal.enabled=false", *extra]
+    sets = mount_settings(sim.T_tracker_optical_nominal) + odometry_latency_settings(sim.scenario)
+    return sets + ["thermal.enabled=false", *extra]
 
 
 def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list[str] = ()) -> int:

@@ -210,6 +210,15 @@ def mount_settings(T: np.ndarray) -> list[str]:
     ]
 
 
+def odometry_latency_settings(sc) -> list[str]:
+    """The pipeline setting that tells the SLAM its odometry's latency, as a team reads it off
+    its sensor's data: the T265's ``latency_s`` when its noise is on and its driver does not
+    already extrapolate; 0 for wheel odometry, a noise-free sensor or a predicting driver."""
+    t265 = sc.sensors.t265
+    stale = sc.sensors.noise and sc.sensors.pose_source == "t265" and not t265.latency_extrapolate
+    return [f"slam.odometry_latency_s={t265.latency_s if stale else 0.0:g}"]
+
+
 def planar_pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """Distance on the floor (m) and absolute heading difference (degrees) of two poses."""
     est, true = planar_pose(T_est), planar_pose(T_true)
@@ -357,7 +366,7 @@ def run_trial(
         cfg = load_config()
         # the pipeline is given the nominal camera mount, the simulator uses the true one
         T = sim.T_tracker_optical_nominal if record is None else record.T_tracker_optical_nominal
-        mount_sets = mount_settings(T)
+        mount_sets = mount_settings(T) + odometry_latency_settings(sc)
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
         # and one that scores Landolt-C rings has Landolt-C targets reported once those rings read
