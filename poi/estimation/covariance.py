@@ -156,12 +156,12 @@ def mount_covariance(q: np.ndarray, sigma_rad: float, sigma_m: float) -> np.ndar
     """The map-frame covariance of a point from an error in the camera's mount calibration.
 
     The pipeline places a point by the nominal mount (Q0, t0); if the true one is
-    Q0 exp([delta]_x), t0 + delta_t, the point moves by Q Q0 (delta x p_c) + Q delta_t =
-    -[q]_x (Q Q0 delta) + Q delta_t with q = Q Q0 p_c the camera-to-point vector in the map
-    frame (first order). For isotropic delta ~ N(0, sigma_rad^2 I) and delta_t ~ N(0,
-    sigma_m^2 I): ``sigma_rad^2 (|q|^2 I - q q^T) + sigma_m^2 I``, since
-    [q]_x [q]_x^T = |q|^2 I - q q^T. A rotation error moves far points more, and never along
-    the line of sight.
+    Q0 exp(S(delta)), t0 + delta_t (S(v) the cross-product matrix, S(v) w = v x w), the point
+    moves by Q Q0 (delta x p_c) + Q delta_t = -S(q) (Q Q0 delta) + Q delta_t with q = Q Q0 p_c
+    the camera-to-point vector in the map frame (first order). For isotropic
+    delta ~ N(0, sigma_rad^2 I) and delta_t ~ N(0, sigma_m^2 I):
+    ``sigma_rad^2 (|q|^2 I - q q^T) + sigma_m^2 I``, since S(q) S(q)^T = |q|^2 I - q q^T. A
+    rotation error moves far points more, and never along the line of sight.
 
     >>> mount_covariance(np.array([2.0, 0.0, 0.0]), 0.01, 0.0).diagonal().round(8).tolist()
     [0.0, 0.0004, 0.0004]
