@@ -244,6 +244,7 @@ class SlamConfig:
     heading_drift_sigma: float = number(0.003, lo=0.0)
     heading_drift_sigma_per_sqrt_m: float = number(0.0003, lo=0.0)
     sigma_eps_m: float = number(0.012, lo=0.0)
+    max_speed_m_s: float = number(1.5, lo=0.0, lo_open=True)
     odometry_latency_s: float = number(0.01, lo=0.0, hi=1.0)
     start_sigma_m: float = number(0.005, lo=0.0, lo_open=True)
     start_sigma_rad: float = number(0.003, lo=0.0, lo_open=True)

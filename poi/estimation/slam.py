@@ -289,14 +289,15 @@ class UkfSlam:
         self.P = _symmetric((V * np.maximum(w, REPAIR_VARIANCE)) @ V.T)
 
     # --- prediction (2.2.3) --------------------------------------------------------------
-    def process_noise(self, delta: np.ndarray) -> np.ndarray:
+    def process_noise(self, delta: np.ndarray, extra_sigma: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
         """Q = J Q_c J^T (eq. 13-15) for increment ``delta`` = (dx_l, dy_l, dtheta_l), as an
-        (n, n) matrix that is zero outside the robot block."""
+        (n, n) matrix that is zero outside the robot block; ``extra_sigma`` (m, rad) is added
+        to Q_c's position and heading variances (an increment the odometry jumped over)."""
         p = self.params
         dist = float(np.hypot(delta[0], delta[1]))
         s_xy = p.sigma_xy_m + p.sigma_xy_per_m * dist
         s_th = p.sigma_theta_rad + p.sigma_theta_per_rad * abs(float(delta[2])) + p.sigma_theta_per_m * dist
-        Qc = np.diag([s_xy**2, s_xy**2, s_th**2])
+        Qc = np.diag([s_xy**2 + extra_sigma[0] ** 2, s_xy**2 + extra_sigma[0] ** 2, s_th**2 + extra_sigma[1] ** 2])
         J = np.eye(POSE_DIM)
         J[:2, :2] = rot2(self.x[2])
         Q = np.zeros((self.n, self.n))
@@ -312,7 +313,7 @@ class UkfSlam:
             Q[i, i] = p.heading_drift_sigma_per_sqrt_m**2 * dist
         return Q
 
-    def predict(self, delta: np.ndarray) -> None:
+    def predict(self, delta: np.ndarray, extra_sigma: tuple[float, float] = (0.0, 0.0)) -> None:
         """Move the robot by ``delta`` = (dx_l, dy_l, dtheta_l) given in its own frame
         (eq. 10 with eq. 12 evaluated at each sigma point's heading, then eq. 7): f moves
         (x, y) by ``k R(theta) (dx_l, dy_l) + b d`` and theta by ``dtheta_l + c d``, with
@@ -335,7 +336,7 @@ class UkfSlam:
         if delta.shape != (3,) or not np.all(np.isfinite(delta)):
             raise SlamError(f"odometry increment: expected 3 finite values, got {delta!r}")
         rd = self.robot_dim
-        Q = self.process_noise(delta)[:rd, :rd]
+        Q = self.process_noise(delta, extra_sigma)[:rd, :rd]
         Wm, Wc = self._points.Wm, self._points.Wc
         w = Wm[1]  # 1 / (2 (n + lambda)) for every point but the first
         spread = 0.5 / w  # n + lambda

@@ -10,7 +10,10 @@ wheel odometry, drift included):
    frame's time (a T265 reports the pose of 10 ms earlier: turning at 1.6 rad/s, as the
    robot's look-around does, that is 0.9 degrees); the increment from the previous
    frame's extrapolated pose ([Bouda2025]_ eq. 11) drives
-   :meth:`poi.estimation.slam.UkfSlam.predict`;
+   :meth:`poi.estimation.slam.UkfSlam.predict`. An increment faster than
+   ``slam.max_speed_m_s`` is a relocalisation jump of the tracker (the T265 jumps back
+   toward a place it recognises), not motion: the filter does not move, and its process
+   noise gets the jump's size, so the landmarks decide where it is;
 2. observations of static types (``slam.landmark_types``) within ``slam.max_range_m``
    are expressed in the levelled robot frame: ``p_l = Rz(theta)^T (p_map - t)``, which
    undoes exactly the pose the observation was placed with, and ``R_l = Rz(theta)^T R
@@ -83,6 +86,7 @@ class SlamLocalizer:
         self._last_odometry: np.ndarray | None = None  # as reported, and its time
         self._last_t_s = 0.0
         self._last_filter_odometry: np.ndarray | None = None  # extrapolated to the frame time
+        self.jumps = 0  # increments faster than slam.max_speed_m_s, taken as relocalisations
 
     def frame_time_odometry(self, odom: np.ndarray, t_s: float) -> np.ndarray:
         """The reported planar pose extrapolated over ``slam.odometry_latency_s`` at the
@@ -103,7 +107,18 @@ class SlamLocalizer:
         if self.slam is None:
             self.slam = UkfSlam(self.cfg, pose0=tuple(odom))
         else:
-            self.slam.predict(odometry_increment(self._last_filter_odometry, odom))
+            delta = odometry_increment(self._last_filter_odometry, odom)
+            dt = t_s - self._last_t_s
+            if dt > 0.0 and float(np.hypot(delta[0], delta[1])) > self.cfg.max_speed_m_s * dt:
+                # faster than the robot can move: the odometry relocalised (jumped). The filter
+                # stays where it is, told only that it may be anywhere within the jump, and
+                # the landmarks place it
+                self.jumps += 1
+                self.slam.predict(
+                    np.zeros(3), extra_sigma=(float(np.hypot(delta[0], delta[1])), abs(float(delta[2])))
+                )
+            else:
+                self.slam.predict(delta)
         self._last_odometry, self._last_t_s, self._last_filter_odometry = reported, t_s, odom
         odom = reported  # the observations were placed with the reported pose
         prior_pose, prior_P = self.slam.pose, self.slam.pose_covariance  # before this frame's update

@@ -33,7 +33,7 @@ def test_observations_are_mapped_with_the_pose_before_their_own_update():
     loc.step(T0, [_obs([2.0, 0.0, 0.5])], 0.0)  # the valve becomes a landmark at (2, 0)
     # odometry says the robot moved 0.5 m along x; the valve is seen 0.1 m off where the map has it
     T1 = make_transform(rot_z(0.0), [0.5, 0.0, 0.0])
-    step = loc.step(T1, [_obs([2.1, 0.0, 0.5])], 0.1)
+    step = loc.step(T1, [_obs([2.1, 0.0, 0.5])], 1.0)  # 0.5 m/s: motion, not a jump
     slam = loc.slam
     before = np.array([0.5, 0.0, 0.0])  # the predicted pose: odometry exactly, the start being exact
     after = planar_pose(step.pose)
@@ -63,3 +63,19 @@ def test_reported_poses_are_extrapolated_over_the_odometry_latency():
     loc.step(np.eye(4), [], 0.0)
     loc.step(make_transform(rot_z(0.1), [0.05, 0.0, 0.0]), [], 0.1)
     assert loc.slam.pose == pytest.approx([0.05, 0.0, 0.1], abs=1e-5)
+
+
+def test_a_relocalisation_jump_is_not_taken_as_motion():
+    # the robot stands still; the odometry jumps 1 m and 5 degrees in 0.1 s (10 m/s): the filter
+    # keeps its pose, its covariance takes the jump's size, and the jump is counted
+    cfg = SlamConfig(start_sigma_m=1e-3, start_sigma_rad=1e-3, odometry_latency_s=0.0, max_speed_m_s=1.5)
+    loc = SlamLocalizer(cfg)
+    loc.step(np.eye(4), [], 0.0)
+    loc.step(make_transform(rot_z(np.deg2rad(5.0)), [1.0, 0.0, 0.0]), [], 0.1)
+    assert loc.jumps == 1
+    assert loc.slam.pose == pytest.approx([0.0, 0.0, 0.0], abs=1e-9)
+    assert np.sqrt(loc.slam.pose_covariance[0, 0]) == pytest.approx(1.0, rel=0.01)
+    assert np.sqrt(loc.slam.pose_covariance[2, 2]) == pytest.approx(np.deg2rad(5.0), rel=0.01)
+    # 0.1 m in 0.1 s is motion
+    loc.step(make_transform(rot_z(np.deg2rad(5.0)), [1.1, 0.0, 0.0]), [], 0.2)
+    assert loc.jumps == 1 and loc.slam.pose[0] == pytest.approx(0.1 * np.cos(np.deg2rad(0.0)), abs=0.01)
