@@ -127,7 +127,7 @@ class LocalizeConfig:
     mount_sigma_deg: float = number(0.5, lo=0.0, hi=10.0)
     mount_sigma_m: float = number(0.005, lo=0.0, hi=0.5)
     # How J1's depth gradient (dd/du, dd/dv) is read: plane (a least-squares plane through the
-    # valid depths of the inner box, poi.estimation.localize.box_depth_gradient) or central
+    # valid depths of the inner box, poi.estimation.localize.box_depth_plane) or central
     # (central differences at the box centre's pixel, poi.estimation.covariance.depth_jacobian).
     depth_gradient: Literal["plane", "central"] = "plane"
     # Side (px) of the window over which the depth camera's errors correlate (the stereo

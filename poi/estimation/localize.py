@@ -44,7 +44,7 @@ from poi.estimation.covariance import (
 
 BOX_CORNER_TO_CENTER_PX = 0.5  # corner-convention coordinate minus this = pixel-centre coordinate
 BROWN_CONRADY_ITERATIONS = 10  # as librealsense's rs2_deproject_pixel_to_point
-# The depth plane of box_depth_gradient: at least this many valid pixels (three fix a plane; a
+# The depth plane of box_depth_plane: at least this many valid pixels (three fix a plane; a
 # few more keep one noisy pixel from tilting it), at most about this many (a grid over a large
 # box), and one refit without residuals beyond this many robust sigmas (the wall behind a
 # valve's spokes, flying pixels at the box's edge).
@@ -446,7 +446,7 @@ def localize(
 
     * Sigma_c = J2 J1 Sigma_1 J1^T J2^T is the detection and depth model: J1 holds the depth
       gradient of the box (``localize.depth_gradient``: by default the plane through its
-      inner depths, :func:`box_depth_gradient`), J2 the Jacobian of the deprojection and, for
+      inner depths, :func:`box_depth_plane`), J2 the Jacobian of the deprojection and, for
       a type with ``surface_to_center_m``, of its centre offset (:func:`surface_to_center`);
       Sigma_1's centre variances grow by (hidden / 2)^2 on an axis along which a flat item of
       known ``localize.aspect`` is cut (:func:`hidden_lengths_px`);
@@ -543,15 +543,14 @@ def localize(
     # Sigma_eps: the pose error as delivered (t265 mode), or what the planar SLAM, which adds
     # its own pose covariance later, leaves (height, roll, pitch: slam mode)
     sigma_eps = cfg.slam.sigma_eps_m if lc.mode == "slam" else cfg.tracker.sigma_eps_m
-    QQ0 = Q @ Q0
     # the mount calibration's error (a range-dependent part of what Sigma_eps lumps together)
-    R_mount = mount_covariance(QQ0 @ p_c, np.deg2rad(lc.mount_sigma_deg), lc.mount_sigma_m)
+    R_mount = mount_covariance(Q @ Q0 @ p_c, np.deg2rad(lc.mount_sigma_deg), lc.mount_sigma_m)
     # the part of a 3-D object's error that repeats from frame to frame (the same side seen)
     R_repeat = lc.repeat_sigma_m.get(t, 0.0) ** 2 * np.eye(3)
-    R = map_covariance(Sigma_c + Sigma_ext, Q, Q0, sigma_eps) + R_mount + R_repeat
     # Sigma_eps, the mount, the extent and its repeating part recur from frame to frame: the
     # shared part the tracker does not average away; the detection and depth noise does not
-    R_shared = sigma_eps**2 * np.eye(3) + QQ0 @ Sigma_ext @ QQ0.T + R_mount + R_repeat
+    R_shared = map_covariance(Sigma_ext, Q, Q0, sigma_eps) + R_mount + R_repeat
+    R = map_covariance(Sigma_c, Q, Q0, 0.0) + R_shared
     return Observation(
         detection=detection,
         timestamp_s=frame.timestamp_s,

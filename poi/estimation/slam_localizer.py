@@ -108,15 +108,14 @@ class SlamLocalizer:
             self.slam = UkfSlam(self.cfg, pose0=tuple(odom))
         else:
             delta = odometry_increment(self._last_filter_odometry, odom)
+            step_m = float(np.hypot(delta[0], delta[1]))
             dt = t_s - self._last_t_s
-            if dt > 0.0 and float(np.hypot(delta[0], delta[1])) > self.cfg.max_speed_m_s * dt:
+            if dt > 0.0 and step_m > self.cfg.max_speed_m_s * dt:
                 # faster than the robot can move: the odometry relocalised (jumped). The filter
                 # stays where it is, told only that it may be anywhere within the jump, and
                 # the landmarks place it
                 self.jumps += 1
-                self.slam.predict(
-                    np.zeros(3), extra_sigma=(float(np.hypot(delta[0], delta[1])), abs(float(delta[2])))
-                )
+                self.slam.predict(np.zeros(3), extra_sigma=(step_m, abs(float(delta[2]))))
             else:
                 self.slam.predict(delta)
         self._last_odometry, self._last_t_s, self._last_filter_odometry = reported, t_s, odom

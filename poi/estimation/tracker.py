@@ -203,12 +203,15 @@ def observation_probs(obs: Observation, fusion: str, confusion: np.ndarray | Non
 
 @dataclass(kw_only=True)
 class Track:
-    """One tracked object ([Avevor2022]_ 2.4.1: position mu, covariance Sigma, probabilities p)."""
+    """One tracked object ([Avevor2022]_ 2.4.1: position mu, covariance Sigma, probabilities p).
+    Sigma is kept as its fresh part ``Sigma_w`` and the shared error's factor ``L_shared``
+    (module docstring)."""
 
     track_id: int
     type: str
     mu: np.ndarray
-    Sigma: np.ndarray
+    Sigma_w: np.ndarray
+    L_shared: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     probs: np.ndarray
     n_prob: int = 1
     text_votes: dict[str, int] = field(default_factory=dict)
@@ -218,9 +221,12 @@ class Track:
     last_seen_s: float = 0.0
     confirmed: bool = False
     report_id: int | None = None
-    # Sigma = Sigma_w + L L^T: the fresh part and the shared error's factor (module docstring)
-    Sigma_w: np.ndarray | None = None
-    L_shared: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+
+    # named as [Avevor2022] writes it, like mu and Sigma_w (pyproject ignores N803/N806 alike)
+    @property
+    def Sigma(self) -> np.ndarray:  # noqa: N802
+        """The track's covariance, Sigma_w + L L^T."""
+        return self.Sigma_w + self.L_shared @ self.L_shared.T
 
     @property
     def text(self) -> str:
@@ -318,18 +324,16 @@ class Tracker:
         else:
             # the Kalman update from an uninformative prior: mu = o, Sigma = R
             mu, Sigma_w, L = o.copy(), R_w.copy(), L_o.copy()
-        Sigma = Sigma_w + L @ L.T
         det = obs.detection
         tr = Track(
             track_id=self._next_id,
             type=det.type,
             mu=mu,
-            Sigma=Sigma,
+            Sigma_w=Sigma_w,
+            L_shared=L,
             probs=observation_probs(obs, c.fusion, self.confusion),
             first_seen_s=t,
             last_seen_s=t,
-            Sigma_w=Sigma_w,
-            L_shared=L,
         )
         if det.type in TEXT_TYPES and det.text:
             tr.text_votes[det.text] = 1
@@ -339,9 +343,7 @@ class Tracker:
 
     def _update(self, tr: Track, obs: Observation, t: float) -> None:
         o, R_w, L_o = self._split(obs)
-        Sigma_w = tr.Sigma - tr.L_shared @ tr.L_shared.T if tr.Sigma_w is None else tr.Sigma_w
-        tr.mu, tr.Sigma_w, tr.L_shared = shared_error_update(tr.mu, Sigma_w, tr.L_shared, o, R_w, L_o)
-        tr.Sigma = tr.Sigma_w + tr.L_shared @ tr.L_shared.T
+        tr.mu, tr.Sigma_w, tr.L_shared = shared_error_update(tr.mu, tr.Sigma_w, tr.L_shared, o, R_w, L_o)
         # mean of the distributions ([Avevor2022] 2.4.5): running mean over paired detections
         q = observation_probs(obs, self.cfg.fusion, self.confusion)
         tr.probs = (tr.n_prob * tr.probs + q) / (tr.n_prob + 1)
