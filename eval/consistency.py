@@ -160,12 +160,11 @@ def match_detections(detections, visible) -> list[int | None]:
 
 
 def pipeline_settings(sim, extra: list[str]) -> list[str]:
-    """The settings a consistency run gives the pipeline: the nominal mount (as a trial does),
+    """The settings a consistency run gives the pipeline: the sensors as a trial gives them,
     no thermal detector (the oracle boxes heat sources), then ``extra``."""
-    from eval.trial.run import mount_settings, odometry_latency_settings
+    from eval.trial.run import sensor_settings
 
-    sets = mount_settings(sim.T_tracker_optical_nominal) + odometry_latency_settings(sim.scenario)
-    return sets + ["thermal.enabled=false", *extra]
+    return sensor_settings(sim.T_tracker_optical_nominal, sim.scenario) + ["thermal.enabled=false", *extra]
 
 
 def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list[str] = ()) -> int:

@@ -219,6 +219,12 @@ def odometry_latency_settings(sc) -> list[str]:
     return [f"slam.odometry_latency_s={t265.latency_s if stale else 0.0:g}"]
 
 
+def sensor_settings(T_tracker_optical: np.ndarray, sc) -> list[str]:
+    """What a trial tells the pipeline of its sensors, as a team knows them: the nominal camera
+    mount (:func:`mount_settings`) and the odometry's latency (:func:`odometry_latency_settings`)."""
+    return mount_settings(T_tracker_optical) + odometry_latency_settings(sc)
+
+
 def planar_pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """Distance on the floor (m) and absolute heading difference (degrees) of two poses."""
     est, true = planar_pose(T_est), planar_pose(T_true)
@@ -366,7 +372,7 @@ def run_trial(
         cfg = load_config()
         # the pipeline is given the nominal camera mount, the simulator uses the true one
         T = sim.T_tracker_optical_nominal if record is None else record.T_tracker_optical_nominal
-        mount_sets = mount_settings(T) + odometry_latency_settings(sc)
+        mount_sets = sensor_settings(T, sc)
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
         # and one that scores Landolt-C rings has Landolt-C targets reported once those rings read
