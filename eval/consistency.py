@@ -23,12 +23,16 @@ collects, with the simulator's truth:
 * ``SLAM pose`` (every frame) and ``SLAM pose end`` (last frame of each run): the filter's
   (x, y, theta) against the true tracker pose, with the filter's pose covariance (d = 3).
 
-How N is counted: every sample is counted once. Observations in different frames have
-independent pixel and depth noise, but an object's extent error and the pose error repeat
-from frame to frame, so per-frame samples of one object or one run are correlated and their
-interval is too narrow: ``R ...``, ``track Sigma confirm`` and ``SLAM pose`` are therefore
-read as indicative, while ``track Sigma end`` (one sample per object, objects far apart)
-and ``SLAM pose end`` (one sample per run) are the independent counts.
+How N is counted. Observations in different frames have independent pixel and depth noise,
+but an object's extent error and the pose error repeat from frame to frame, so per-frame
+samples of one object (``R ...``) or one run (``SLAM pose``) are correlated, and N of them
+hold fewer than N independent ones. Each such series (one object in one run, one run's
+poses, in frame order) counts as n / tau samples, tau = 1 + 2 sum_k rho_k its integrated
+autocorrelation time (:func:`effective_count`, [Geyer1992]_), and the interval is that of
+N_eff independent samples (a chi-square of the same mean and variance). What the objects
+of one run share (the mount's error, the pose a SLAM map rests on) is not counted, so the
+``R`` and ``SLAM pose`` intervals are still a little narrow. ``track Sigma`` (one sample
+per track) and ``SLAM pose end`` (one per run) count each sample once.
 
 References
 ----------
@@ -38,6 +42,8 @@ Full entries in docs/SOURCES.md.
    2022.
 .. [BarShalom2001] Y. Bar-Shalom, X. R. Li, T. Kirubarajan, "Estimation with Applications to
    Tracking and Navigation", Wiley, 2001.
+.. [Geyer1992] C. J. Geyer, "Practical Markov chain Monte Carlo", Statistical Science 7(4),
+   473-483, 1992.
 """
 
 from __future__ import annotations
@@ -51,6 +57,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
+from eval.extent_fit import ExtentSample
 from poi.core.geometry import invert_transform, planar_pose, transform_points, wrap_angle
 
 LEVEL = 0.99  # two-sided: chi2.ppf(0.005) and chi2.ppf(0.995)
@@ -74,25 +81,60 @@ def nees(e: np.ndarray, P: np.ndarray) -> float:
     return float(e @ np.linalg.solve(np.asarray(P, dtype=float), e))
 
 
-def chi2_interval(n: int, d: int, level: float = LEVEL) -> tuple[float, float]:
-    """The two-sided ``level`` interval of the mean of n NEES samples of dimension d.
+def chi2_interval(n: float, d: int, level: float = LEVEL) -> tuple[float, float]:
+    """The two-sided ``level`` interval of the mean of n NEES samples of dimension d (n may be
+    an effective count, :func:`effective_count`: a chi-square with n d degrees of freedom).
 
     >>> [round(v, 3) for v in chi2_interval(100, 3)]
     [2.407, 3.668]
     """
-    if n < 1 or d < 1:
-        raise ConsistencyError(f"chi2_interval: expected n >= 1 and d >= 1, got n={n}, d={d}")
+    if not n > 0 or d < 1:
+        raise ConsistencyError(f"chi2_interval: expected n > 0 and d >= 1, got n={n}, d={d}")
     a = 0.5 * (1.0 - level)
     lo, hi = chi2.ppf([a, 1.0 - a], n * d)
     return float(lo) / n, float(hi) / n
 
 
+def autocorrelation_time(x: np.ndarray) -> float:
+    """tau = 1 + 2 sum_{k>=1} rho_k of a series, the sum stopped before the first lag whose
+    autocorrelation is <= 0 (the initial positive sequence of [Geyer1992]_ in its simplest
+    form); 1 for a series of fewer than 3 values or with no spread.
+
+    >>> autocorrelation_time(np.array([1.0, -1.0] * 50))  # anticorrelated: no inflation
+    1.0
+    >>> blocks = np.repeat(np.random.default_rng(0).standard_normal(200), 10)  # 10 equal values each
+    >>> 8.0 < autocorrelation_time(blocks) < 14.0  # about 10
+    True
+    """
+    x = np.asarray(x, dtype=float)
+    n = x.size
+    if n < 3 or not np.ptp(x) > 0:
+        return 1.0
+    c = x - x.mean()
+    acov = np.correlate(c, c, mode="full")[n - 1 :] / n  # lags 0 .. n-1, biased estimate
+    rho = acov[1:] / acov[0]
+    stop = int(np.argmax(rho <= 0.0)) if np.any(rho <= 0.0) else rho.size
+    return 1.0 + 2.0 * float(rho[:stop].sum())
+
+
+def effective_count(series: list[np.ndarray]) -> float:
+    """The number of independent samples that correlated series hold: sum of n / tau over the
+    series (:func:`autocorrelation_time`), each at most its own length.
+
+    >>> effective_count([np.ones(5), np.array([1.0, 2.0])])  # no spread: each value counts
+    7.0
+    """
+    return float(sum(len(x) / max(1.0, autocorrelation_time(x)) for x in series))
+
+
 @dataclass(kw_only=True)
 class Row:
-    """One quantity's summary: N samples of dimension d, their mean NEES and its interval."""
+    """One quantity's summary: N samples of dimension d (N_eff independent ones), their mean
+    NEES and its interval."""
 
     quantity: str
     n: int
+    n_eff: float
     d: int
     mean: float
     lo: float
@@ -106,6 +148,7 @@ class Row:
         return {
             "quantity": self.quantity,
             "n": self.n,
+            "n_eff": round(self.n_eff, 1),
             "d": self.d,
             "mean_nees": round(self.mean, 4),
             "interval_99": [round(self.lo, 4), round(self.hi, 4)],
@@ -115,22 +158,33 @@ class Row:
 
 @dataclass(kw_only=True)
 class Samples:
-    """NEES samples by quantity (name -> (d, values)) and the per-frame pose NEES of each run."""
+    """NEES samples by quantity (name -> d, values, and the series each value belongs to) and
+    the per-frame pose NEES of each run."""
 
+    runs: int = 0  # runs begun (collect_run), which names each run's series
     values: dict[str, list[float]] = field(default_factory=lambda: defaultdict(list))
+    series: dict[str, list[object]] = field(default_factory=lambda: defaultdict(list))
     dims: dict[str, int] = field(default_factory=dict)
     pose_series: list[tuple[str, list[float]]] = field(default_factory=list)
+    extent: list[ExtentSample] = field(default_factory=list)  # 3-D objects' camera-frame errors
 
-    def add(self, quantity: str, d: int, value: float) -> None:
+    def add(self, quantity: str, d: int, value: float, series: object = None) -> None:
+        """One sample; ``series`` names the correlated series it continues, in time order
+        (None: a sample independent of the others)."""
         self.dims[quantity] = d
         self.values[quantity].append(float(value))
+        self.series[quantity].append(object() if series is None else series)
 
     def rows(self) -> list[Row]:
         out = []
         for q in sorted(self.values, key=_order):
-            v = self.values[q]
-            lo, hi = chi2_interval(len(v), self.dims[q])
-            out.append(Row(quantity=q, n=len(v), d=self.dims[q], mean=float(np.mean(v)), lo=lo, hi=hi))
+            v = np.asarray(self.values[q])
+            groups: dict[object, list[float]] = defaultdict(list)
+            for key, x in zip(self.series[q], v, strict=True):
+                groups[key].append(x)
+            n_eff = effective_count([np.asarray(g) for g in groups.values()])
+            lo, hi = chi2_interval(n_eff, self.dims[q])
+            out.append(Row(quantity=q, n=v.size, n_eff=n_eff, d=self.dims[q], mean=float(v.mean()), lo=lo, hi=hi))
         return out
 
 
@@ -162,9 +216,9 @@ def match_detections(detections, visible) -> list[int | None]:
 def pipeline_settings(sim, extra: list[str]) -> list[str]:
     """The settings a consistency run gives the pipeline: the sensors as a trial gives them,
     no thermal detector (the oracle boxes heat sources), then ``extra``."""
-    from eval.trial.run import sensor_settings
+    from eval.trial.sensor_settings import sensor_settings
 
-    return sensor_settings(sim.T_tracker_optical_nominal, sim.scenario) + ["thermal.enabled=false", *extra]
+    return sensor_settings(sim) + ["thermal.enabled=false", *extra]
 
 
 def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list[str] = ()) -> int:
@@ -175,9 +229,13 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
     from sim.oracle import ARENA_MIN_BOX_PX, OracleDetector, OracleSettings
     from sim.simulator import Simulation
 
+    run = samples.runs
+    samples.runs += 1
     sim = Simulation(sc)
     try:
         cfg = apply_overrides(load_config(), pipeline_settings(sim, list(pipeline_sets)))
+        lc = cfg.localize
+        solid_types = set(lc.surface_to_center_m) | set(lc.extent_sigma_m) | set(lc.extent_ray_sigma_m)
         oracle_kw = {"seed": sc.seed, "confusion_rate": 0.0, "false_positives_per_frame": 0.0}
         if sim.arena is not None:
             from poi.core.names import ARENA_TYPES
@@ -205,8 +263,14 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                 p_true = truth_map[oid]
                 e_cam = obs.position_cam - transform_points(T_cam_map, p_true)
                 Sigma_cam = obs.Sigma_c if obs.Sigma_extent_c is None else obs.Sigma_c + obs.Sigma_extent_c
-                samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam))
-                samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R))
+                run_object = (run, oid)  # this run's series of this object
+                if t in solid_types:
+                    ray = obs.position_cam / float(np.linalg.norm(obs.position_cam))
+                    samples.extent.append(
+                        ExtentSample(type=t, object_key=run_object, e_cam=e_cam, Sigma_c=obs.Sigma_c, ray=ray)
+                    )
+                samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam), run_object)
+                samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R), run_object)
             det_ids = match_detections(res.detections, truth.visible)
             for det, oid in zip(res.detections, det_ids, strict=True):
                 if det.track_id is not None and oid is not None:
@@ -218,7 +282,7 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                 e = s.pose - planar_pose(truth.T_map_tracker)
                 e[2] = wrap_angle(e[2])
                 last_pose = nees(e, s.pose_covariance)
-                samples.add("SLAM pose", POSE_DIM, last_pose)
+                samples.add("SLAM pose", POSE_DIM, last_pose, run)
                 pose_series.append(last_pose)
         for tid, (mu, Sigma) in sorted(confirmed_at.items()):
             if votes[tid]:
@@ -269,11 +333,11 @@ def run_consistency(
 
 def format_table(rows: list[Row]) -> str:
     """The table ``poibench consistency`` prints."""
-    head = f"{'quantity':<32} {'N':>6} {'d':>2} {'mean NEES':>10}  {'99% interval':<17} inside"
+    head = f"{'quantity':<32} {'N':>6} {'N_eff':>6} {'d':>2} {'mean NEES':>10}  {'99% interval':<17} inside"
     lines = [head, "-" * len(head)]
     for r in rows:
         lines.append(
-            f"{r.quantity:<32} {r.n:>6} {r.d:>2} {r.mean:>10.3f}  [{r.lo:6.3f}, {r.hi:6.3f}]  "
+            f"{r.quantity:<32} {r.n:>6} {r.n_eff:>6.1f} {r.d:>2} {r.mean:>10.3f}  [{r.lo:6.3f}, {r.hi:6.3f}]  "
             f"{'yes' if r.inside else 'NO'}"
         )
     return "\n".join(lines) + "\n"

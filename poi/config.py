@@ -54,6 +54,16 @@ class TrackerConfig:
 
     gate: float = number(9.0, lo=0.0, lo_open=True)
     gates: dict[str, float] = field(default_factory=dict)
+    # Per type, metres: the association's m^2 adds allowance^2 I to Sigma + R (poi.estimation.tracker)
+    gate_allowance_m: dict[str, float] = field(
+        default_factory=lambda: {
+            "door": 0.28,
+            "valve": 0.14,
+            "fire-extinguisher": 0.11,
+            "baby-doll": 0.17,
+            "heat-source": 0.17,
+        }
+    )
     n_min: int = number(3, lo=1)
     t_max: float = number(5.0, lo=0.0, lo_open=True)
     assignment: Literal["greedy", "hungarian"] = "greedy"
@@ -80,6 +90,11 @@ class TrackerConfig:
                 raise FieldError(f"gates.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
             if not g > 0:
                 raise FieldError(f"gates.{t}", f"expected a value > 0, got {g!r}")
+        for t, a in self.gate_allowance_m.items():
+            if t not in TYPES:
+                raise FieldError(f"gate_allowance_m.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
+            if not 0.0 <= a < 10.0:
+                raise FieldError(f"gate_allowance_m.{t}", f"expected metres in [0, 10), got {a!r}")
 
 
 @dataclass(kw_only=True)
@@ -137,11 +152,11 @@ class LocalizeConfig:
     # ray (a 3-D object's silhouette centre is not its centroid's projection).
     extent_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.055,
-            "valve": 0.02,
-            "fire-extinguisher": 0.008,
-            "baby-doll": 0.01,
-            "heat-source": 0.024,
+            "door": 0.058,
+            "valve": 0.022,
+            "fire-extinguisher": 0.014,
+            "baby-doll": 0.012,
+            "heat-source": 0.045,
         }
     )
     # Per type, the spread (m) along the camera ray: how far behind the surface the depth hits
@@ -149,23 +164,11 @@ class LocalizeConfig:
     # spreads as much along the ray as across it.
     extent_ray_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.045,
-            "valve": 0.06,
+            "door": 0.058,
+            "valve": 0.046,
             "fire-extinguisher": 0.0,
-            "baby-doll": 0.03,
-            "heat-source": 0.03,
-        }
-    )
-    # Per type, the part of the spread (m) that repeats from frame to frame (the same side seen,
-    # the same detector's view); added to R as repeat^2 I for the tracker, which fuses
-    # observations as if independent, not to the camera-frame spread (Sigma_extent_c).
-    repeat_sigma_m: dict[str, float] = field(
-        default_factory=lambda: {
-            "door": 0.2,
-            "valve": 0.1,
-            "fire-extinguisher": 0.08,
-            "baby-doll": 0.12,
-            "heat-source": 0.12,
+            "baby-doll": 0.0,
+            "heat-source": 0.026,
         }
     )
     # Per type, how far behind the surface the depth hits its reference point lies (m), on
@@ -176,10 +179,11 @@ class LocalizeConfig:
             "pillar-red": 0.025,
             "pillar-green": 0.025,
             "ball": 0.105,
-            "fire-extinguisher": 0.06,
-            "baby-doll": 0.1,
-            "heat-source": 0.115,
-            "door": 0.09,
+            "fire-extinguisher": 0.063,
+            "baby-doll": 0.062,
+            "heat-source": 0.138,
+            "door": 0.051,
+            "valve": -0.054,
         }
     )
     # Per flat type, its width over its height (a square QR code, hazmat placard or
@@ -206,13 +210,16 @@ class LocalizeConfig:
     truncation_tolerance: float = number(0.05, lo=0.0, hi=1.0, hi_open=True)
 
     def __post_init__(self) -> None:
-        for key in ("surface_to_center_m", "extent_sigma_m", "extent_ray_sigma_m", "repeat_sigma_m", "aspect"):
+        for key in ("surface_to_center_m", "extent_sigma_m", "extent_ray_sigma_m", "aspect"):
             for t, r in getattr(self, key).items():
                 if t not in TYPES:
                     raise FieldError(f"{key}.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
                 if key == "aspect" and not r > 0.0:
                     raise FieldError(f"{key}.{t}", f"expected a width / height ratio > 0, got {r!r}")
-                if key != "aspect" and not 0.0 <= r < 1.0:
+                if key == "surface_to_center_m" and not -1.0 < r < 1.0:
+                    # negative: the reference point lies in front of the surface the depth reads
+                    raise FieldError(f"{key}.{t}", f"expected metres in (-1, 1), got {r!r}")
+                if key.startswith("extent") and not 0.0 <= r < 1.0:
                     raise FieldError(f"{key}.{t}", f"expected metres in [0, 1), got {r!r}")
         for i, t in enumerate(self.diamond_types):
             if t not in self.aspect:
@@ -235,7 +242,7 @@ class SlamConfig:
     sigma_xy_m: float = number(0.0005, lo=0.0)
     sigma_xy_per_m: float = number(0.005, lo=0.0)
     sigma_theta_rad: float = number(0.0003, lo=0.0)
-    sigma_theta_per_rad: float = number(0.005, lo=0.0)
+    sigma_theta_per_rad: float = number(0.002, lo=0.0)
     sigma_theta_per_m: float = number(0.002, lo=0.0)
     scale_sigma: float = number(0.1, lo=0.0)
     scale_sigma_per_m: float = number(0.001, lo=0.0)
@@ -244,6 +251,8 @@ class SlamConfig:
     heading_drift_sigma: float = number(0.003, lo=0.0)
     heading_drift_sigma_per_sqrt_m: float = number(0.0003, lo=0.0)
     sigma_eps_m: float = number(0.012, lo=0.0)
+    height_drift_sigma_per_m: float = number(0.002, lo=0.0)
+    tilt_sigma_deg: float = number(0.3, lo=0.0, hi=90.0)
     max_speed_m_s: float = number(1.5, lo=0.0, lo_open=True)
     odometry_latency_s: float = number(0.01, lo=0.0, hi=1.0)
     start_sigma_m: float = number(0.005, lo=0.0, lo_open=True)

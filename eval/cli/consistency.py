@@ -1,15 +1,19 @@
-"""``poibench consistency [SCENARIO] [--suite NAME] [--frames N] [--runs M] [--seed S] [--out DIR]``.
+"""``poibench consistency [SCENARIO] [--suite NAME] [--frames N] [--runs M] [--seed S] [--fit-extents]``.
 
 Monte Carlo NEES of the pipeline's covariances against the simulator's truth
 (:mod:`eval.consistency`): prints the table (quantity, N, d, mean NEES, its chi-square 99%
 interval, inside?) and writes ``consistency.json`` and ``consistency.png`` to ``--out``.
 A SCENARIO (file or shipped name, default the built-in one) runs ``--runs`` times with seeds
-S, S + 1, ...; ``--suite`` runs the first ``--runs`` scenarios of a suite with their own seeds.
+S, S + 1, ...; ``--suite`` (repeatable) runs the first ``--runs`` scenarios of each suite with
+their own seeds (or S, S + 1, ... when ``--seed`` is given: other mazes of the same kind). ``--fit-extents``
+also prints the 3-D types' centre offsets and extent spreads that would make their camera-frame
+R consistent on these runs (:mod:`eval.extent_fit`), as ``--set`` settings.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -27,10 +31,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         "interval. Prints the table; writes consistency.json and consistency.png to --out.",
     )
     p.add_argument("scenario", nargs="?", help="scenario YAML file or shipped name (default: the built-in one)")
-    p.add_argument("--suite", help="run the first --runs scenarios of this suite (e.g. rrl-hard) instead")
+    p.add_argument(
+        "--suite",
+        action="append",
+        help="run the first --runs scenarios of this suite (e.g. rrl-hard) instead; repeatable",
+    )
     p.add_argument("--frames", type=int, default=DEFAULT_FRAMES, help=f"frames per run (default {DEFAULT_FRAMES})")
     p.add_argument("--runs", type=int, default=DEFAULT_RUNS, help=f"number of runs (default {DEFAULT_RUNS})")
-    p.add_argument("--seed", type=int, help="seed of the first run of SCENARIO (default: the scenario's own)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        help="seed of the first run (default: the scenario's own; with --suite each scenario's own)",
+    )
+    p.add_argument(
+        "--fit-extents",
+        action="store_true",
+        help="also fit the 3-D types' centre offset and extent spreads to these runs' errors",
+    )
     p.add_argument(
         "--set",
         action="append",
@@ -57,10 +74,16 @@ def cmd_consistency(args: argparse.Namespace) -> int:
             raise ConsistencyError("give a SCENARIO or --suite, not both")
         from eval.experiments.suites import load_suite
 
-        suite = load_suite(args.suite)
-        scenarios = [suite.build(e) for e in suite.scenarios[: args.runs]]
-        scenarios = [with_noise(apply_settings(sc, sim_sets), True) for sc in scenarios]
-        title = f"suite {suite.name}"
+        scenarios = []
+        for name in args.suite:
+            suite = load_suite(name)
+            runs = [
+                with_noise(apply_settings(suite.build(e), sim_sets), True) for e in suite.scenarios[: args.runs]
+            ]
+            if args.seed is not None:
+                runs = [apply_settings(sc, [f"seed={args.seed + i}"]) for i, sc in enumerate(runs)]
+            scenarios += runs
+        title = "suite " + " + ".join(args.suite)
     else:
         base = resolve_scenario(args.scenario, None, args.set, "on")
         seed0 = base.seed if args.seed is None else args.seed
@@ -75,11 +98,23 @@ def cmd_consistency(args: argparse.Namespace) -> int:
     )
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     sys.stdout.write(format_table(result.rows))
+    extra = {}
+    if args.fit_extents:
+        from eval.extent_fit import fit_extents, fitted_settings, format_fits
+        from poi.config import apply_overrides, load_config
+
+        if not result.samples.extent:
+            raise ConsistencyError("--fit-extents: no observation of a 3-D type in these runs")
+        fits = fit_extents(result.samples.extent)
+        sets = fitted_settings(fits, apply_overrides(load_config(), pipe_sets))
+        sys.stdout.write("\n" + format_fits(fits) + "\n" + "\n".join(f"--set '{x}'" for x in sets) + "\n")
+        extra["extent_fit"] = {"fits": [dataclasses.asdict(f) for f in fits], "settings": sets}
     meta = {
         "title": f"{title}, {len(scenarios)} run(s) x {args.frames} frames",
         "scenario": title,
         "frames_per_run": args.frames,
         "settings": args.set,
+        **extra,
     }
     paths = write_outputs(result, Path(args.out), meta)
     print(

@@ -43,7 +43,8 @@ from eval.scoring.scorer import ScoreResult, score
 from eval.scoring.truth import truth_rows, write_truth_csv
 from eval.trial.cost import CostClock
 from eval.trial.outputs import TrialOutputs
-from poi.core.geometry import matrix_to_quat_wxyz, planar_pose, wrap_angle
+from eval.trial.sensor_settings import sensor_settings
+from poi.core.geometry import planar_pose, wrap_angle
 from poi.core.poi_file import read_poi_file
 from sim.scenario import Scenario
 
@@ -201,30 +202,6 @@ def onnx_model_file(choice: str) -> Path | None:
     return None
 
 
-def mount_settings(T: np.ndarray) -> list[str]:
-    """The pipeline settings that give it the camera mount ``T`` (T_tracker_optical)."""
-    q = matrix_to_quat_wxyz(T[:3, :3])
-    return [
-        f"mount.T_tracker_camera.translation_m=[{T[0, 3]:.6f}, {T[1, 3]:.6f}, {T[2, 3]:.6f}]",
-        f"mount.T_tracker_camera.quaternion_wxyz=[{q[0]:.9f}, {q[1]:.9f}, {q[2]:.9f}, {q[3]:.9f}]",
-    ]
-
-
-def odometry_latency_settings(sc) -> list[str]:
-    """The pipeline setting that tells the SLAM its odometry's latency, as a team reads it off
-    its sensor's data: the T265's ``latency_s`` when its noise is on and its driver does not
-    already extrapolate; 0 for wheel odometry, a noise-free sensor or a predicting driver."""
-    t265 = sc.sensors.t265
-    stale = sc.sensors.noise and sc.sensors.pose_source == "t265" and not t265.latency_extrapolate
-    return [f"slam.odometry_latency_s={t265.latency_s if stale else 0.0:g}"]
-
-
-def sensor_settings(T_tracker_optical: np.ndarray, sc) -> list[str]:
-    """What a trial tells the pipeline of its sensors, as a team knows them: the nominal camera
-    mount (:func:`mount_settings`) and the odometry's latency (:func:`odometry_latency_settings`)."""
-    return mount_settings(T_tracker_optical) + odometry_latency_settings(sc)
-
-
 def planar_pose_error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """Distance on the floor (m) and absolute heading difference (degrees) of two poses."""
     est, true = planar_pose(T_est), planar_pose(T_true)
@@ -296,7 +273,7 @@ def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, 
         return PerceptionRecord(
             key=key,
             intrinsics=sim.intrinsics,
-            T_tracker_optical_nominal=np.array(sim.T_tracker_optical_nominal),
+            sensor_sets=sensor_settings(sim),
             truth_rows=truth_rows(sim),
             walls_map=sim.walls_in_map(),
             robot_path_map=np.array(sim.robot_path_map()[:n]),
@@ -370,9 +347,9 @@ def run_trial(
     sim = Simulation(sc) if record is None else None
     try:
         cfg = load_config()
-        # the pipeline is given the nominal camera mount, the simulator uses the true one
-        T = sim.T_tracker_optical_nominal if record is None else record.T_tracker_optical_nominal
-        mount_sets = sensor_settings(T, sc)
+        # the pipeline is told its sensors as a team knows them (the nominal camera mount, the
+        # simulator uses the true one)
+        mount_sets = sensor_settings(sim) if record is None else record.sensor_sets
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
         # and one that scores Landolt-C rings has Landolt-C targets reported once those rings read

@@ -170,6 +170,24 @@ def mount_covariance(q: np.ndarray, sigma_rad: float, sigma_m: float) -> np.ndar
     return sigma_rad**2 * (float(q @ q) * np.eye(3) - np.outer(q, q)) + sigma_m**2 * np.eye(3)
 
 
+def tilt_covariance(q: np.ndarray, sigma_rad: float) -> np.ndarray:
+    """The map-frame covariance of a point from an error in the tracker's roll and pitch.
+
+    A tilt error delta = (delta_x, delta_y, 0) about the map's horizontal axes (the tracker's
+    heading error is the SLAM's) moves a point q from the tracker (map frame) by delta x q =
+    -S(q) delta (first order, as :func:`mount_covariance`); for delta_x, delta_y ~
+    N(0, sigma_rad^2) that is ``sigma_rad^2 S(q) diag(1, 1, 0) S(q)^T``. A point straight
+    ahead moves up and down only, by its distance times the pitch error.
+
+    >>> tilt_covariance(np.array([2.0, 0.0, 0.0]), 0.01).diagonal().round(8).tolist()
+    [0.0, 0.0, 0.0004]
+    """
+    q = np.asarray(q, dtype=float)
+    # the columns of S(q) for the x and y axes: e_x x q and e_y x q, negated (the sign cancels)
+    c = np.array([[0.0, -q[2], q[1]], [q[2], 0.0, -q[0]]])
+    return sigma_rad**2 * (c.T @ c)
+
+
 @dataclass(kw_only=True)
 class CenterVariance:
     """sigma_u^2(w) = sum_k u[k] w^k, sigma_v^2(h) = sum_k v[k] h^k in px^2 ([Avevor2022]_ 2.1.4)."""

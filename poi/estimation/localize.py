@@ -419,13 +419,16 @@ def project_point_to_pixel(intr: Intrinsics, point: np.ndarray) -> np.ndarray:
 
 def surface_to_center(p_c: np.ndarray, radius_m: float) -> np.ndarray:
     """The centre of a round object of radius ``radius_m`` whose surface point ``p_c`` the depth
-    hit: ``p_c (1 + r / |p_c|)``, on the ray one radius further. Its Jacobian,
+    hit: ``p_c (1 + r / |p_c|)``, on the ray one radius further (a negative r: nearer, for a
+    thin object whose depth reads the wall behind it). Its Jacobian,
     ``(1 + r/|p|) I - r p p^T / |p|^3``, is carried into J2 by :func:`localize`.
 
     >>> surface_to_center(np.array([0.0, 0.0, 2.0]), 0.1).tolist()
     [0.0, 0.0, 2.1]
+    >>> surface_to_center(np.array([0.0, 0.0, 2.0]), -0.1).tolist()
+    [0.0, 0.0, 1.9]
     """
-    if radius_m <= 0.0:
+    if radius_m == 0.0:
         return p_c
     return p_c * (1.0 + radius_m / float(np.linalg.norm(p_c)))
 
@@ -440,9 +443,8 @@ def localize(
     """Place a detection in the map frame with its covariance R ([Avevor2022]_ 2.2-2.3).
 
     p_map = Q (Q0 p_c + t0) + t with (Q, t) = ``frame.pose`` (T_map_tracker) and (Q0, t0)
-    = ``T_tracker_camera``; R = Q Q0 (Sigma_c + Sigma_ext) Q0^T Q^T + sigma_eps^2 I + R_mount
-    + repeat^2 I (``localize.repeat_sigma_m``: the part of a 3-D object's error that repeats
-    from frame to frame), where
+    = ``T_tracker_camera``; R = Q Q0 (Sigma_c + Sigma_ext) Q0^T Q^T + sigma_eps^2 I + R_mount,
+    where
 
     * Sigma_c = J2 J1 Sigma_1 J1^T J2^T is the detection and depth model: J1 holds the depth
       gradient of the box (``localize.depth_gradient``: by default the plane through its
@@ -545,11 +547,9 @@ def localize(
     sigma_eps = cfg.slam.sigma_eps_m if lc.mode == "slam" else cfg.tracker.sigma_eps_m
     # the mount calibration's error (a range-dependent part of what Sigma_eps lumps together)
     R_mount = mount_covariance(Q @ Q0 @ p_c, np.deg2rad(lc.mount_sigma_deg), lc.mount_sigma_m)
-    # the part of a 3-D object's error that repeats from frame to frame (the same side seen)
-    R_repeat = lc.repeat_sigma_m.get(t, 0.0) ** 2 * np.eye(3)
-    # Sigma_eps, the mount, the extent and its repeating part recur from frame to frame: the
-    # shared part the tracker does not average away; the detection and depth noise does not
-    R_shared = map_covariance(Sigma_ext, Q, Q0, sigma_eps) + R_mount + R_repeat
+    # Sigma_eps, the mount and the extent recur from frame to frame: the shared part the
+    # tracker does not average away; the detection and depth noise does not
+    R_shared = map_covariance(Sigma_ext, Q, Q0, sigma_eps) + R_mount
     R = map_covariance(Sigma_c, Q, Q0, 0.0) + R_shared
     return Observation(
         detection=detection,

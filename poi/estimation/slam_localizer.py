@@ -21,8 +21,13 @@ wheel odometry, drift included):
 3. the corrected pose keeps the odometry's height, roll and pitch and replaces its
    planar part with the filter's: ``Q' = Rz(theta' - theta) Q``, ``t' = (x', y', t_z)``;
    every observation is moved to ``p' = Rz(theta' - theta) (p_map - t) + t'`` and its
-   covariance gets the pose uncertainty: ``R' = Rz R Rz^T + J P_pose J^T`` with
-   ``J = d p' / d (x', y', theta')`` (first-order propagation, [Avevor2022]_ 2.2.2's method).
+   covariance gets the pose uncertainty: ``R' = Rz R Rz^T + J P_pose J^T + H`` with
+   ``J = d p' / d (x', y', theta')`` (first-order propagation, [Avevor2022]_ 2.2.2's method)
+   and ``H`` what the planar filter does not estimate: the height error the odometry has
+   gathered, ``(slam.height_drift_sigma_per_m * d)^2`` on z after d metres travelled, and
+   its roll and pitch error ``slam.tilt_sigma_deg`` at the point's distance
+   (:func:`poi.estimation.covariance.tilt_covariance`). All repeat from frame to frame, so
+   they are in the observation's shared part.
 
 Each measurement is used once. The observations are moved with the filter's pose
 *before* this frame's landmark update (after the prediction, ``(x', y', theta')`` and
@@ -55,6 +60,7 @@ import numpy as np
 from poi.config import SlamConfig
 from poi.core.geometry import planar_pose, rot_z, wrap_angle
 from poi.core.types import Observation
+from poi.estimation.covariance import tilt_covariance
 from poi.estimation.slam import LandmarkObservation, UkfSlam, odometry_increment
 
 
@@ -87,6 +93,7 @@ class SlamLocalizer:
         self._last_t_s = 0.0
         self._last_filter_odometry: np.ndarray | None = None  # extrapolated to the frame time
         self.jumps = 0  # increments faster than slam.max_speed_m_s, taken as relocalisations
+        self.distance_m = 0.0  # travelled so far, by the odometry's increments (jumps not counted)
 
     def frame_time_odometry(self, odom: np.ndarray, t_s: float) -> np.ndarray:
         """The reported planar pose extrapolated over ``slam.odometry_latency_s`` at the
@@ -118,6 +125,7 @@ class SlamLocalizer:
                 self.slam.predict(np.zeros(3), extra_sigma=(step_m, abs(float(delta[2]))))
             else:
                 self.slam.predict(delta)
+                self.distance_m += step_m
         self._last_odometry, self._last_t_s, self._last_filter_odometry = reported, t_s, odom
         odom = reported  # the observations were placed with the reported pose
         prior_pose, prior_P = self.slam.pose, self.slam.pose_covariance  # before this frame's update
@@ -137,6 +145,10 @@ class SlamLocalizer:
 
         T_prior = corrected_pose(T_odom, odom, prior_pose)
         Rd = T_prior[:3, :3] @ T_odom[:3, :3].T  # Rz(theta' - theta)
+        # the height and tilt errors of the odometry, which the planar filter does not hold
+        height = np.zeros((3, 3))
+        height[2, 2] = (self.cfg.height_drift_sigma_per_m * self.distance_m) ** 2
+        tilt = np.deg2rad(self.cfg.tilt_sigma_deg)
         corrected = []
         for obs in observations:
             p_rel = Rd @ (obs.position_map - t)  # the point relative to the corrected tracker
@@ -144,9 +156,9 @@ class SlamLocalizer:
             J = np.zeros((3, 3))
             J[0, 0] = J[1, 1] = 1.0
             J[0, 2], J[1, 2] = -p_rel[1], p_rel[0]  # d(Rz(theta) v)/d theta = (-v_y, v_x)
-            pose_part = J @ prior_P @ J.T
+            pose_part = J @ prior_P @ J.T + height + tilt_covariance(p_rel, tilt)
             R = Rd @ obs.R @ Rd.T + pose_part
-            # the filter's pose error repeats from frame to frame: it is shared, not fresh
+            # the filter's pose error and the height drift repeat from frame to frame: shared, not fresh
             shared = pose_part if obs.R_shared is None else Rd @ obs.R_shared @ Rd.T + pose_part
             corrected.append(dataclasses.replace(obs, position_map=p, R=R, R_shared=shared))
         return SlamStep(pose=corrected_pose(T_odom, odom, self.slam.pose), observations=corrected)

@@ -39,6 +39,13 @@ form with ``R_w``, and ``L`` goes where the mean goes, ``L+ = (I - K) L + K L_o`
 reports ``Sigma = Sigma_w + L L^T``, which never falls below the shared part
 (:func:`shared_error_update`). The gate uses that ``Sigma`` plus the observation's whole R.
 
+Gate allowance (``tracker.gate_allowance_m``, per type). A 3-D object seen from another side,
+or boxed differently by the detector (a door cut by the image border, a heater by the
+thermal camera's grille), lands elsewhere by more than R says of one view, and its track
+would split. The association's m^2 therefore adds ``allowance^2 I`` to ``Sigma + R``
+(:meth:`Tracker.distances`); R and Sigma, which the fusion, the confirmation and the report
+use, stay what the models say, so ``poibench consistency`` can hold them to the truth.
+
 >>> mu, Sigma = kalman_update(np.zeros(3), np.eye(3), np.array([2.0, 0.0, 0.0]), np.eye(3))
 >>> mu.tolist(), np.diag(Sigma).tolist()
 ([1.0, 0.0, 0.0], [0.5, 0.5, 0.5])
@@ -287,6 +294,10 @@ class Tracker:
     def gate_for(self, type_: str) -> float:
         return self.cfg.gates.get(type_, self.cfg.gate)
 
+    def _allowance(self, type_: str) -> np.ndarray:
+        """``tracker.gate_allowance_m`` of ``type_`` squared times I (module docstring)."""
+        return self.cfg.gate_allowance_m.get(type_, 0.0) ** 2 * IDENTITY3
+
     def _compatible(self, obs: Observation, tr: Track) -> bool:
         det = obs.detection
         if det.type != tr.type:
@@ -300,7 +311,7 @@ class Tracker:
         for i, o in enumerate(observations):
             for j, tr in enumerate(tracks):
                 if self._compatible(o, tr):
-                    m2 = mahalanobis2(o.position_map, tr.mu, tr.Sigma, o.R)
+                    m2 = mahalanobis2(o.position_map, tr.mu, tr.Sigma, o.R + self._allowance(tr.type))
                     if m2 < self.gate_for(tr.type):
                         D[i, j] = m2
         return D

@@ -34,7 +34,7 @@ def test_nees_and_the_interval_by_hand():
     lo, hi = chi2_interval(50, 3)
     assert lo == pytest.approx(chi2.ppf(0.005, 150) / 50) and hi == pytest.approx(chi2.ppf(0.995, 150) / 50)
     assert lo < 3.0 < hi
-    with pytest.raises(ConsistencyError, match="n >= 1"):
+    with pytest.raises(ConsistencyError, match="n > 0"):
         chi2_interval(0, 3)
 
 
@@ -49,7 +49,29 @@ def test_table_marks_a_mean_outside_its_interval():
     assert rows[0].inside and not rows[1].inside
     text = format_table(rows)
     assert "yes" in text.splitlines()[2] and "NO" in text.splitlines()[3]
-    assert Row(quantity="x", n=1, d=3, mean=1.0, lo=0.1, hi=2.0).to_dict()["inside"] is True
+    assert Row(quantity="x", n=1, n_eff=1.0, d=3, mean=1.0, lo=0.1, hi=2.0).to_dict()["inside"] is True
+
+
+def test_a_correlated_series_counts_as_fewer_samples_and_widens_its_interval():
+    """100 frames of one object whose NEES holds each value for 10 frames (an error that
+    repeats) count as about 10 samples; the same values drawn fresh count as 100."""
+    rng = np.random.default_rng(3)
+    held = np.repeat(rng.chisquare(3, 10), 10)
+    s = Samples()
+    for v in held:
+        s.add("R map door", 3, v, ("run 0", 7))
+        s.add("R map qr", 3, v)  # each its own sample
+    door, qr = s.rows()
+    assert door.n == qr.n == 100 and qr.n_eff == 100
+    assert 5 <= door.n_eff <= 15
+    assert (door.lo, door.hi) == pytest.approx(chi2_interval(door.n_eff, 3))
+    assert door.hi - door.lo > 2.5 * (qr.hi - qr.lo)
+    # two objects' series are counted apart, and add up
+    s2 = Samples()
+    for key in ("a", "b"):
+        for v in held:
+            s2.add("R map door", 3, v, key)
+    assert s2.rows()[0].n_eff == pytest.approx(2 * door.n_eff)
 
 
 def test_detections_match_the_truth_box_of_their_type():

@@ -9,7 +9,7 @@ def test_consistency_writes_the_table_json_and_plot(tmp_path, capsys):
     out = tmp_path / "c"
     assert main(["consistency", "--frames", "10", "--runs", "1", "--out", str(out)]) == 0
     table = capsys.readouterr().out
-    assert table.splitlines()[0].split()[:3] == ["quantity", "N", "d"]
+    assert table.splitlines()[0].split()[:4] == ["quantity", "N", "N_eff", "d"]
     doc = json.loads((out / "consistency.json").read_text())
     assert doc["frames"] == 10 and doc["runs"] == ["default:7"]
     rows = {r["quantity"]: r for r in doc["rows"]}
@@ -27,3 +27,30 @@ def test_consistency_refuses_bad_arguments_in_one_line(tmp_path, capsys):
     assert err == "poibench consistency: error: --frames: expected a positive number of frames, got 0"
     assert main(["consistency", "default", "--suite", "rrl-hard", "--out", str(tmp_path / "c")]) == 2
     assert "SCENARIO or --suite" in capsys.readouterr().err
+
+
+def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
+    from poi.config import apply_overrides, load_config
+
+    out = tmp_path / "c"
+    assert main(["consistency", "--frames", "3", "--runs", "1", "--fit-extents", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "offset change (m)" in text and "\nvalve " in text  # the default maze's first frames see its valve
+    doc = json.loads((out / "consistency.json").read_text())
+    fits = {f["type"]: f for f in doc["extent_fit"]["fits"]}
+    assert fits["valve"]["n"] >= 3 and fits["valve"]["objects"] == 1
+    sets = doc["extent_fit"]["settings"]
+    assert [s.split("=")[0] for s in sets] == [
+        "localize.surface_to_center_m",
+        "localize.extent_ray_sigma_m",
+        "localize.extent_sigma_m",
+    ]
+    cfg = apply_overrides(load_config(), sets)  # the printed settings load as they are
+    assert cfg.localize.extent_sigma_m["valve"] == round(fits["valve"]["sigma_lat_m"], 3)
+    before = load_config().localize.surface_to_center_m.get("valve", 0.0)
+    assert cfg.localize.surface_to_center_m["valve"] == round(before + fits["valve"]["offset_change_m"], 3)
+    # no 3-D type in the pipeline's settings: nothing to fit, said in one line
+    none = ["localize.surface_to_center_m={}", "localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}"]
+    args = ["consistency", "--frames", "1", "--runs", "1", "--fit-extents", "--out", str(tmp_path / "d")]
+    assert main(args + [a for s in none for a in ("--set", s)]) == 2
+    assert capsys.readouterr().err.strip().endswith("--fit-extents: no observation of a 3-D type in these runs")

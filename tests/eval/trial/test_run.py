@@ -285,18 +285,3 @@ def test_a_full_disk_names_the_file_and_every_other_output_is_written(failing, t
         if name != failing:
             assert (out / name).stat().st_size > 0, name
     assert read_poi_file(out / "pois.csv").problems == []
-
-
-def test_the_slam_is_told_the_odometry_latency_the_sensor_has():
-    from eval.trial.run import odometry_latency_settings
-    from sim.scenario import Scenario, apply_settings
-
-    assert odometry_latency_settings(Scenario()) == ["slam.odometry_latency_s=0.01"]  # the T265's
-    for sets in (["sensors.noise=false"], ["sensors.t265.latency_extrapolate=true"]):
-        assert odometry_latency_settings(apply_settings(Scenario(), sets)) == ["slam.odometry_latency_s=0"], sets
-    wheels = Scenario()
-    wheels.sensors.pose_source = "wheels"
-    assert odometry_latency_settings(wheels) == ["slam.odometry_latency_s=0"]
-    assert odometry_latency_settings(apply_settings(Scenario(), ["sensors.t265.latency_s=0.03"])) == [
-        "slam.odometry_latency_s=0.03"
-    ]

@@ -122,7 +122,6 @@ def test_localize_places_the_box_centre_in_the_map():
     sensors_only = [
         "localize.extent_sigma_m={}",
         "localize.extent_ray_sigma_m={}",
-        "localize.repeat_sigma_m={}",
         "localize.surface_to_center_m={}",
         "localize.mount_sigma_deg=0",
         "localize.mount_sigma_m=0",
@@ -184,8 +183,14 @@ def test_a_round_object_is_placed_at_its_centre_behind_the_surface_seen():
     ball = localize(det((360.0, 230.0, 380.0, 250.0), class_name="ball"), frame(), cfg, T_tc)
     scale = 1.0 + 0.105 / np.hypot(0.2, 2.0)
     assert ball.position_cam.tolist() == pytest.approx([0.2 * scale, 0.0, 2.0 * scale], abs=1e-12)
-    flat = localize(det((360.0, 230.0, 380.0, 250.0), class_name="valve"), frame(), cfg, T_tc)
-    assert flat.position_cam.tolist() == pytest.approx([0.2, 0.0, 2.0], abs=1e-12)  # a valve: no offset
+    no_valve_offset = apply_overrides(cfg, ["localize.surface_to_center_m={ball: 0.105}"])
+    flat = localize(det((360.0, 230.0, 380.0, 250.0), class_name="valve"), frame(), no_valve_offset, T_tc)
+    assert flat.position_cam.tolist() == pytest.approx([0.2, 0.0, 2.0], abs=1e-12)  # no offset
+    # a negative offset: the depth read the wall behind a thin valve, its centre is nearer
+    near = apply_overrides(cfg, ["localize.surface_to_center_m={valve: -0.05}"])
+    valve = localize(det((360.0, 230.0, 380.0, 250.0), class_name="valve"), frame(), near, T_tc)
+    shrink = 1.0 - 0.05 / np.hypot(0.2, 2.0)
+    assert valve.position_cam.tolist() == pytest.approx([0.2 * shrink, 0.0, 2.0 * shrink], abs=1e-12)
     # the offset is in J2: Sigma_c(ball) = G Sigma_c(flat) G^T, G = (1 + r/|p|) I - r p p^T / |p|^3
     p = np.array([0.2, 0.0, 2.0])
     n = np.linalg.norm(p)
@@ -194,6 +199,8 @@ def test_a_round_object_is_placed_at_its_centre_behind_the_surface_seen():
     assert not np.allclose(ball.Sigma_c, flat.Sigma_c, rtol=1e-3)
     with pytest.raises(ConfigError, match="surface_to_center_m.cube: unknown type"):
         apply_overrides(cfg, ["localize.surface_to_center_m={cube: 0.1}"])
+    with pytest.raises(ConfigError, match=r"surface_to_center_m.valve: expected metres in \(-1, 1\)"):
+        apply_overrides(cfg, ["localize.surface_to_center_m={valve: -1.5}"])
 
 
 def test_localize_depth_scale_and_none_cases():
@@ -237,10 +244,9 @@ def test_in_view():
 def test_object_extent_widens_r_along_and_across_the_ray_only_for_3d_types():
     """Sigma_ext = sigma_ray^2 r r^T + sigma_lat^2 (I - r r^T) in the camera frame, rotated into
     R; a type in extent_sigma_m alone spreads as much along the ray as across it."""
-    none = ["localize.repeat_sigma_m={}"]  # the repeated part, R's alone: below
-    base = apply_overrides(load_config(), ["localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}", *none])
+    base = apply_overrides(load_config(), ["localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}"])
     wide = apply_overrides(
-        load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={door: 0.2}", *none]
+        load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={door: 0.2}"]
     )
     iso = apply_overrides(
         load_config(), ["localize.extent_sigma_m={door: 0.05}", "localize.extent_ray_sigma_m={}"]
@@ -264,12 +270,6 @@ def test_object_extent_widens_r_along_and_across_the_ray_only_for_3d_types():
     assert np.allclose(
         localize(hazmat, frame(pose=pose), wide, T_tc).R, localize(hazmat, frame(pose=pose), base, T_tc).R
     )
-    # the repeated part: in R only, repeat^2 I, not in the camera-frame spread
-    rep = localize(door, frame(pose=pose), apply_overrides(wide, ["localize.repeat_sigma_m={door: 0.3}"]), T_tc)
-    np.testing.assert_allclose(rep.R - o1.R, 0.3**2 * np.eye(3), atol=1e-15)
-    np.testing.assert_allclose(rep.Sigma_extent_c, o1.Sigma_extent_c, atol=1e-15)
-    with pytest.raises(ConfigError, match="repeat_sigma_m.cube: unknown type"):
-        apply_overrides(base, ["localize.repeat_sigma_m={cube: 0.1}"])
     with pytest.raises(ConfigError, match="extent_ray_sigma_m.cube: unknown type"):
         apply_overrides(base, ["localize.extent_ray_sigma_m={cube: 0.1}"])
     with pytest.raises(ConfigError, match="diamond_types"):

@@ -79,3 +79,40 @@ def test_a_relocalisation_jump_is_not_taken_as_motion():
     # 0.1 m in 0.1 s is motion
     loc.step(make_transform(rot_z(np.deg2rad(5.0)), [1.1, 0.0, 0.0]), [], 0.2)
     assert loc.jumps == 1 and loc.slam.pose[0] == pytest.approx(0.1 * np.cos(np.deg2rad(0.0)), abs=0.01)
+
+
+def test_the_height_drift_grows_r_on_z_with_the_distance_travelled():
+    # 0.5 m steps at 0.5 m/s along x; after 10 m a valve's R gains (0.003 * 10)^2 on z, shared
+    cfg = SlamConfig(odometry_latency_s=0.0, height_drift_sigma_per_m=0.003, tilt_sigma_deg=0.0, landmark_types=[])
+    loc = SlamLocalizer(cfg)
+    for k in range(21):
+        step = loc.step(
+            make_transform(rot_z(0.0), [0.5 * k, 0.0, 0.0]), [_obs([0.5 * k + 1.0, 0.0, 0.5])], float(k)
+        )
+    assert loc.distance_m == pytest.approx(10.0)
+    o = step.observations[0]
+    none = SlamLocalizer(
+        SlamConfig(odometry_latency_s=0.0, height_drift_sigma_per_m=0.0, tilt_sigma_deg=0.0, landmark_types=[])
+    )
+    for k in range(21):
+        ref = none.step(
+            make_transform(rot_z(0.0), [0.5 * k, 0.0, 0.0]), [_obs([0.5 * k + 1.0, 0.0, 0.5])], float(k)
+        )
+    d = o.R - ref.observations[0].R
+    assert d[2, 2] == pytest.approx(0.03**2) and np.count_nonzero(np.abs(d) > 1e-15) == 1
+    assert (o.R_shared - ref.observations[0].R_shared)[2, 2] == pytest.approx(0.03**2)
+
+
+def test_the_tilt_error_moves_a_point_ahead_up_and_down_by_its_distance():
+    # a valve 2 m ahead of the tracker (map x), at its height: a 0.5 degree tilt gives
+    # (2 * 0.5 deg)^2 on z only, beside the run with no tilt
+    def run(tilt: float):
+        loc = SlamLocalizer(
+            SlamConfig(
+                odometry_latency_s=0.0, height_drift_sigma_per_m=0.0, tilt_sigma_deg=tilt, landmark_types=[]
+            )
+        )
+        return loc.step(make_transform(rot_z(0.0), [0.0, 0.0, 0.5]), [_obs([2.0, 0.0, 0.5])], 0.0).observations[0]
+
+    d = run(0.5).R - run(0.0).R
+    np.testing.assert_allclose(d, np.diag([0.0, 0.0, (2.0 * np.deg2rad(0.5)) ** 2]), atol=1e-15)

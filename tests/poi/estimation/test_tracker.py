@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
 
-from poi.config import TrackerConfig
+from poi.config import ConfigError, TrackerConfig, apply_overrides, load_config
 from poi.core.names import CLASS_INDEX, CLASSES, class_to_identity
 from poi.core.types import Detection, Observation
 from poi.estimation.covariance import Calibration
@@ -45,8 +45,10 @@ def obs(xyz, class_name="door", *, R=HALF_I, conf=0.9, text=None, probs=None) ->
 
 
 def cfg(**kw) -> TrackerConfig:
-    """Tracker settings for tests whose R = 0.5 I (std 0.7 m): settling is not what they test."""
+    """Tracker settings for tests whose R = 0.5 I (std 0.7 m): settling is not what they test,
+    nor the gate allowance (the tests' observations are doors)."""
     kw.setdefault("settle_sigma_m", 1.0)
+    kw.setdefault("gate_allowance_m", {})
     return TrackerConfig(**kw)
 
 
@@ -98,6 +100,27 @@ def test_gate_is_strict():
         res = tr.step([obs([x, 0, 0])], 0.1)
         assert (res.pairs == [(0, 0)]) is paired
         assert len(tr.tracks) == (1 if paired else 2)
+
+
+def test_gate_allowance_widens_the_gate_of_its_type_only_and_leaves_the_fusion_alone():
+    # Sigma + R = I at the first update, so m^2 = x^2 / (1 + a^2) with allowance a
+    for a, paired in [(0.0, False), (0.6, False), (0.7, True)]:  # 12.25 / 1.36 = 9.007; 12.25 / 1.49 = 8.2
+        tr = Tracker(cfg(gate=9.0, gate_allowance_m={"door": a}))
+        tr.step([obs([0, 0, 0])], 0.0)
+        res = tr.step([obs([3.5, 0, 0])], 0.1)
+        assert (res.pairs == [(0, 0)]) is paired, a
+    # the pair is fused with R alone: the same mean and Sigma as the Kalman update
+    mu, Sigma = kalman_update(np.zeros(3), HALF_I, np.array([3.5, 0.0, 0.0]), HALF_I)
+    np.testing.assert_allclose(tr.tracks[0].mu, mu, atol=1e-12)
+    np.testing.assert_allclose(tr.tracks[0].Sigma, Sigma, atol=1e-12)
+    # another type's gate is not widened
+    tr = Tracker(cfg(gate=9.0, gate_allowance_m={"door": 0.7}))
+    tr.step([obs([0, 0, 0], "oxidizer")], 0.0)
+    assert tr.step([obs([3.5, 0, 0], "oxidizer")], 0.1).pairs == []
+    with pytest.raises(ConfigError, match="tracker.gate_allowance_m.cube: unknown type"):
+        apply_overrides(load_config(), ["tracker.gate_allowance_m={cube: 0.1}"])
+    with pytest.raises(ConfigError, match=r"tracker.gate_allowance_m.door: expected metres in \[0, 10\)"):
+        apply_overrides(load_config(), ["tracker.gate_allowance_m={door: -0.1}"])
 
 
 CRAFTED = np.array(

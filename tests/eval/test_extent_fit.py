@@ -1,0 +1,50 @@
+"""eval.extent_fit: the offset and the spreads along and across the ray, recovered from errors
+drawn with known ones."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from eval.extent_fit import ExtentSample, fit_extents, fit_type, fitted_settings
+from poi.config import apply_overrides, load_config
+
+
+def _samples(type_: str, ray: np.ndarray, bias: float, s_ray: float, s_lat: float, n: int, seed: int):
+    rng = np.random.default_rng(seed)
+    r = ray / np.linalg.norm(ray)
+    u = np.cross(r, [0.0, 0.0, 1.0]) if abs(r[2]) < 0.9 else np.cross(r, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(r, u)
+    S = (0.005**2) * np.eye(3)  # the sensor part, drawn too
+    out = []
+    for i in range(n):
+        e = (bias + s_ray * rng.standard_normal()) * r + s_lat * (
+            rng.standard_normal() * u + rng.standard_normal() * v
+        )
+        e = e + rng.multivariate_normal(np.zeros(3), S)
+        out.append(ExtentSample(type=type_, object_key=i % 3, e_cam=e, Sigma_c=S, ray=r))
+    return out
+
+
+def test_an_oblique_ray_separates_the_spread_along_it_from_the_spread_across():
+    along = fit_type(_samples("door", np.array([1.0, 1.0, 1.0]), 0.08, 0.05, 0.0, 3000, 0))
+    assert along.offset_change_m == pytest.approx(-0.08, abs=0.003)  # observed farther: the offset shrinks
+    assert along.sigma_ray_m == pytest.approx(0.05, rel=0.05) and along.sigma_lat_m < 0.005
+    across = fit_type(_samples("door", np.array([-0.3, 0.2, 1.0]), 0.0, 0.0, 0.04, 3000, 1))
+    assert across.sigma_lat_m == pytest.approx(0.04, rel=0.05) and across.sigma_ray_m < 0.005
+    assert across.objects == 3
+
+
+def test_fitted_settings_start_from_the_configs_offsets_and_load():
+    cfg = load_config()
+    samples = _samples("valve", np.array([0.0, 0.0, 1.0]), 0.1, 0.02, 0.03, 2000, 2)
+    samples += _samples("door", np.array([0.0, 0.0, 1.0]), -0.02, 0.05, 0.05, 2000, 3)
+    fits = fit_extents(samples)
+    assert [f.type for f in fits] == ["door", "valve"]
+    new = apply_overrides(cfg, fitted_settings(fits, cfg)).localize
+    old = cfg.localize.surface_to_center_m
+    assert new.surface_to_center_m["valve"] == pytest.approx(old.get("valve", 0.0) - 0.1, abs=0.005)
+    assert new.surface_to_center_m["door"] == pytest.approx(old["door"] + 0.02, abs=0.005)
+    assert new.extent_ray_sigma_m["valve"] == pytest.approx(0.02, abs=0.003)
+    assert new.surface_to_center_m["ball"] == old["ball"]  # a type with no samples keeps its value
