@@ -216,9 +216,9 @@ def match_detections(detections, visible) -> list[int | None]:
 def pipeline_settings(sim, extra: list[str]) -> list[str]:
     """The settings a consistency run gives the pipeline: the sensors as a trial gives them,
     no thermal detector (the oracle boxes heat sources), then ``extra``."""
-    from eval.trial.sensor_settings import sensor_settings
+    from eval.trial.sensor_settings import simulation_sensor_settings
 
-    return sensor_settings(sim) + ["thermal.enabled=false", *extra]
+    return simulation_sensor_settings(sim) + ["thermal.enabled=false", *extra]
 
 
 def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list[str] = ()) -> int:

@@ -55,7 +55,7 @@ import numpy as np
 
 from poi.core.types import Detection, Frame, Intrinsics
 
-CACHE_FORMAT = 3  # 2: detections carry class_probs over 29 classes (landolt-c added); 3: sensor_sets
+CACHE_FORMAT = 3  # 2: detections carry class_probs over 29 classes (landolt-c added); 3: drift_multiplier
 CONF_FLOOR = 0.05  # ONNX detections are recorded down to this score; detector.conf below it runs in full
 TILE_PX = 32
 MAGIC = b"POIBPCR\x00"
@@ -208,7 +208,8 @@ class PerceptionRecord:
 
     key: str
     intrinsics: Intrinsics
-    sensor_sets: list[str]  # what the trial tells the pipeline of its sensors (eval.trial.sensor_settings)
+    T_tracker_optical_nominal: np.ndarray
+    drift_multiplier: float  # the arena's mean T265 drift multiplier (eval.trial.sensor_settings)
     truth_rows: list  # eval.scoring.truth rows (PoiRow)
     walls_map: list
     robot_path_map: np.ndarray

@@ -43,7 +43,7 @@ from eval.scoring.scorer import ScoreResult, score
 from eval.scoring.truth import truth_rows, write_truth_csv
 from eval.trial.cost import CostClock
 from eval.trial.outputs import TrialOutputs
-from eval.trial.sensor_settings import sensor_settings
+from eval.trial.sensor_settings import mean_drift_multiplier, sensor_settings, simulation_sensor_settings
 from poi.core.geometry import planar_pose, wrap_angle
 from poi.core.poi_file import read_poi_file
 from sim.scenario import Scenario
@@ -273,7 +273,8 @@ def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, 
         return PerceptionRecord(
             key=key,
             intrinsics=sim.intrinsics,
-            sensor_sets=sensor_settings(sim),
+            T_tracker_optical_nominal=np.array(sim.T_tracker_optical_nominal),
+            drift_multiplier=mean_drift_multiplier(sim),
             truth_rows=truth_rows(sim),
             walls_map=sim.walls_in_map(),
             robot_path_map=np.array(sim.robot_path_map()[:n]),
@@ -349,7 +350,10 @@ def run_trial(
         cfg = load_config()
         # the pipeline is told its sensors as a team knows them (the nominal camera mount, the
         # simulator uses the true one)
-        mount_sets = sensor_settings(sim) if record is None else record.sensor_sets
+        if record is None:
+            mount_sets = simulation_sensor_settings(sim)
+        else:
+            mount_sets = sensor_settings(record.T_tracker_optical_nominal, sc, record.drift_multiplier)
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
         # and one that scores Landolt-C rings has Landolt-C targets reported once those rings read

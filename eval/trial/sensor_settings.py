@@ -103,13 +103,19 @@ def mean_drift_multiplier(sim) -> float:
     return 1.0 if cond is None else float(np.mean(cond.multiplier))
 
 
-def sensor_settings(sim) -> list[str]:
-    """What a trial tells the pipeline of the sensors of ``sim`` (a
-    :class:`sim.simulator.Simulation`), as a team knows them (module docstring)."""
-    sc = sim.scenario
+def sensor_settings(T_tracker_optical_nominal: np.ndarray, sc, drift_multiplier: float) -> list[str]:
+    """What a trial tells the pipeline of its sensors, as a team knows them (module docstring):
+    the nominal mount, scenario ``sc``'s mount and T265 error sizes and the arena's mean drift
+    multiplier (:func:`mean_drift_multiplier`; a perception record keeps both inputs, so a
+    replay computes the settings with the code of its day)."""
     return (
-        mount_settings(sim.T_tracker_optical_nominal)
+        mount_settings(T_tracker_optical_nominal)
         + mount_prior_settings(sc)
         + odometry_latency_settings(sc)
-        + odometry_prior_settings(sc, mean_drift_multiplier(sim))
+        + odometry_prior_settings(sc, drift_multiplier)
     )
+
+
+def simulation_sensor_settings(sim) -> list[str]:
+    """:func:`sensor_settings` of a :class:`sim.simulator.Simulation`."""
+    return sensor_settings(sim.T_tracker_optical_nominal, sim.scenario, mean_drift_multiplier(sim))
