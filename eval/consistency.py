@@ -376,7 +376,7 @@ def plot(result: ConsistencyResult, path: Path, title: str = "") -> None:
         ax.plot(r.mean / r.d, yi, "o", color="tab:green" if r.inside else "tab:red")
     ax.axvline(1.0, color="0.3", lw=0.8, ls="--")
     ax.set_xscale("log")
-    ax.set_yticks(y, [f"{r.quantity} (N={r.n})" for r in rows], fontsize=8)
+    ax.set_yticks(y, [f"{r.quantity} (N={r.n}, N_eff={r.n_eff:.0f})" for r in rows], fontsize=8)
     ax.set_xlabel("mean NEES / d (grey: 99% interval)")
     ax.set_title(title or "NEES against its chi-square interval")
     lo, hi = chi2.ppf([0.005, 0.995], POSE_DIM)
