@@ -351,15 +351,15 @@ def run_trial(
         # the pipeline is told its sensors as a team knows them (the nominal camera mount, the
         # simulator uses the true one)
         if record is None:
-            mount_sets = simulation_sensor_settings(sim)
+            sensor_sets = simulation_sensor_settings(sim)
         else:
-            mount_sets = sensor_settings(record.T_tracker_optical_nominal, sc, record.drift_multiplier)
+            sensor_sets = sensor_settings(record.T_tracker_optical_nominal, sc, record.drift_multiplier)
         # a preset that judges the QR mapping bonus by fiducials asks the pipeline to map them
         wants_fiducials = getattr(rules, "qr_mapping", "radius") == "fiducials"
         # and one that scores Landolt-C rings has Landolt-C targets reported once those rings read
         rings = getattr(rules, "landolt_rings", None)
         landolt_sets = [] if rings is None else [f"tracker.landolt_required_rings={list(rings)}"]
-        sets = mount_sets + ["fiducials.enabled=true"] * wants_fiducials + landolt_sets + list(pipeline_sets)
+        sets = sensor_sets + ["fiducials.enabled=true"] * wants_fiducials + landolt_sets + list(pipeline_sets)
         cfg = _with_default_label_model(apply_overrides(cfg, sets), detector)
         replay = None
         if record is None:

@@ -151,7 +151,8 @@ class Observation:
     Sigma_c: np.ndarray  # (3, 3) covariance in the camera frame ([Avevor2022] 2.2.2)
     depth_m: float
     # (3, 3) the part of R whose error repeats over an object's successive observations (the
-    # pose's, Sigma_eps, the object's extent); None: all of R is fresh each frame
+    # pose's, Sigma_eps, the mount's, the odometry's height and tilt, the object's extent);
+    # None: all of R is fresh each frame
     R_shared: np.ndarray | None = None
     # (3, 3) spread of a 3-D object's reference point about position_cam (camera frame; R holds
     # Sigma_c + this, rotated); None: none (poi.estimation.localize.extent_covariance)

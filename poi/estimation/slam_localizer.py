@@ -158,7 +158,8 @@ class SlamLocalizer:
             J[0, 2], J[1, 2] = -p_rel[1], p_rel[0]  # d(Rz(theta) v)/d theta = (-v_y, v_x)
             pose_part = J @ prior_P @ J.T + height + tilt_covariance(p_rel, tilt)
             R = Rd @ obs.R @ Rd.T + pose_part
-            # the filter's pose error and the height drift repeat from frame to frame: shared, not fresh
+            # the filter's pose error, the height drift and the tilt repeat from frame to frame:
+            # shared, not fresh
             shared = pose_part if obs.R_shared is None else Rd @ obs.R_shared @ Rd.T + pose_part
             corrected.append(dataclasses.replace(obs, position_map=p, R=R, R_shared=shared))
         return SlamStep(pose=corrected_pose(T_odom, odom, self.slam.pose), observations=corrected)
