@@ -62,6 +62,10 @@ class TrackerConfig:
             "fire-extinguisher": 0.11,
             "baby-doll": 0.17,
             "heat-source": 0.17,
+            "hazmat": 0.017,
+            "qr": 0.017,
+            "exit-sign": 0.017,
+            "fire-extinguisher-sign": 0.017,
         }
     )
     n_min: int = number(3, lo=1)
@@ -250,7 +254,7 @@ class SlamConfig:
     drift_sigma_per_sqrt_m: float = number(0.002, lo=0.0)
     heading_drift_sigma: float = number(0.003, lo=0.0)
     heading_drift_sigma_per_sqrt_m: float = number(0.0003, lo=0.0)
-    sigma_eps_m: float = number(0.012, lo=0.0)
+    sigma_eps_m: float = number(0.002, lo=0.0)
     height_drift_sigma_per_m: float = number(0.002, lo=0.0)
     tilt_sigma_deg: float = number(0.3, lo=0.0, hi=90.0)
     max_speed_m_s: float = number(1.5, lo=0.0, lo_open=True)

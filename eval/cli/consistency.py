@@ -27,7 +27,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "consistency",
         help="NEES of the pipeline's R, track Sigma and SLAM pose covariance against the truth",
         description="Run scenarios with their sensor noise on through the pipeline behind the oracle "
-        "detector and compare the mean NEES (e^T P^-1 e) of each covariance with its chi-square 99%% "
+        "detector and compare the mean NEES (e^T P^-1 e) of each covariance with its chi-square 99% "
         "interval. Prints the table; writes consistency.json and consistency.png to --out.",
     )
     p.add_argument("scenario", nargs="?", help="scenario YAML file or shipped name (default: the built-in one)")

@@ -151,7 +151,7 @@ def test_localize_places_the_box_centre_in_the_map():
     assert obs.Sigma_c[0, 0] == pytest.approx(expect_xx, rel=1e-6)
     # map covariance: optical z (depth) -> tracker x -> map y after the 90 degree turn
     # plus Sigma_eps: slam.sigma_eps_m in slam mode (the default), tracker.sigma_eps_m in t265 mode
-    assert obs.R[1, 1] == pytest.approx(var_d + 0.012**2, rel=1e-9)
+    assert obs.R[1, 1] == pytest.approx(var_d + 0.002**2, rel=1e-9)
     # central differences of the flat image: no slope and no slope error
     central = localize(d, frame(pose=pose), apply_overrides(cfg, ["localize.depth_gradient=central"]), T_tc)
     assert central.Sigma_c[2, 2] == pytest.approx(sigma_z**2, rel=1e-9)
@@ -159,7 +159,7 @@ def test_localize_places_the_box_centre_in_the_map():
     t265 = localize(d, frame(pose=pose), apply_overrides(cfg, ["localize.mode=t265"]), T_tc)
     assert t265.R[1, 1] == pytest.approx(var_d + 0.05**2, rel=1e-9)
     # Sigma_eps repeats from frame to frame: it is the shared part
-    assert obs.R_shared == pytest.approx(0.012**2 * np.eye(3), rel=1e-12)
+    assert obs.R_shared == pytest.approx(0.002**2 * np.eye(3), rel=1e-12)
     # a mount known to 1 degree and 1 cm: q = (0.2, 2, 0) from the camera to the point in the
     # map, R gains s_r^2 (|q|^2 I - q q^T) + s_t^2 I: 4 s_r^2 + s_t^2 across the line of sight
     # (x), 0.04 s_r^2 + s_t^2 along it (y), 4.04 s_r^2 + s_t^2 vertically; shared as well
