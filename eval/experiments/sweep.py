@@ -512,8 +512,12 @@ def aggregate(df, keys: list[str]):
         half = t_quantile_975(n - 1) * float(np.std(f, ddof=1)) / math.sqrt(n) if n > 1 else float("nan")
         rec = dict(zip(cols, key if isinstance(key, tuple) else (key,), strict=True))
 
-        def mean_of(col: str, digits: int, ok=ok, n=n) -> float:
-            return round(float(np.nanmean(ok[col].astype(float))), digits) if n else float("nan")
+        def mean_of(col: str, digits: int, ok=ok) -> float:
+            # the mean of the trials that have a value (a trial that located nothing has no
+            # location error); NaN, without numpy's empty-slice warning, when none has
+            v = ok[col].astype(float).to_numpy()
+            v = v[~np.isnan(v)]
+            return round(float(v.mean()), digits) if v.size else float("nan")
 
         rec.update(
             trials=len(g),

@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -216,14 +217,20 @@ def test_aggregate_mean_and_t_interval():
             "score": [1, 2, 3, 4],
             "false_reports": [0, 0, 0, 0],
             "misses": [1, 1, 1, 0],
-            "loc_err_median_m": [0.1, 0.1, 0.1, 0.1],
+            # a trial that located nothing has no location error: the mean is over the others,
+            # and NaN (with no numpy warning) when none has one
+            "loc_err_median_m": [0.1, float("nan"), 0.3, float("nan")],
             "pose_err_median_m": [0.2, 0.2, 0.2, 0.2],
             "wall_s": [1, 1, 1, 1],
             "cpu_s": [2.0, 4.0, 6.0, 1.0],
             "cpu_s_per_sim_s": [0.2, 0.4, 0.6, 0.1],
         }
     )
-    agg = aggregate(df, ["a"]).set_index("set.a")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        agg = aggregate(df, ["a"]).set_index("set.a")
+    assert agg.loc["1", "loc_err_median_m"] == pytest.approx(0.2)
+    assert pd.isna(agg.loc["2", "loc_err_median_m"])
     assert agg.loc["1", "cpu_s_mean"] == pytest.approx(4.0) and agg.loc["2", "cpu_s_mean"] == pytest.approx(1.0)
     assert agg.loc["1", "cpu_s_per_sim_s_mean"] == pytest.approx(0.4)
     # mean 0.7, sd 0.2, n 3: half-width t(0.975, 2) * 0.2 / sqrt(3) = 4.302653 * 0.115470 = 0.496828
