@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import typing
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -46,6 +46,16 @@ DEFAULT_PROVIDER = "CPUExecutionProvider"  # onnxruntime's; poi.detectors.base.C
 
 class ConfigError(LoadError):
     """An unknown setting, or one of the wrong type or range; the message names its dotted key."""
+
+
+def check_per_type(key: str, values: dict[str, float], in_range: Callable[[float], bool], expected: str) -> None:
+    """A per-type table of a config section: every key a canonical type, every value
+    ``in_range``; else a FieldError naming ``key.type`` and what was ``expected``."""
+    for t, v in values.items():
+        if t not in TYPES:
+            raise FieldError(f"{key}.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
+        if not in_range(v):
+            raise FieldError(f"{key}.{t}", f"expected {expected}, got {v!r}")
 
 
 @dataclass(kw_only=True)
@@ -89,16 +99,8 @@ class TrackerConfig:
                 "landolt_required_rings",
                 f"expected ring numbers >= 1 (1 = the outermost), got {list(self.landolt_required_rings)!r}",
             )
-        for t, g in self.gates.items():
-            if t not in TYPES:
-                raise FieldError(f"gates.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
-            if not g > 0:
-                raise FieldError(f"gates.{t}", f"expected a value > 0, got {g!r}")
-        for t, a in self.gate_allowance_m.items():
-            if t not in TYPES:
-                raise FieldError(f"gate_allowance_m.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
-            if not 0.0 <= a < 10.0:
-                raise FieldError(f"gate_allowance_m.{t}", f"expected metres in [0, 10), got {a!r}")
+        check_per_type("gates", self.gates, lambda g: g > 0, "a value > 0")
+        check_per_type("gate_allowance_m", self.gate_allowance_m, lambda a: 0.0 <= a < 10.0, "metres in [0, 10)")
 
 
 @dataclass(kw_only=True)
@@ -214,17 +216,13 @@ class LocalizeConfig:
     truncation_tolerance: float = number(0.05, lo=0.0, hi=1.0, hi_open=True)
 
     def __post_init__(self) -> None:
-        for key in ("surface_to_center_m", "extent_sigma_m", "extent_ray_sigma_m", "aspect"):
-            for t, r in getattr(self, key).items():
-                if t not in TYPES:
-                    raise FieldError(f"{key}.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
-                if key == "aspect" and not r > 0.0:
-                    raise FieldError(f"{key}.{t}", f"expected a width / height ratio > 0, got {r!r}")
-                if key == "surface_to_center_m" and not -1.0 < r < 1.0:
-                    # negative: the reference point lies in front of the surface the depth reads
-                    raise FieldError(f"{key}.{t}", f"expected metres in (-1, 1), got {r!r}")
-                if key.startswith("extent") and not 0.0 <= r < 1.0:
-                    raise FieldError(f"{key}.{t}", f"expected metres in [0, 1), got {r!r}")
+        # negative surface_to_center_m: the reference point lies in front of the surface the depth reads
+        check_per_type(
+            "surface_to_center_m", self.surface_to_center_m, lambda r: -1.0 < r < 1.0, "metres in (-1, 1)"
+        )
+        for key in ("extent_sigma_m", "extent_ray_sigma_m"):
+            check_per_type(key, getattr(self, key), lambda r: 0.0 <= r < 1.0, "metres in [0, 1)")
+        check_per_type("aspect", self.aspect, lambda r: r > 0.0, "a width / height ratio > 0")
         for i, t in enumerate(self.diamond_types):
             if t not in self.aspect:
                 raise FieldError(

@@ -308,10 +308,13 @@ class Tracker:
     def distances(self, observations: list[Observation], tracks: list[Track]) -> np.ndarray:
         """M x N matrix of m^2; inf where the pair is not allowed (type, QR text, per-type gate)."""
         D = np.full((len(observations), len(tracks)), np.inf)
+        # each track's Sigma and allowance^2 I once per frame, not once per pair
+        sigmas = [tr.Sigma for tr in tracks]
+        allowances = [self._allowance(tr.type) for tr in tracks]
         for i, o in enumerate(observations):
             for j, tr in enumerate(tracks):
                 if self._compatible(o, tr):
-                    m2 = mahalanobis2(o.position_map, tr.mu, tr.Sigma, o.R + self._allowance(tr.type))
+                    m2 = mahalanobis2(o.position_map, tr.mu, sigmas[j], o.R + allowances[j])
                     if m2 < self.gate_for(tr.type):
                         D[i, j] = m2
         return D
