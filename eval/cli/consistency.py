@@ -5,7 +5,8 @@ Monte Carlo NEES of the pipeline's covariances against the simulator's truth
 interval, inside?) and writes ``consistency.json`` and ``consistency.png`` to ``--out``.
 A SCENARIO (file or shipped name, default the built-in one) runs ``--runs`` times with seeds
 S, S + 1, ...; ``--suite`` (repeatable) runs the first ``--runs`` scenarios of each suite with
-their own seeds (or S, S + 1, ... when ``--seed`` is given: other mazes of the same kind). ``--fit-extents``
+their own seeds (or S, S + 1, ... when ``--seed`` is given: other mazes of the same kind; then
+``--runs`` may exceed the suite's size, its scenarios taken again in turn with fresh seeds). ``--fit-extents``
 also prints the 3-D types' centre offsets and extent spreads that would make their camera-frame
 R consistent on these runs (:mod:`eval.extent_fit`), as ``--set`` settings.
 """
@@ -34,7 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--suite",
         action="append",
-        help="run the first --runs scenarios of this suite (e.g. rrl-hard) instead; repeatable",
+        help="run the first --runs scenarios of this suite (e.g. rrl-hard) instead; repeatable; with --seed, "
+        "--runs may exceed the suite's size (its scenarios again, with fresh seeds)",
     )
     p.add_argument("--frames", type=int, default=DEFAULT_FRAMES, help=f"frames per run (default {DEFAULT_FRAMES})")
     p.add_argument("--runs", type=int, default=DEFAULT_RUNS, help=f"number of runs (default {DEFAULT_RUNS})")
@@ -59,10 +61,37 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_consistency)
 
 
+def suite_runs(names: list[str], runs: int, seed: int | None, sim_sets: list[str]) -> list:
+    """The scenarios ``--suite`` runs: the first ``runs`` of each suite, noise on, with their
+    own seeds; with ``seed``, seeds seed, seed + 1, ... and, past a suite's size, its
+    scenarios again in turn (new mazes of the same kind)."""
+    from eval.consistency import ConsistencyError
+    from eval.experiments.suites import load_suite
+    from sim.scenario import apply_settings, with_noise
+
+    scenarios = []
+    for name in names:
+        suite = load_suite(name)
+        n = len(suite.scenarios)
+        if runs > n and seed is None:
+            raise ConsistencyError(
+                f"--runs {runs}: suite {name!r} has {n} scenarios; give --seed to run more, "
+                "its scenarios again with fresh seeds (new mazes of the same kind)"
+            )
+        count = runs if seed is not None else min(runs, n)
+        picked = [
+            with_noise(apply_settings(suite.build(suite.scenarios[i % n]), sim_sets), True) for i in range(count)
+        ]
+        if seed is not None:
+            picked = [apply_settings(sc, [f"seed={seed + i}"]) for i, sc in enumerate(picked)]
+        scenarios += picked
+    return scenarios
+
+
 def cmd_consistency(args: argparse.Namespace) -> int:
     from eval.consistency import ConsistencyError, format_table, run_consistency, write_outputs
     from eval.trial.scenarios import resolve_scenario, split_settings
-    from sim.scenario import apply_settings, with_noise
+    from sim.scenario import apply_settings
 
     if args.frames < 1:
         raise ConsistencyError(f"--frames: expected a positive number of frames, got {args.frames}")
@@ -72,17 +101,7 @@ def cmd_consistency(args: argparse.Namespace) -> int:
     if args.suite is not None:
         if args.scenario is not None:
             raise ConsistencyError("give a SCENARIO or --suite, not both")
-        from eval.experiments.suites import load_suite
-
-        scenarios = []
-        for name in args.suite:
-            suite = load_suite(name)
-            runs = [
-                with_noise(apply_settings(suite.build(e), sim_sets), True) for e in suite.scenarios[: args.runs]
-            ]
-            if args.seed is not None:
-                runs = [apply_settings(sc, [f"seed={args.seed + i}"]) for i, sc in enumerate(runs)]
-            scenarios += runs
+        scenarios = suite_runs(args.suite, args.runs, args.seed, sim_sets)
         title = "suite " + " + ".join(args.suite)
     else:
         base = resolve_scenario(args.scenario, None, args.set, "on")

@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from eval.cli.main import main
 
 
@@ -54,3 +56,21 @@ def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
     args = ["consistency", "--frames", "1", "--runs", "1", "--fit-extents", "--out", str(tmp_path / "d")]
     assert main(args + [a for s in none for a in ("--set", s)]) == 2
     assert capsys.readouterr().err.strip().endswith("--fit-extents: no observation of a 3-D type in these runs")
+
+
+def test_suite_runs_past_the_suite_size_take_its_scenarios_again_with_fresh_seeds():
+    from eval.cli.consistency import suite_runs
+    from eval.consistency import ConsistencyError
+    from eval.experiments.suites import load_suite
+
+    suite = load_suite("rrl-hard")
+    n = len(suite.scenarios)
+    runs = suite_runs(["rrl-hard"], n + 2, 401, [])
+    assert [sc.seed for sc in runs] == list(range(401, 401 + n + 2))
+    assert all(sc.sensors.noise for sc in runs)
+    with pytest.raises(
+        ConsistencyError, match=rf"--runs {n + 2}: suite 'rrl-hard' has {n} scenarios; give --seed"
+    ):
+        suite_runs(["rrl-hard"], n + 2, None, [])
+    own = [suite.build(e).seed for e in suite.scenarios[:2]]
+    assert [sc.seed for sc in suite_runs(["rrl-hard"], 2, None, [])] == own
