@@ -139,6 +139,10 @@ class LocalizeConfig:
     mode: Literal["t265", "slam"] = "slam"
     depth_scale: float = number(1.0, lo=0.0, lo_open=True)
     inner_fraction: float = number(0.5, lo=0.0, hi=1.0, lo_open=True)
+    # A box whose inner part holds valid depth in fewer than this fraction of its pixels gives
+    # no observation: past a near edge an item lies in the edge's stereo shadow, and the few
+    # valid pixels are the occluder's (poi.estimation.localize.box_depth).
+    min_depth_fill: float = number(0.4, lo=0.0, hi=1.0)
     sigma_d_px: float = number(0.08, lo=0.0)
     baseline_m: float = number(0.05, lo=0.0, lo_open=True)
     fx_depth_px: float = number(384.2, lo=0.0, lo_open=True)

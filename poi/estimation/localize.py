@@ -84,17 +84,21 @@ def _inner_span(shape: tuple[int, int], box_xyxy, inner_fraction: float) -> tupl
     return r0, r1, c0, c1
 
 
-def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float) -> float | None:
+def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float, min_fill: float = 0.0) -> float | None:
     """Median of the valid depths (finite, > 0) in the inner fraction of a box ([Bouda2025]_ 2.1.3).
 
     The box (corner convention) is shrunk about its centre to ``inner_fraction`` of its
     width and height; the pixels whose centres lie inside it count (at least the pixel
-    holding the centre). None when none of them is valid.
+    holding the centre). None when none of them is valid, or when fewer than ``min_fill`` of
+    them are: an item seen past a near edge lies in that edge's stereo shadow (no depth), so
+    the few valid pixels in its box are the occluder's (``localize.min_depth_fill``).
 
     >>> d = np.zeros((10, 10), np.float32); d[2:8, 2:8] = 3.0; d[4, 4] = np.nan
     >>> box_depth(d, (0, 0, 10, 10), 0.5)
     3.0
     >>> box_depth(np.zeros((10, 10)), (0, 0, 10, 10), 0.5) is None
+    True
+    >>> d[2:8, 2:6] = 0.0; box_depth(d, (0, 0, 10, 10), 0.5, min_fill=0.4) is None  # 12 of 36 valid
     True
     """
     r0, r1, c0, c1 = _inner_span(depth_m.shape, box_xyxy, inner_fraction)
@@ -102,7 +106,7 @@ def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float) -> float | N
         return None
     patch = np.asarray(depth_m[r0 : r1 + 1, c0 : c1 + 1], dtype=float)
     valid = patch[np.isfinite(patch) & (patch > 0.0)]
-    if valid.size == 0:
+    if valid.size == 0 or valid.size < min_fill * patch.size:
         return None
     return float(np.median(valid))
 
@@ -462,7 +466,8 @@ def localize(
     Sigma_eps, R_mount and Sigma_ext repeat from frame to frame: they are the observation's
     shared part (``Observation.R_shared``, :mod:`poi.estimation.tracker`).
 
-    None when the frame has no pose or no depth, no valid depth lies in the box, the depth
+    None when the frame has no pose or no depth, too little valid depth lies in the box
+    (``localize.min_depth_fill``, :func:`box_depth`), the depth
     is out of range, or (``localize.flat_reject_corner``) the box of a flat item touches the
     image border on both axes.
     """
@@ -476,7 +481,7 @@ def localize(
             f"the colour intrinsics {intr.width}x{intr.height} (depth must be aligned to colour)"
         )
     lc = cfg.localize
-    d_med = box_depth(depth, detection.box_xyxy, lc.inner_fraction)
+    d_med = box_depth(depth, detection.box_xyxy, lc.inner_fraction, lc.min_depth_fill)
     if d_med is None:
         return None
     d = d_med * lc.depth_scale

@@ -221,6 +221,25 @@ def test_localize_depth_scale_and_none_cases():
         localize(det(box), bad, cfg, T)
 
 
+def test_an_item_in_a_near_edges_stereo_shadow_gives_no_observation():
+    """A QR code at 5 m seen past a wall edge at 2.2 m: the D435 reads no depth on the
+    code (the edge's shadow), so the inner box's few valid pixels are the wall's."""
+    cfg = load_config()
+    box = (300.0, 220.0, 340.0, 260.0)  # inner box: columns and rows 310..329, 400 pixels
+    f = frame(depth=5.0)
+    f.depth_m[:, :326] = 0.0  # the shadow covers the placard up to the edge ...
+    f.depth_m[:, 326:] = 2.2  # ... the wall beyond it: 4 of the inner 20 columns are valid
+    assert box_depth(f.depth_m, box, 0.5) == pytest.approx(2.2)  # what the median would say
+    assert localize(det(box, "qr"), f, cfg, np.eye(4)) is None
+    f.depth_m[:, 318:326] = 5.0  # 12 of 20 columns valid: 60% >= min_depth_fill
+    assert localize(det(box, "qr"), f, cfg, np.eye(4)) is not None
+    off = apply_overrides(cfg, ["localize.min_depth_fill=0"])
+    f.depth_m[:, :326] = 0.0
+    assert localize(det(box, "qr"), f, off, np.eye(4)).depth_m == pytest.approx(2.2)
+    with pytest.raises(ConfigError, match="min_depth_fill"):
+        apply_overrides(cfg, ["localize.min_depth_fill=1.5"])
+
+
 def test_in_view():
     T = np.eye(4)  # camera = tracker, optical axes in the map: a plain pinhole at the origin
     f = frame(depth=5.0)
