@@ -162,11 +162,11 @@ class LocalizeConfig:
     # ray (a 3-D object's silhouette centre is not its centroid's projection).
     extent_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.058,
+            "door": 0.057,
             "valve": 0.022,
-            "fire-extinguisher": 0.014,
-            "baby-doll": 0.012,
-            "heat-source": 0.045,
+            "fire-extinguisher": 0.016,
+            "baby-doll": 0.015,
+            "heat-source": 0.026,
         }
     )
     # Per type, the spread (m) along the camera ray: how far behind the surface the depth hits
@@ -175,10 +175,10 @@ class LocalizeConfig:
     extent_ray_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
             "door": 0.058,
-            "valve": 0.046,
+            "valve": 0.056,
             "fire-extinguisher": 0.0,
             "baby-doll": 0.0,
-            "heat-source": 0.026,
+            "heat-source": 0.036,
         }
     )
     # Per type, how far behind the surface the depth hits its reference point lies (m), on
@@ -189,11 +189,11 @@ class LocalizeConfig:
             "pillar-red": 0.025,
             "pillar-green": 0.025,
             "ball": 0.105,
-            "fire-extinguisher": 0.063,
-            "baby-doll": 0.062,
-            "heat-source": 0.138,
-            "door": 0.051,
-            "valve": -0.054,
+            "fire-extinguisher": 0.065,
+            "baby-doll": 0.059,
+            "heat-source": 0.103,
+            "door": 0.064,
+            "valve": -0.059,
         }
     )
     # Per flat type, its width over its height (a square QR code, hazmat placard or
