@@ -120,6 +120,7 @@ def cmd_run(args) -> int:
     from eval.scoring.map_error import MapErrorResult
     from eval.scoring.report import format_tables
     from eval.scoring.rules import load_rules
+    from eval.trial.interrupt import DeferredInterrupt
     from eval.trial.run import run_trial
     from eval.trial.trial_config import load_trial_config
     from poi.config import flatten_config
@@ -169,20 +170,22 @@ def cmd_run(args) -> int:
         server = LiveServer(args.port)
         print(f"live view: {server.start()}", flush=True)
     try:
-        res = run_trial(
-            sc,
-            args.out,
-            pipeline_sets=pipe_sets,
-            detector=detector,
-            rules=rules,
-            rules_name=rules_name,
-            video=not args.no_video,
-            record_live=not args.no_live_record,
-            progress=not args.quiet,
-            max_frames=max_frames,
-            live_server=server,
-            on_frame=logger,
-        )
+        with DeferredInterrupt() as stop:  # Ctrl-C ends the trial between two frames
+            res = run_trial(
+                sc,
+                args.out,
+                pipeline_sets=pipe_sets,
+                detector=detector,
+                rules=rules,
+                rules_name=rules_name,
+                video=not args.no_video,
+                record_live=not args.no_live_record,
+                progress=not args.quiet,
+                max_frames=max_frames,
+                live_server=server,
+                on_frame=logger,
+                interrupt=stop,
+            )
     finally:
         if server is not None:
             server.stop()

@@ -315,6 +315,7 @@ def run_trial(
     progress: bool = True,
     max_frames: int | None = None,
     on_frame=None,
+    interrupt=None,
     live_server=None,
     record_live: bool = True,
     perception_cache=None,
@@ -325,6 +326,8 @@ def run_trial(
     trial's perception is recorded once, or taken from the cache, and the pipeline after
     detection replays it (no video, live view or ``on_frame``: those need the pixels); a
     detector the cache cannot cover, or ``detector.conf`` below its floor, runs in full.
+    ``interrupt`` (an :class:`eval.trial.interrupt.DeferredInterrupt`) is checked after each
+    frame, so a Ctrl-C ends the trial between frames (``poibench run``).
     """
     from tqdm import tqdm
 
@@ -456,6 +459,8 @@ def run_trial(
                     live.on_frame(frame, res, pipe, view)
                 if on_frame is not None:
                     on_frame(frame, truth, res, pipe)
+                if interrupt is not None:  # a Ctrl-C ends the trial here, between two frames
+                    interrupt.check()
         finally:
             if vid is not None:
                 outputs.write("trial.mp4", lambda _: vid.close())
