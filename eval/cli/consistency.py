@@ -78,9 +78,8 @@ def suite_runs(names: list[str], runs: int, seed: int | None, sim_sets: list[str
                 f"--runs {runs}: suite {name!r} has {n} scenarios; give --seed to run more, "
                 "its scenarios again with fresh seeds (new mazes of the same kind)"
             )
-        count = runs if seed is not None else min(runs, n)
         picked = [
-            with_noise(apply_settings(suite.build(suite.scenarios[i % n]), sim_sets), True) for i in range(count)
+            with_noise(apply_settings(suite.build(suite.scenarios[i % n]), sim_sets), True) for i in range(runs)
         ]
         if seed is not None:
             picked = [apply_settings(sc, [f"seed={seed + i}"]) for i, sc in enumerate(picked)]
