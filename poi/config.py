@@ -209,6 +209,9 @@ class LocalizeConfig:
     # A flat item is measured on the depth plane (centre, truncation) only when the plane's
     # tilt is known to this standard deviation (of its tangent) or better.
     flat_max_slope_sigma: float = number(0.2, lo=0.0)
+    # A flat item whose tilt is not known that well is judged cut only when no tilt within
+    # this many standard errors of the whole box's depth plane explains its shortfall.
+    flat_tilt_sigmas: float = number(2.0, lo=0.0)
     # A box side within this many pixels of the image's edge touches it (the item may go on).
     border_px: float = number(8.0, lo=0.0)
     # A flat item whose box touches the image border on both axes gives no observation.

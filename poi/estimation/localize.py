@@ -327,6 +327,24 @@ def box_at_border(box_xyxy, width: int, height: int, border_px: float) -> tuple[
     return x1 <= border_px or x2 >= width - border_px, y1 <= border_px or y2 >= height - border_px
 
 
+def least_tilted_gradient(
+    grad: tuple[float, float], var_g: tuple[float, float], n_sigmas: float
+) -> tuple[float, float]:
+    """The depth gradient (m / px) of the most face-on plane a measured one allows: each
+    axis's slope moved toward 0 by ``n_sigmas`` of its standard errors, not past 0. A plane
+    seen face-on makes an item look widest, so a box judged on this plane is called cut only
+    when no tilt within ``n_sigmas`` explains its shortfall.
+
+    >>> [round(g, 6) for g in least_tilted_gradient((0.01, -0.001), (1e-6, 1e-6), 2.0)]
+    [0.008, -0.0]
+    """
+    out = []
+    for g, var in zip(grad, var_g, strict=True):
+        shrink = n_sigmas * math.sqrt(max(var, 0.0))
+        out.append(math.copysign(max(abs(g) - shrink, 0.0), g))
+    return out[0], out[1]
+
+
 def measure_flat_item(
     detection: Detection,
     intr: Intrinsics,
@@ -336,6 +354,7 @@ def measure_flat_item(
     grad: tuple[float, float],
     var_g: tuple[float, float],
     lc,
+    depth_m: np.ndarray | None = None,
 ) -> tuple[np.ndarray | None, float, float]:
     """(centre, hidden_w, hidden_h) of a flat item of ``lc.aspect``: its centre measured on
     the depth plane (:func:`flat_item`) when the plane's tilt is known to
@@ -344,9 +363,15 @@ def measure_flat_item(
 
     The shape is judged on the plane when its tilt is known; a plane tilted by its error theta
     lengthens a side by 1 / cos(theta) - 1, about theta^2 / 2, so the tolerance then grows by
-    slope_sigma^2 (two sigmas' worth). Else (a far sign's few noisy pixels fix no tilt) the
-    item is measured as if seen face-on, the widest it can look, so the hidden length is an
-    upper bound. A box touching the image border (within ``lc.border_px``) on an axis counts
+    slope_sigma^2 (two sigmas' worth). Else (a far or narrow box's few noisy pixels do not fix
+    the tilt) it is judged on the most face-on plane the depth allows
+    (:func:`least_tilted_gradient`, ``lc.flat_tilt_sigmas``), fitted to the whole box in
+    ``depth_m`` (a wider base than the inner box; the wall around a placard is in its plane),
+    or to the inner box when that fit fails: the widest the item can look, so the hidden length
+    is an upper bound at that many sigmas. Judging such a box face-on, as this did before,
+    took a sign seen at 75 degrees (15 x 65 px) for one cut to a quarter: its sigma_u grew by
+    25 px and R's widest axis to 0.2-0.4 m against errors of 2-3 cm (README, "Covariance
+    consistency"). A box touching the image border (within ``lc.border_px``) on an axis counts
     as cut there whenever it is short of the shape at all (no tolerance on that axis).
     """
     t = detection.type
@@ -354,8 +379,19 @@ def measure_flat_item(
     slope_sigma = max(math.sqrt(var_g[0]) * intr.fx, math.sqrt(var_g[1]) * intr.fy) / d
     fitted = slope_sigma <= lc.flat_max_slope_sigma
     item = flat_item(intr, u, v, d, grad, detection.box_xyxy, diamond)
-    # the shape is judged on the plane when it is known, else face-on (the widest it can look)
-    shape = item if fitted else flat_item(intr, u, v, d, (0.0, 0.0), detection.box_xyxy, diamond)
+    if fitted:
+        shape = item
+    else:
+        wide = None
+        if depth_m is not None:
+            sigma_px = depth_sigma_m(
+                d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m
+            )
+            wide = box_depth_plane(depth_m, detection.box_xyxy, 1.0, lc.depth_window_px, sigma_px)
+        if wide is not None:
+            grad, var_g = (wide.g_u, wide.g_v), (wide.var_g_u, wide.var_g_v)
+        least = least_tilted_gradient(grad, var_g, lc.flat_tilt_sigmas)
+        shape = flat_item(intr, u, v, d, least, detection.box_xyxy, diamond)
     w, h = detection.size_wh
     hid_w = hid_h = 0.0
     if shape is not None:
@@ -526,7 +562,7 @@ def localize(
         if lc.flat_reject_corner and all(box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)):
             # cut by two borders: its shape cannot say how much of it is hidden
             return None
-        centre, hid_w, hid_h = measure_flat_item(detection, intr, u, v, d, (J1[2, 0], J1[2, 1]), var_g, lc)
+        centre, hid_w, hid_h = measure_flat_item(detection, intr, u, v, d, (J1[2, 0], J1[2, 1]), var_g, lc, depth)
         if centre is not None and lc.flat_center:
             p_c = centre
         # a cut box: its centre is off the item's by up to half the hidden length

@@ -471,3 +471,42 @@ def test_the_depth_plane_takes_a_depth_image_that_only_slices_whole_pixels():
     depth = _wall(1.0, 0.002, 0.0, np.random.default_rng(0))
     pl = box_depth_plane(NoStep(depth), (0.0, 0.0, 640.0, 480.0), 1.0)  # 307200 pixels: a grid
     assert pl.g_u == pytest.approx(0.002, rel=1e-4) and abs(pl.g_v) < 1e-6
+
+
+def _tilted_wall_depth(tilt_deg: float, d0: float = 2.0) -> np.ndarray:
+    """Depth (K) of a wall through (0, 0, d0) turned tilt_deg about the camera's vertical axis:
+    z = d0 / (1 + tan(tilt) x) for the ray (x, y, 1)."""
+    x = (np.arange(K.width) - K.ppx) / K.fx
+    z = d0 / (1.0 + np.tan(np.deg2rad(tilt_deg)) * x)
+    return np.tile(z.astype(np.float32), (K.height, 1))
+
+
+def test_a_sign_seen_steeply_is_foreshortened_not_cut():
+    """A 0.3 m qr code at 2 m on a wall turned 75 degrees: its box is about 20 x 80 px, too narrow
+    for the inner box's plane to fix the tilt. Judged face-on (flat_tilt_sigmas huge: the
+    shrink reaches 0) it looked cut to a quarter and its R's widest axis was tens of cm; judged
+    on the whole box's plane, at most 2 sigmas less tilted, it is whole and that axis is a few
+    cm. The same box on a face-on wall is a cut sign, as before."""
+    cfg = load_config()
+    tilt = np.deg2rad(75.0)
+    c = np.array([0.0, 0.0, 2.0])
+    along = np.array([np.cos(tilt), 0.0, -np.sin(tilt)])  # on the wall, horizontal
+    corners = [c + a * 0.15 * along + np.array([0.0, b * 0.15, 0.0]) for a in (-1, 1) for b in (-1, 1)]
+    uv = np.array([project_point_to_pixel(K, p) for p in corners])
+    box = (uv[:, 0].min() + 0.5, uv[:, 1].min() + 0.5, uv[:, 0].max() + 0.5, uv[:, 1].max() + 0.5)
+    assert box[2] - box[0] < 0.3 * (box[3] - box[1])  # foreshortened to about a quarter
+    f = frame()
+    f.depth_m = _tilted_wall_depth(75.0)
+    T = np.eye(4)
+    steep = localize(det(box, class_name="qr"), f, cfg, T)
+    face_on_rule = localize(
+        det(box, class_name="qr"), f, apply_overrides(cfg, ["localize.flat_tilt_sigmas=1000000"]), T
+    )
+    widest = lambda o: float(np.sqrt(np.linalg.eigvalsh(o.Sigma_c)[-1]))  # noqa: E731
+    assert widest(face_on_rule) > 0.2
+    assert widest(steep) < 0.05
+    assert np.linalg.norm(steep.position_cam - c) < 0.03
+    # a face-on wall: the narrow box is the visible quarter of a cut sign, sigma_u grows by half the rest
+    cut = localize(det(box, class_name="qr"), frame(depth=2.0), cfg, T)
+    w, h = box[2] - box[0], box[3] - box[1]
+    assert np.sqrt(cut.Sigma_c[0, 0]) * K.fx / 2.0 > 0.4 * (h - w)
