@@ -15,6 +15,9 @@ collects, with the simulator's truth:
 * ``R cam <type>``: each observation's camera-frame position against the object's true
   position in the true camera frame, with Sigma_c + extent^2 I (the detection and depth
   model, [Avevor2022]_ 2.2.2; d = 3);
+* ``R cam axis 1 (narrowest)``, ``2``, ``3 (widest)``: the same errors along each principal
+  axis of their covariance, all types together (:func:`axis_nees`, d = 1). They sum to ``R cam``;
+  a covariance too wide along one axis and too thin along another can have a right sum;
 * ``R map <type>``: each observation as the tracker receives it (map frame, after the SLAM
   correction) against the object's true position, with its R (d = 3);
 * ``track Sigma confirm`` / ``track Sigma end``: each confirmed track's mu and Sigma when it
@@ -65,6 +68,8 @@ LEVEL = 0.99  # two-sided: chi2.ppf(0.005) and chi2.ppf(0.995)
 # fraction of the box's larger side (the oracle moves centres by ~1 px + 3% of the size).
 MATCH_FRACTION = 0.5
 POSE_DIM = 3
+# R cam's principal axes, narrowest first (:func:`axis_nees`)
+AXES = ("1 (narrowest)", "2", "3 (widest)")
 
 
 class ConsistencyError(ValueError):
@@ -79,6 +84,19 @@ def nees(e: np.ndarray, P: np.ndarray) -> float:
     """
     e = np.asarray(e, dtype=float)
     return float(e @ np.linalg.solve(np.asarray(P, dtype=float), e))
+
+
+def axis_nees(e: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """e's NEES along each principal axis of P, narrowest first: (v_i^T e)^2 / lambda_i for P's
+    eigenpairs (lambda_i, v_i). Each is chi-square with 1 degree of freedom when e ~ N(0, P), and
+    they sum to :func:`nees`; a P of the right size but the wrong shape (too wide along one
+    axis, too thin along another) has a right sum and wrong parts.
+
+    >>> axis_nees(np.array([1.0, 2.0]), np.diag([4.0, 1.0])).tolist()
+    [4.0, 0.25]
+    """
+    lam, V = np.linalg.eigh(np.asarray(P, dtype=float))
+    return (V.T @ np.asarray(e, dtype=float)) ** 2 / lam
 
 
 def chi2_interval(n: float, d: int, level: float = LEVEL) -> tuple[float, float]:
@@ -189,10 +207,8 @@ class Samples:
 
 
 def _order(q: str) -> tuple[int, str]:
-    for i, head in enumerate(("R cam", "R map", "track Sigma confirm", "track Sigma end", "SLAM pose")):
-        if q.startswith(head):
-            return i, q
-    return 9, q
+    heads = ("R cam", "R cam axis", "R map", "track Sigma confirm", "track Sigma end", "SLAM pose")
+    return max((i for i, head in enumerate(heads) if q.startswith(head)), default=len(heads)), q
 
 
 def match_detections(detections, visible) -> list[int | None]:
@@ -270,6 +286,8 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                         ExtentSample(type=t, object_key=run_object, e_cam=e_cam, Sigma_c=obs.Sigma_c, ray=ray)
                     )
                 samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam), run_object)
+                for axis, q in zip(AXES, axis_nees(e_cam, Sigma_cam), strict=True):
+                    samples.add(f"R cam axis {axis}", 1, q, run_object)
                 samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R), run_object)
             det_ids = match_detections(res.detections, truth.visible)
             for det, oid in zip(res.detections, det_ids, strict=True):

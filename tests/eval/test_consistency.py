@@ -16,7 +16,16 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from eval.consistency import ConsistencyError, Row, Samples, chi2_interval, format_table, match_detections, nees
+from eval.consistency import (
+    ConsistencyError,
+    Row,
+    Samples,
+    axis_nees,
+    chi2_interval,
+    format_table,
+    match_detections,
+    nees,
+)
 from poi.config import apply_overrides, load_config
 from poi.core.geometry import R_BODY_OPTICAL, make_transform
 from poi.core.sensor_noise import CENTER_SIGMA_A_PX, CENTER_SIGMA_B, center_sigma_px, depth_sigma_m
@@ -36,6 +45,28 @@ def test_nees_and_the_interval_by_hand():
     assert lo < 3.0 < hi
     with pytest.raises(ConsistencyError, match="n > 0"):
         chi2_interval(0, 3)
+
+
+def test_axis_nees_finds_a_covariance_of_the_right_size_and_the_wrong_shape():
+    """Errors with variances (1.75, 1, 0.25) along x, y, z against P of about I (its axes ordered
+    z, y, x by a hair): the summed NEES's mean is 3, inside its interval, but P's narrowest axis
+    (z) sees 0.25 and its widest (x) 1.75, each outside the one-dimension interval. The right P
+    puts every axis inside."""
+    rng = np.random.default_rng(3)
+    n = 2000
+    true_var = np.array([1.75, 1.0, 0.25])  # along x, y, z
+    e = rng.standard_normal((n, 3)) * np.sqrt(true_var)
+    wrong = np.diag([1.0002, 1.0001, 1.0])  # the same trace; its widest axis is x, narrowest z
+    right = np.diag(true_var)
+    for P, inside_axes in ((wrong, (False, True, False)), (right, (True, True, True))):
+        q = np.array([axis_nees(x, P) for x in e])  # narrowest first
+        assert np.allclose(q.sum(axis=1), [nees(x, P) for x in e])
+        lo3, hi3 = chi2_interval(n, 3)
+        assert lo3 < q.sum(axis=1).mean() < hi3  # the sum cannot tell them apart
+        lo1, hi1 = chi2_interval(n, 1)
+        assert tuple(bool(lo1 < m < hi1) for m in q.mean(axis=0)) == inside_axes
+    q_wrong = np.array([axis_nees(x, wrong) for x in e]).mean(axis=0)
+    assert q_wrong[0] == pytest.approx(0.25, rel=0.1) and q_wrong[2] == pytest.approx(1.75, rel=0.1)
 
 
 def test_table_marks_a_mean_outside_its_interval():
