@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import reprlib
 import sys
 import types
@@ -135,6 +136,11 @@ def read_text(path: str | Path, *, what: str = "", error: type[ValueError] = Loa
     except OSError as e:
         raise error(f"{p}: cannot read{' ' + what if what else ''}: {e.strerror or e}") from None
     return decode(raw, str(p), error=error)
+
+
+# A number in exponent notation without a decimal point (1e6, 2E-3): YAML 1.1, which PyYAML
+# follows, resolves it to a string, YAML 1.2's core schema to a float. A float field takes it.
+_EXPONENT_FLOAT = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
 class _BoundedLoader(yaml.SafeLoader):
@@ -482,6 +488,8 @@ def _convert(tp: Any, value: Any, src: Source, path: str) -> Any:
             raise _fail(src, path, f"expected an integer, got {show(value)}")
         return value
     if tp is float:
+        if isinstance(value, str) and _EXPONENT_FLOAT.fullmatch(value.strip()):
+            value = float(value)  # YAML 1.1 reads 1e6 as a string; YAML 1.2 and people, as a number
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise _fail(src, path, f"expected a number, got {show(value)}")
         if not is_finite_number(value):

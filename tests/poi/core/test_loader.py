@@ -364,6 +364,21 @@ def test_scenario_sizes_that_cannot_run_are_refused_in_files_and_settings(tmp_pa
     assert message in str(e.value) and str(e.value).startswith(f"s.yaml:{len(parts)}: ")
 
 
+def test_a_float_field_takes_exponent_notation_without_a_point():
+    """YAML 1.1 (PyYAML) reads 1e6 and 2E-3 as strings; a float field takes them as numbers, an
+    integer field does not, and a string that only looks like one stays an error."""
+    assert _build("name: x\ninner: {ratio: 5e-1}\n").inner.ratio == 0.5
+    assert _build("name: x\nweights: {w: 2E+3, v: -1e0}\n").weights == {"w": 2000.0, "v": -1.0}
+    cfg = apply_overrides(load_config(), ["tracker.gate=1e1"])
+    assert cfg.tracker.gate == 10.0
+    with pytest.raises(LoadError, match="inner.size\\[0\\]: expected an integer, got '1e3'"):
+        _build("name: x\ninner: {size: [1e3, 1]}\n")
+    with pytest.raises(LoadError, match="inner.ratio: expected a number, got '1e'"):
+        _build("name: x\ninner: {ratio: 1e}\n")
+    with pytest.raises(ConfigError, match="tracker.gate: expected a finite number, got inf"):
+        apply_overrides(load_config(), ["tracker.gate=1e999"])
+
+
 def test_pipeline_overrides_refuse_non_finite_and_huge_numbers():
     cfg = load_config()
     for value in (".nan", ".inf", "9" * 400):
