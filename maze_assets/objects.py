@@ -29,10 +29,12 @@ _GEOM_RE = re.compile(r"^poi_(\d+)_([a-z\-]+)(?:_.*)?$")
 class PlacedObject:
     """One POI in the world frame.
 
-    ``position`` is the reference point in world coordinates (metres): the centre
-    of a sign's face, the centre of a door leaf, the centre of a valve's wheel, the
-    centroid of a free-standing object (a pillar's: on its axis at half its height;
-    the ball's: its centre). ``size_m`` is the object's characteristic
+    ``position`` is the body's origin in world coordinates (metres) and, for all but the
+    flat items, the reference point a report names: the centre of a door leaf, the centre
+    of a valve's wheel, the centroid of a free-standing object (a pillar's: on its axis at
+    half its height; the ball's: its centre). A flat item's origin is the centre of the
+    face it hangs on, and its reference point the centre of its image, 3 mm in front
+    (maze_assets.models.reference_point). ``size_m`` is the object's characteristic
     size (a placard's side, a door's width, a doll's length). ``temperature_c``
     is what the thermal camera sees on its surface (None: ambient). ``look_seed``
     picks a placard's printed variant (maze_assets.hazmat.placard_style; None: the

@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 
 import sim.gl  # noqa: F401  (sim/__init__ has chosen the GL backend already)
+from maze_assets.models import reference_point
 from maze_assets.objects import PlacedObject
 from poi.core.geometry import (
     R_BODY_OPTICAL,
@@ -287,7 +288,7 @@ class Simulation:
                 id=o.id,
                 type=o.type,
                 text=o.text,
-                position_map=transform_points(self.T_map_world, o.position),
+                position_map=transform_points(self.T_map_world, reference_point(o)),
                 placed=o,
             )
             for o in self.objects
@@ -724,7 +725,7 @@ class Simulation:
             sel = ids == oid
             px, py = xs[sel], ys[sel]
             o = by_id[int(oid)]
-            p_cam = transform_points(T_optical_map, transform_points(self.T_map_world, o.position))
+            p_cam = transform_points(T_optical_map, transform_points(self.T_map_world, reference_point(o)))
             n = int(sel.sum())
             full = self._unoccluded_pixels(int(oid), T_optical_world)
             out.append(

@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from maze_assets.hazmat import placard_style
+from maze_assets.models import FLAT_TYPES as FLAT_MODEL_TYPES
+from maze_assets.models import QUAD_OFFSET_M, reference_point
 from poi.core.geometry import transform_points
 from poi.core.names import RESCUE_TYPES
 from sim.scenario import apply_settings, load_scenario, with_noise
@@ -169,10 +171,21 @@ def test_ground_truth_positions_are_in_the_map_frame():
     with Simulation(sc) as sim:
         # map origin is the robot's start on the floor: the first true base position is (0, 0)
         assert np.allclose(sim.robot_path_map()[0], [0.0, 0.0])
+        flat = 0
         for o in sim.truth_objects():
             back = transform_points(sim.T_world_map, o.position_map)
-            assert np.allclose(back, o.placed.position)
+            assert np.allclose(back, reference_point(o.placed))
             assert 0.0 <= o.position_map[2] <= sim.maze.settings.wall_height_m
+            if o.type in FLAT_MODEL_TYPES:
+                # a sign's reference is its image's centre, QUAD_OFFSET_M out from the wall it hangs on
+                flat += 1
+                out = back - o.placed.position
+                assert np.linalg.norm(out) == pytest.approx(QUAD_OFFSET_M)
+                if o.placed.tilt == 0.0:  # on a wall: straight out along its yaw, into the room
+                    assert out[:2] @ [np.cos(o.placed.yaw), np.sin(o.placed.yaw)] == pytest.approx(QUAD_OFFSET_M)
+            else:
+                assert np.allclose(back, o.placed.position)
+        assert flat > 0
 
 
 def test_map_walls_leave_the_door_opening_and_nothing_else(clean_default):
