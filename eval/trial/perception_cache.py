@@ -41,6 +41,7 @@ import dataclasses
 import functools
 import hashlib
 import json
+import math
 import os
 import pickle
 import struct
@@ -62,6 +63,9 @@ MAGIC = b"POIBPCR\x00"
 HEADER = struct.Struct("<8sIQI")  # magic, format, payload length, CRC-32 of the payload
 SUFFIX = ".pcache"
 STALE_TEMP_S = 3600.0  # a temporary file this old was left by a killed writer
+# The folder's size limit (PerceptionCache): about a hundred 40-s recordings, ten suites' worth
+DEFAULT_MAX_GB = 20.0
+MAX_GB_ENV = "POIBENCH_CACHE_MAX_GB"
 EMPTY_RGB = np.zeros((0, 0, 3), np.uint8)  # a replayed frame has no pixels; nothing after detection reads them
 ONNX_SOURCE = "onnx"  # Detection.source of the ONNX detector, the one detector.conf filters
 ROOT = Path(__file__).resolve().parents[2]
@@ -354,11 +358,31 @@ def perception_key(sc, detector: str, cfg, max_frames: int | None, model: Path |
 # ------------------------------------------------------------------------------ store
 
 
-class PerceptionCache:
-    """A folder of records, one file per key (see the module docstring)."""
+def max_cache_bytes() -> int:
+    """The cache's size limit: ``$POIBENCH_CACHE_MAX_GB`` gigabytes (10^9 bytes), default
+    :data:`DEFAULT_MAX_GB`; a value that is not a number > 0 is a one-line error."""
+    raw = os.environ.get(MAX_GB_ENV, "").strip()
+    if not raw:
+        return int(DEFAULT_MAX_GB * 1e9)
+    try:
+        gb = float(raw)
+    except ValueError:
+        gb = float("nan")
+    if not (math.isfinite(gb) and gb > 0.0):
+        raise PerceptionCacheError(f"{MAX_GB_ENV}={raw!r}: expected a number of gigabytes > 0")
+    return int(gb * 1e9)
 
-    def __init__(self, folder: str | Path) -> None:
+
+class PerceptionCache:
+    """A folder of records, one file per key (see the module docstring), kept under ``max_bytes``
+    (default :func:`max_cache_bytes`): after each store the least recently used records (a load
+    marks a record used) are deleted until the folder fits, never the one just stored. Every
+    change to the simulating or detecting source makes all older records unreadable, so
+    without a limit the folder only grows (one day of development here: 77 GB)."""
+
+    def __init__(self, folder: str | Path, max_bytes: int | None = None) -> None:
         self.folder = Path(folder)
+        self.max_bytes = max_cache_bytes() if max_bytes is None else int(max_bytes)
 
     def path(self, key: str) -> Path:
         return self.folder / f"{key}{SUFFIX}"
@@ -381,6 +405,8 @@ class PerceptionCache:
             return None
         if not isinstance(rec, PerceptionRecord) or rec.key != key:
             return None
+        with _suppress_os():
+            os.utime(self.path(key))  # used now: the last the size limit evicts
         return rec
 
     def store(self, key: str, record: PerceptionRecord) -> None:
@@ -404,6 +430,26 @@ class PerceptionCache:
                 os.unlink(tmp)
             raise
         self._drop_stale_temps()
+        self._evict(keep=self.path(key))
+
+    def _evict(self, keep: Path) -> None:
+        """Delete the least recently used records until the folder's records fit ``max_bytes``
+        (``keep``, the record just stored, stays whatever its size). Another worker may delete
+        the same file first: that is no error."""
+        records = []
+        for p in self.folder.glob(f"*{SUFFIX}"):
+            with _suppress_os():
+                st = p.stat()
+                records.append((st.st_mtime, p.name, st.st_size, p))
+        total = sum(r[2] for r in records)
+        for _, _, size, p in sorted(records):
+            if total <= self.max_bytes:
+                break
+            if p == keep:
+                continue
+            with _suppress_os():
+                p.unlink()
+            total -= size
 
     def _drop_stale_temps(self) -> None:
         now = time.time()

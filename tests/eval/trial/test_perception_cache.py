@@ -21,6 +21,8 @@ from eval.scoring.rules import load_rules
 from eval.trial.perception_cache import (
     CONF_FLOOR,
     PerceptionCache,
+    PerceptionCacheError,
+    PerceptionRecord,
     TiledDepth,
     perception_key,
 )
@@ -102,6 +104,39 @@ def test_a_torn_corrupt_or_foreign_record_is_recomputed_never_trusted(tmp_path, 
     other.write_bytes(good)  # a valid record filed under another key
     assert cache.load("0" * 40) is None
     assert len(made) == n and not list(cache.folder.glob(".*.tmp"))  # no temporary file left behind
+
+
+def _record(key: str, n_bytes: int) -> PerceptionRecord:
+    """A record of about n_bytes (its fields need not be a real trial's for the cache's bookkeeping)."""
+    fields = {f.name: None for f in dataclasses.fields(PerceptionRecord)}
+    return PerceptionRecord(**{**fields, "key": key, "notes": ["x" * n_bytes], "frames": []})
+
+
+def test_the_cache_stays_under_its_size_limit_dropping_the_least_recently_used(tmp_path, monkeypatch):
+    """Four records of about 1.3 kB under a limit of three and a half: storing the fourth drops the one used
+    longest ago (a load counts as a use), and a record larger than the limit is kept alone.
+    The limit comes from $POIBENCH_CACHE_MAX_GB, checked."""
+    cache = PerceptionCache(tmp_path, max_bytes=10**9)
+    keys = [c * 40 for c in "abcde"]
+    cache.store(keys[0], _record(keys[0], 1000))
+    cache.max_bytes = int(3.5 * cache.path(keys[0]).stat().st_size)  # room for three
+    for i, k in enumerate(keys[:3]):
+        cache.store(k, _record(k, 1000))
+        os.utime(cache.path(k), (1000.0 + i, 1000.0 + i))  # stored a, b, c in that order
+    assert cache.load(keys[0]).key == keys[0]  # a is used now: b is the least recently used
+    cache.store(keys[3], _record(keys[3], 1000))
+    assert sorted(p.name[0] for p in tmp_path.glob("*.pcache")) == ["a", "c", "d"]
+    cache.store(keys[4], _record(keys[4], 5000))  # alone over the limit: kept, every other dropped
+    assert [p.name[0] for p in tmp_path.glob("*.pcache")] == ["e"]
+    assert cache.load(keys[4]).key == keys[4]
+    monkeypatch.setenv("POIBENCH_CACHE_MAX_GB", "0.5")
+    assert PerceptionCache(tmp_path).max_bytes == 500_000_000
+    monkeypatch.delenv("POIBENCH_CACHE_MAX_GB")
+    assert PerceptionCache(tmp_path).max_bytes == 20_000_000_000
+    for bad in ("lots", "0", "-1", "nan"):
+        monkeypatch.setenv("POIBENCH_CACHE_MAX_GB", bad)
+        with pytest.raises(PerceptionCacheError, match="MAX_GB=.*expected a number of gigabytes > 0"):
+            PerceptionCache(tmp_path)
 
 
 def test_a_replayed_trial_writes_the_full_trials_files_byte_for_byte(tmp_path, monkeypatch):
