@@ -277,6 +277,8 @@ class Simulation:
             d.depth, (d.height, d.width), np.random.default_rng([sc.seed, SENSOR_STREAM, 10**9 + 2])
         )
         self._object_corners_world = self._object_geom_corners()
+        # objects never move: each one's reference point (world frame), once
+        self._reference_world = {o.id: reference_point(o) for o in self.objects}
         self._model_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(
             1, thread_name_prefix="poibench-sensors"
         )
@@ -288,7 +290,7 @@ class Simulation:
                 id=o.id,
                 type=o.type,
                 text=o.text,
-                position_map=transform_points(self.T_map_world, reference_point(o)),
+                position_map=transform_points(self.T_map_world, self._reference_world[o.id]),
                 placed=o,
             )
             for o in self.objects
@@ -725,7 +727,8 @@ class Simulation:
             sel = ids == oid
             px, py = xs[sel], ys[sel]
             o = by_id[int(oid)]
-            p_cam = transform_points(T_optical_map, transform_points(self.T_map_world, reference_point(o)))
+            p_world = self._reference_world[o.id]
+            p_cam = transform_points(T_optical_map, transform_points(self.T_map_world, p_world))
             n = int(sel.sum())
             full = self._unoccluded_pixels(int(oid), T_optical_world)
             out.append(
