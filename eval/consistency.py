@@ -32,10 +32,12 @@ samples of one object (``R ...``) or one run (``SLAM pose``) are correlated, and
 hold fewer than N independent ones. Each such series (one object in one run, one run's
 poses, in frame order) counts as n / tau samples, tau = 1 + 2 sum_k rho_k its integrated
 autocorrelation time (:func:`effective_count`, [Geyer1992]_), and the interval is that of
-N_eff independent samples (a chi-square of the same mean and variance). What the objects
-of one run share (the mount's error, the pose a SLAM map rests on) is not counted, so the
-``R`` and ``SLAM pose`` intervals are still a little narrow. ``track Sigma`` (one sample
-per track) and ``SLAM pose end`` (one per run) count each sample once.
+N_eff independent samples (a chi-square of the same mean and variance). The
+autocorrelation is taken about the mean of all the quantity's series, not each series' own,
+so an error that lasts a whole run counts ([Gelman2013]_ 11.5). What the objects of one run
+share (the mount's error, the pose a SLAM map rests on) is not counted, so the ``R``
+intervals are still narrow (docs/CONSISTENCY.md). ``track Sigma`` (one sample per track)
+and ``SLAM pose end`` (one per run) count each sample once.
 
 References
 ----------
@@ -47,6 +49,8 @@ Full entries in docs/SOURCES.md.
    Tracking and Navigation", Wiley, 2001.
 .. [Geyer1992] C. J. Geyer, "Practical Markov chain Monte Carlo", Statistical Science 7(4),
    473-483, 1992.
+.. [Gelman2013] A. Gelman, J. B. Carlin, H. S. Stern, D. B. Dunson, A. Vehtari, D. B. Rubin,
+   "Bayesian Data Analysis", 3rd ed., CRC Press, 2013.
 """
 
 from __future__ import annotations
@@ -113,22 +117,30 @@ def chi2_interval(n: float, d: int, level: float = LEVEL) -> tuple[float, float]
     return float(lo) / n, float(hi) / n
 
 
-def autocorrelation_time(x: np.ndarray) -> float:
+def autocorrelation_time(x: np.ndarray, centre: float | None = None) -> float:
     """tau = 1 + 2 sum_{k>=1} rho_k of a series, the sum stopped before the first lag whose
     autocorrelation is <= 0 (the initial positive sequence of [Geyer1992]_ in its simplest
-    form); 1 for a series of fewer than 3 values or with no spread.
+    form); 1 for a series of fewer than 2 values or with no spread about ``centre``.
+
+    ``rho_k`` is the lag-k autocovariance about ``centre`` over the lag-0 one. The default
+    centre is the series' own mean; :func:`effective_count` passes the mean of all the
+    quantity's series, so that a series that sits above or below the others all along (an
+    error that lasts the whole run) counts as correlated, as it is ([Gelman2013]_ 11.5).
 
     >>> autocorrelation_time(np.array([1.0, -1.0] * 50))  # anticorrelated: no inflation
     1.0
     >>> blocks = np.repeat(np.random.default_rng(0).standard_normal(200), 10)  # 10 equal values each
     >>> 8.0 < autocorrelation_time(blocks) < 14.0  # about 10
     True
+    >>> x = np.array([3.0, 5.0] * 50)  # far above the centre all along: about one sample
+    >>> round(x.size / autocorrelation_time(x, centre=0.0), 2)
+    1.06
     """
     x = np.asarray(x, dtype=float)
     n = x.size
-    if n < 3 or not np.ptp(x) > 0:
+    c = x - (x.mean() if centre is None else float(centre))
+    if n < 2 or not np.any(c != 0.0):
         return 1.0
-    c = x - x.mean()
     acov = np.correlate(c, c, mode="full")[n - 1 :] / n  # lags 0 .. n-1, biased estimate
     rho = acov[1:] / acov[0]
     stop = int(np.argmax(rho <= 0.0)) if np.any(rho <= 0.0) else rho.size
@@ -136,13 +148,27 @@ def autocorrelation_time(x: np.ndarray) -> float:
 
 
 def effective_count(series: list[np.ndarray]) -> float:
-    """The number of independent samples that correlated series hold: sum of n / tau over the
-    series (:func:`autocorrelation_time`), each at most its own length.
+    """The number of independent samples that correlated series of one quantity hold: the sum
+    of n / tau over the series, each at least 1 and at most its own length, with tau
+    (:func:`autocorrelation_time`) taken about the mean of all the series together.
 
-    >>> effective_count([np.ones(5), np.array([1.0, 2.0])])  # no spread: each value counts
-    7.0
+    About each series' own mean, tau sees only the fluctuations within a run: an error that
+    lasts a whole run (a drift, a map's pose, the route's view of an object) shifts the
+    series' mean and is taken out with it, and the run means then scatter 2-6 times more than
+    the interval allows (docs/CONSISTENCY.md "How N is counted, honestly"). About the common
+    mean that shift is a correlation that lasts the run, as in the multi-chain effective
+    sample size of [Gelman2013]_ 11.5, whose between-chain variance plays the same part.
+
+    >>> effective_count([np.array([1.0, 2.0, 1.0, 2.0]), np.array([2.0, 1.0, 2.0, 1.0])])  # alike
+    8.0
+    >>> round(effective_count([np.full(50, 1.0) + np.tile([0, 0.1], 25), np.full(50, 5.0)]), 2)  # apart
+    2.0
     """
-    return float(sum(len(x) / max(1.0, autocorrelation_time(x)) for x in series))
+    arrays = [np.asarray(x, dtype=float) for x in series]
+    if not arrays:
+        return 0.0
+    centre = float(np.concatenate(arrays).mean())
+    return float(sum(min(len(x), max(1.0, len(x) / autocorrelation_time(x, centre))) for x in arrays))
 
 
 @dataclass(kw_only=True)

@@ -20,8 +20,10 @@ from eval.consistency import (
     ConsistencyError,
     Row,
     Samples,
+    autocorrelation_time,
     axis_nees,
     chi2_interval,
+    effective_count,
     format_table,
     match_detections,
     nees,
@@ -103,6 +105,31 @@ def test_a_correlated_series_counts_as_fewer_samples_and_widens_its_interval():
         for v in held:
             s2.add("R map door", 3, v, key)
     assert s2.rows()[0].n_eff == pytest.approx(2 * door.n_eff)
+
+
+def test_an_error_that_lasts_the_run_widens_the_interval_to_near_its_level():
+    """Runs whose NEES comes from an error that changes slowly (AR(1), phi = 0.995, a
+    correlation time of 200 frames over 400-frame runs) are consistent by construction: the
+    mean of 8 runs must fall inside its 99% interval nearly always. About each run's own mean
+    the slow part is taken out and the interval misses 13.5% of 200 tables; about the common
+    mean (effective_count) it misses 4%."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(5)
+    phi, reps = 0.995, 200
+    missed_common = missed_own = 0
+    for _ in range(reps):
+        w = rng.standard_normal((8, 3, 400)) * np.sqrt(1.0 - phi**2)
+        w[:, :, 0] = rng.standard_normal((8, 3))  # start in the stationary distribution
+        e = lfilter([1.0], [1.0, -phi], w, axis=2)  # 8 runs of 3-D errors with unit variance
+        runs = list((e**2).sum(axis=1))  # NEES against the true covariance I
+        mean = float(np.concatenate(runs).mean())
+        lo, hi = chi2_interval(effective_count(runs), 3)
+        missed_common += not lo <= mean <= hi
+        lo, hi = chi2_interval(sum(len(x) / autocorrelation_time(x) for x in runs), 3)
+        missed_own += not lo <= mean <= hi
+    assert missed_common / reps <= 0.05
+    assert missed_own / reps >= 0.10
 
 
 def test_detections_match_the_truth_box_of_their_type():
