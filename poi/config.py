@@ -151,6 +151,9 @@ class LocalizeConfig:
     center_sigma_px: CenterSigmaConfig = field(default_factory=CenterSigmaConfig)
     mount_sigma_deg: float = number(0.5, lo=0.0, hi=10.0)
     mount_sigma_m: float = number(0.005, lo=0.0, hi=0.5)
+    # RMS length (px) of the depth image's registration error against the colour image, the
+    # same all run long (poi.estimation.localize.registration_depth_variance).
+    registration_sigma_px: float = number(1.0, lo=0.0, hi=20.0)
     # How J1's depth gradient (dd/du, dd/dv) is read: plane (a least-squares plane through the
     # valid depths of the inner box, poi.estimation.localize.box_depth_plane) or central
     # (central differences at the box centre's pixel, poi.estimation.covariance.depth_jacobian).

@@ -9,6 +9,8 @@ gives the pipeline the same figures, taken from the scenario's sensor settings:
   pipeline is not told) and how well it is known: ``localize.mount_sigma_deg`` and
   ``mount_sigma_m`` are the root mean square of the error's components, so the pipeline
   knows the calibration's size, not its direction;
+* the depth image's registration error against the colour image
+  (:func:`depth_registration_settings`);
 * the odometry's latency (:func:`odometry_latency_settings`);
 * the sizes of the T265's systematic errors, the priors of the SLAM's scale, drift and heading
   drift states and the height drift it adds to R (:func:`odometry_prior_settings`), from the
@@ -49,6 +51,19 @@ def mount_prior_settings(sc) -> list[str]:
     rms_deg = float(np.sqrt(np.mean(np.square(m.error_rpy_deg))))
     rms_m = float(np.sqrt(np.mean(np.square(m.error_t_m))))
     return [f"localize.mount_sigma_deg={rms_deg:.6g}", f"localize.mount_sigma_m={rms_m:.6g}"]
+
+
+def depth_registration_settings(sc) -> list[str]:
+    """The pipeline setting that tells it how far its depth image may sit off the colour image:
+    the scenario's ``sensors.d435.depth.registration_error_px`` (the RMS of the offset drawn
+    once per trial), 0 with the noise off.
+
+    >>> from sim.scenario import Scenario
+    >>> depth_registration_settings(Scenario())
+    ['localize.registration_sigma_px=1']
+    """
+    on = 1.0 if sc.sensors.noise else 0.0
+    return [f"localize.registration_sigma_px={on * sc.sensors.d435.depth.registration_error_px:.6g}"]
 
 
 def odometry_latency_settings(sc) -> list[str]:
@@ -105,12 +120,13 @@ def mean_drift_multiplier(sim) -> float:
 
 def sensor_settings(T_tracker_optical_nominal: np.ndarray, sc, drift_multiplier: float) -> list[str]:
     """What a trial tells the pipeline of its sensors, as a team knows them (module docstring):
-    the nominal mount, scenario ``sc``'s mount and T265 error sizes and the arena's mean drift
+    the nominal mount, scenario ``sc``'s mount, depth registration and T265 error sizes and the arena's mean drift
     multiplier (:func:`mean_drift_multiplier`; a perception record keeps both inputs, so a
     replay computes the settings with the code of its day)."""
     return (
         mount_settings(T_tracker_optical_nominal)
         + mount_prior_settings(sc)
+        + depth_registration_settings(sc)
         + odometry_latency_settings(sc)
         + odometry_prior_settings(sc, drift_multiplier)
     )

@@ -148,10 +148,11 @@ class Observation:
     position_map: np.ndarray  # (3,)
     R: np.ndarray  # (3, 3) covariance in the map frame, m^2
     position_cam: np.ndarray  # (3,) in the camera optical frame
-    Sigma_c: np.ndarray  # (3, 3) covariance in the camera frame ([Avevor2022] 2.2.2)
+    Sigma_c: np.ndarray  # (3, 3) covariance in the camera frame ([Avevor2022] 2.2.2), registration included
     depth_m: float
     # (3, 3) the part of R whose error repeats over an object's successive observations (the
-    # pose's, Sigma_eps, the mount's, the odometry's height and tilt, the object's extent);
+    # pose's, Sigma_eps, the mount's, the depth registration's, the odometry's height and tilt,
+    # the object's extent);
     # None: all of R is fresh each frame
     R_shared: np.ndarray | None = None
     # (3, 3) spread of a 3-D object's reference point about position_cam (camera frame; R holds

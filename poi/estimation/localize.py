@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from poi.config import PipelineConfig
+from poi.config import LocalizeConfig, PipelineConfig
 from poi.core.sensor_noise import depth_sigma_m
 from poi.core.types import Detection, Frame, Intrinsics, Observation
 from poi.estimation.covariance import (
@@ -407,6 +407,27 @@ def measure_flat_item(
     return centre, hid_w, hid_h
 
 
+def registration_depth_variance(J1: np.ndarray, var_g: tuple[float, float], lc: LocalizeConfig) -> float:
+    """Variance of a box's depth from the depth image's registration error against the colour
+    image: the depth is read (du, dv) pixels off the colour box, each N(0, s^2 / 2) with s =
+    ``localize.registration_sigma_px`` (the offset's RMS length), so it is off by g_u du + g_v dv
+    for the box's depth slopes g (J1's last row), with variance (g_u^2 + var_g_u + g_v^2 +
+    var_g_v) s^2 / 2 (a slope known to var_g, as for the centre's error in :func:`localize`).
+
+    A D435 maps depth into the colour image through its factory extrinsics; an error of about
+    0.1 degree there moves every pixel about 1 px (docs/FACTS.md "D435 depth"). The offset is
+    the same all run long, so a steep sign's depth is off the same way in every view: on the
+    default maze's seed 10, whose draw is 1 px, it left the SLAM's x error at 3-4 cm against a
+    sigma of 1.5-2.5 cm (NEES 3.0 on x) where without it the x NEES is 1.2.
+
+    >>> lc = LocalizeConfig(registration_sigma_px=1.0)
+    >>> registration_depth_variance(np.array([[1, 0, 0], [0, 1, 0], [0.004, 0.0, 1]]), (0.0, 0.0), lc)
+    8e-06
+    """
+    s2 = 0.5 * lc.registration_sigma_px**2
+    return float(s2 * (J1[2, 0] ** 2 + var_g[0] + J1[2, 1] ** 2 + var_g[1]))
+
+
 def extent_covariance(p_c: np.ndarray, sigma_lat_m: float, sigma_ray_m: float) -> np.ndarray:
     """Sigma_ext = sigma_ray^2 r r^T + sigma_lat^2 (I - r r^T), r = p_c / |p_c|: an object's
     reference point spreads about the observation by ``sigma_ray_m`` along the camera ray (how
@@ -499,8 +520,10 @@ def localize(
       and R_mount the mount calibration's error
       (:func:`poi.estimation.covariance.mount_covariance`).
 
-    Sigma_eps, R_mount and Sigma_ext repeat from frame to frame: they are the observation's
-    shared part (``Observation.R_shared``, :mod:`poi.estimation.tracker`).
+    Sigma_c also holds Sigma_reg, the depth image's registration error against the colour image
+    (:func:`registration_depth_variance`). Sigma_reg, Sigma_eps, R_mount and Sigma_ext repeat
+    from frame to frame: they are the observation's shared part (``Observation.R_shared``,
+    :mod:`poi.estimation.tracker`).
 
     None when the frame has no pose or no depth, too little valid depth lies in the box
     (``localize.min_depth_fill``, :func:`box_depth`), the depth
@@ -574,6 +597,10 @@ def localize(
     Sigma_1 = np.diag([sigma_u**2, sigma_v**2, var_d])
     J2 = deprojection_jacobian(point, u, v, d)  # with the centre offset, for a 3-D object
     Sigma_c = camera_covariance(J1, J2, Sigma_1)
+    # the depth image's registration error: its depth is read (du, dv) off the colour box,
+    # the same offset all run long (a shared error), so the box's depth is off by g . (du, dv)
+    Sigma_reg = camera_covariance(np.eye(3), J2, np.diag([0.0, 0.0, registration_depth_variance(J1, var_g, lc)]))
+    Sigma_c = Sigma_c + Sigma_reg
     sigma_lat = lc.extent_sigma_m.get(t, 0.0)
     sigma_ray = lc.extent_ray_sigma_m.get(t, sigma_lat)
     Sigma_ext = extent_covariance(p_c, sigma_lat, sigma_ray)
@@ -592,6 +619,7 @@ def localize(
     # tracker does not average away; the detection and depth noise does not
     R_shared = map_covariance(Sigma_ext, Q, Q0, sigma_eps) + R_mount
     R = map_covariance(Sigma_c, Q, Q0, 0.0) + R_shared
+    R_shared = R_shared + map_covariance(Sigma_reg, Q, Q0, 0.0)  # in Sigma_c, and shared
     return Observation(
         detection=detection,
         timestamp_s=frame.timestamp_s,

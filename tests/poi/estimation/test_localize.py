@@ -117,6 +117,28 @@ def test_against_pyrealsense2_if_installed():
             assert ours.tolist() == pytest.approx(theirs, abs=1e-5)  # float32 in librealsense
 
 
+def test_the_depth_registration_error_of_a_sloping_box_is_a_shared_error():
+    """A wall whose depth grows 4 mm a pixel to the right, seen through a depth image that sits
+    up to a pixel off the colour image (1 px RMS): the box's depth is off by g du, du ~ N(0,
+    1/2), so its variance grows by (g^2 + var(g_u) + var(g_v)) / 2 along dp/dd = p_c / d, all of
+    it in R's shared part, and none without the registration error."""
+    cfg = apply_overrides(load_config(), ["localize.mount_sigma_deg=0", "localize.mount_sigma_m=0"])
+    f = frame()
+    u = np.arange(K.width, dtype=np.float32) + 0.5
+    f.depth_m[:] = 2.0 + 0.004 * (u - 370.0)  # 2.0 m at the box centre
+    d = det((360.0, 230.0, 380.0, 250.0), class_name="qr")
+    on = localize(d, f, apply_overrides(cfg, ["localize.registration_sigma_px=1"]), np.eye(4))
+    off = localize(d, f, apply_overrides(cfg, ["localize.registration_sigma_px=0"]), np.eye(4))
+    assert on.position_cam.tolist() == pytest.approx(off.position_cam.tolist(), abs=1e-12)
+    # the slopes' variance: sigma_z^2 window^2 / sum(du^2) (10 x 10 inner box, sum 825)
+    var_g = depth_sigma_m(on.depth_m, sigma_d_px=0.08, fx_depth_px=384.2, baseline_m=0.05) ** 2 * 49.0 / 825.0
+    var_reg = 0.5 * (0.004**2 + 2.0 * var_g)
+    ray = on.position_cam / on.depth_m
+    assert on.Sigma_c - off.Sigma_c == pytest.approx(var_reg * np.outer(ray, ray), rel=1e-6, abs=1e-15)
+    assert on.R - off.R == pytest.approx(on.R_shared - off.R_shared, abs=1e-15)
+    assert np.trace(on.R - off.R) == pytest.approx(var_reg * ray @ ray, rel=1e-6)
+
+
 def test_localize_places_the_box_centre_in_the_map():
     # R of the sensors alone, the box centre's point (no object offset), a mount known exactly
     sensors_only = [
@@ -142,9 +164,11 @@ def test_localize_places_the_box_centre_in_the_map():
     # flat depth: the depth plane has no slope, so J1 adds nothing; z_c's variance is the depth
     # noise plus the plane's slope error times the centre's, var(g) sigma_u^2 + var(g_v) sigma_v^2,
     # var(g) = sigma_z^2 window^2 / sum(du^2): the inner box is 10 x 10 pixels, du = +-0.5 .. +-4.5,
-    # sum(du^2) = 10 * 82.5 = 825, window 7 px; sigma_u = sigma_v = 1 + 0.03 * 20 px
+    # sum(du^2) = 10 * 82.5 = 825, window 7 px; sigma_u = sigma_v = 1 + 0.03 * 20 px; and the
+    # depth registration's offset (1 px RMS, N(0, 1/2) per axis) times the slopes' error,
+    # (var(g_u) + var(g_v)) / 2 = var(g)
     sigma_z = 4.0 * 0.08 / (384.2 * 0.05)
-    var_d = sigma_z**2 * (1.0 + 2 * 49.0 * 1.6**2 / 825.0)
+    var_d = sigma_z**2 * (1.0 + 2 * 49.0 * 1.6**2 / 825.0 + 49.0 / 825.0)
     assert obs.Sigma_c[2, 2] == pytest.approx(var_d, rel=1e-9)
     # x_c variance: (d/fx)^2 sigma_u^2 + (u - ppx)^2/fx^2 var_d
     expect_xx = (2 / 500) ** 2 * 1.6**2 + (50 / 500) ** 2 * var_d
@@ -158,8 +182,10 @@ def test_localize_places_the_box_centre_in_the_map():
     assert np.allclose(obs.R, obs.R.T)
     t265 = localize(d, frame(pose=pose), apply_overrides(cfg, ["localize.mode=t265"]), T_tc)
     assert t265.R[1, 1] == pytest.approx(var_d + 0.05**2, rel=1e-9)
-    # Sigma_eps repeats from frame to frame: it is the shared part
-    assert obs.R_shared == pytest.approx(0.002**2 * np.eye(3), rel=1e-12)
+    # Sigma_eps and the registration's part of z_c (map y) repeat from frame to frame: they are
+    # the shared part
+    var_reg = sigma_z**2 * 49.0 / 825.0
+    assert obs.R_shared == pytest.approx(0.002**2 * np.eye(3) + var_reg * np.outer([0.1, 1, 0], [0.1, 1, 0]), rel=1e-9)
     # a mount known to 1 degree and 1 cm: q = (0.2, 2, 0) from the camera to the point in the
     # map, R gains s_r^2 (|q|^2 I - q q^T) + s_t^2 I: 4 s_r^2 + s_t^2 across the line of sight
     # (x), 0.04 s_r^2 + s_t^2 along it (y), 4.04 s_r^2 + s_t^2 vertically; shared as well
@@ -362,7 +388,10 @@ def test_the_plane_slope_makes_a_sign_seen_at_an_angle_consistent_where_central_
     about 3). Shape and truncation are off (aspect: {}), so only J1 differs."""
     n = 300
     lo, hi = chi2.ppf([0.005, 0.995], 3 * n) / n  # 99% interval of the mean of n chi2(3)
-    cfg = apply_overrides(load_config(), ["localize.aspect={}", "localize.diamond_types=[]"])
+    # the boxes' depth is read where they are drawn: no registration error
+    cfg = apply_overrides(
+        load_config(), ["localize.aspect={}", "localize.diamond_types=[]", "localize.registration_sigma_px=0"]
+    )
     plane = _sign_nees(cfg, np.random.default_rng(5), n)
     assert lo <= np.mean(plane) <= hi
     central = _sign_nees(apply_overrides(cfg, ["localize.depth_gradient=central"]), np.random.default_rng(5), n)
