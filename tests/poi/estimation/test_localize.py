@@ -135,8 +135,9 @@ def test_the_depth_registration_error_of_a_sloping_box_is_a_shared_error():
     var_reg = 0.5 * (0.004**2 + 2.0 * var_g)
     ray = on.position_cam / on.depth_m
     assert on.Sigma_c - off.Sigma_c == pytest.approx(var_reg * np.outer(ray, ray), rel=1e-6, abs=1e-15)
-    assert on.R - off.R == pytest.approx(on.R_shared - off.R_shared, abs=1e-15)
-    assert np.trace(on.R - off.R) == pytest.approx(var_reg * ray @ ray, rel=1e-6)
+    added = on.R - off.R
+    assert added == pytest.approx(on.R_shared - off.R_shared, abs=1e-15)
+    assert np.trace(added) == pytest.approx(var_reg * ray @ ray, rel=1e-6)
 
 
 def test_localize_places_the_box_centre_in_the_map():
@@ -185,7 +186,8 @@ def test_localize_places_the_box_centre_in_the_map():
     # Sigma_eps and the registration's part of z_c (map y) repeat from frame to frame: they are
     # the shared part
     var_reg = sigma_z**2 * 49.0 / 825.0
-    assert obs.R_shared == pytest.approx(0.002**2 * np.eye(3) + var_reg * np.outer([0.1, 1, 0], [0.1, 1, 0]), rel=1e-9)
+    along_z_c = np.array([0.1, 1.0, 0.0])  # dp/dd = p_c / d in the map frame
+    assert obs.R_shared == pytest.approx(0.002**2 * np.eye(3) + var_reg * np.outer(along_z_c, along_z_c), rel=1e-9)
     # a mount known to 1 degree and 1 cm: q = (0.2, 2, 0) from the camera to the point in the
     # map, R gains s_r^2 (|q|^2 I - q q^T) + s_t^2 I: 4 s_r^2 + s_t^2 across the line of sight
     # (x), 0.04 s_r^2 + s_t^2 along it (y), 4.04 s_r^2 + s_t^2 vertically; shared as well
