@@ -416,9 +416,8 @@ def registration_depth_variance(J1: np.ndarray, var_g: tuple[float, float], lc: 
 
     A D435 maps depth into the colour image through its factory extrinsics; an error of about
     0.1 degree there moves every pixel about 1 px (docs/FACTS.md "D435 depth"). The offset is
-    the same all run long, so a steep sign's depth is off the same way in every view: on the
-    default maze's seed 10, whose draw is 1 px, it left the SLAM's x error at 3-4 cm against a
-    sigma of 1.5-2.5 cm (NEES 3.0 on x) where without it the x NEES is 1.2.
+    the same all run long, so a sloping box's depth is off the same way in every view: it is
+    a shared error (docs/CONSISTENCY.md "The depth registration").
 
     >>> lc = LocalizeConfig(registration_sigma_px=1.0)
     >>> registration_depth_variance(np.array([[1, 0, 0], [0, 1, 0], [0.004, 0.0, 1]]), (0.0, 0.0), lc)
