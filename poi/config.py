@@ -268,7 +268,7 @@ class SlamConfig:
     max_speed_m_s: float = number(1.5, lo=0.0, lo_open=True)
     odometry_latency_s: float = number(0.01, lo=0.0, hi=1.0)
     start_sigma_m: float = number(0.005, lo=0.0, lo_open=True)
-    start_sigma_rad: float = number(0.003, lo=0.0, lo_open=True)
+    start_sigma_rad: float = number(0.0005, lo=0.0, lo_open=True)
     associate_m: float = number(0.5, lo=0.0, lo_open=True)
     n_min: int = number(4, lo=0)
     t_max_s: float = number(3.0, lo=0.0, lo_open=True)

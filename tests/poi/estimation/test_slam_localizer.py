@@ -65,6 +65,28 @@ def test_reported_poses_are_extrapolated_over_the_odometry_latency():
     assert loc.slam.pose == pytest.approx([0.05, 0.0, 0.1], abs=1e-5)
 
 
+def test_with_latency_the_filter_starts_on_the_first_pose_it_can_bring_to_its_frame_time():
+    """Turning at 1 rad/s with 10 ms of latency, the first report is 0.01 rad behind its frame
+    and nothing yet says how fast the robot turns: that frame keeps the odometry (observations
+    as placed, no filter), and the filter starts at the next frame on the extrapolated pose
+    with the start covariance, not 0.57 degrees off it."""
+    cfg = SlamConfig(odometry_latency_s=0.01, start_sigma_m=1e-3, start_sigma_rad=5e-4)
+    loc = SlamLocalizer(cfg)
+    T0 = make_transform(rot_z(0.0), [0.0, 0.0, 0.0])
+    first = loc.step(T0, [_obs([2.0, 0.0, 0.5])], 0.0)
+    assert loc.slam is None
+    assert first.pose == pytest.approx(T0)
+    r_first = first.observations[0].R
+    assert r_first == pytest.approx(0.02**2 * np.eye(3))  # as placed: no pose covariance added
+    loc.step(make_transform(rot_z(0.1), [0.0, 0.0, 0.0]), [], 0.1)  # 0.1 rad in 0.1 s
+    assert loc.slam.pose == pytest.approx([0.0, 0.0, 0.11], abs=1e-9)  # the frame's time
+    assert np.sqrt(loc.slam.pose_covariance[2, 2]) == pytest.approx(5e-4, rel=1e-6)
+    # without latency the first report is the frame's pose: the filter starts at once
+    loc = SlamLocalizer(SlamConfig(odometry_latency_s=0.0))
+    loc.step(T0, [], 0.0)
+    assert loc.slam is not None
+
+
 def test_a_relocalisation_jump_is_not_taken_as_motion():
     # the robot stands still; the odometry jumps 1 m and 5 degrees in 0.1 s (10 m/s): the filter
     # keeps its pose, its covariance takes the jump's size, and the jump is counted
