@@ -24,7 +24,9 @@ collects, with the simulator's truth:
   is confirmed and at the end of the run against the true position of the object most of its
   detections came from (d = 3);
 * ``SLAM pose`` (every frame) and ``SLAM pose end`` (last frame of each run): the filter's
-  (x, y, theta) against the true tracker pose, with the filter's pose covariance (d = 3).
+  (x, y, theta) against the true tracker pose, with the filter's pose covariance (d = 3);
+  ``SLAM pose position`` (d = 2) and ``SLAM pose heading`` (d = 1) split the per-frame one
+  (:func:`pose_part_nees`).
 
 How N is counted. Observations in different frames have independent pixel and depth noise,
 but an object's extent error and the pose error repeat from frame to frame, so per-frame
@@ -101,6 +103,20 @@ def axis_nees(e: np.ndarray, P: np.ndarray) -> np.ndarray:
     """
     lam, V = np.linalg.eigh(np.asarray(P, dtype=float))
     return (V.T @ np.asarray(e, dtype=float)) ** 2 / lam
+
+
+def pose_part_nees(e: np.ndarray, P: np.ndarray) -> dict[str, tuple[int, float]]:
+    """The planar pose error ``e`` = (x, y, theta) split: its position against the position
+    block of ``P`` (d = 2) and its heading against the heading variance (d = 1), each with the
+    other part left free (the marginal). A pose covariance of the right size in sum can be too
+    wide in heading and too thin in position; these rows tell them apart.
+
+    >>> parts = pose_part_nees(np.array([0.1, 0.0, 0.02]), np.diag([0.01, 0.04, 1e-4]))
+    >>> {k: (d, round(v, 3)) for k, (d, v) in parts.items()}
+    {'position': (2, 1.0), 'heading': (1, 4.0)}
+    """
+    e, P = np.asarray(e, dtype=float), np.asarray(P, dtype=float)
+    return {"position": (2, nees(e[:2], P[:2, :2])), "heading": (1, float(e[2] ** 2 / P[2, 2]))}
 
 
 def chi2_interval(n: float, d: int, level: float = LEVEL) -> tuple[float, float]:
@@ -327,6 +343,8 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                 e[2] = wrap_angle(e[2])
                 last_pose = nees(e, s.pose_covariance)
                 samples.add("SLAM pose", POSE_DIM, last_pose, run)
+                for q, (d, value) in pose_part_nees(e, s.pose_covariance).items():
+                    samples.add(f"SLAM pose {q}", d, value, run)
                 pose_series.append(last_pose)
         for tid, (mu, Sigma) in sorted(confirmed_at.items()):
             if votes[tid]:

@@ -27,6 +27,7 @@ from eval.consistency import (
     format_table,
     match_detections,
     nees,
+    pose_part_nees,
 )
 from poi.config import apply_overrides, load_config
 from poi.core.geometry import R_BODY_OPTICAL, make_transform
@@ -130,6 +131,23 @@ def test_an_error_that_lasts_the_run_widens_the_interval_to_near_its_level():
         missed_own += not lo <= mean <= hi
     assert missed_common / reps <= 0.05
     assert missed_own / reps >= 0.10
+
+
+def test_the_pose_parts_tell_a_wide_heading_from_a_thin_position():
+    """Pose errors drawn from diag(1, 1, 1) cm^2 / mrad^2 against a covariance that holds 0.8
+    of the position variance and twice the heading's: the 3-D mean is right (1.25 + 1.25 + 0.5
+    = 3), while the position part is over its interval and the heading part under it."""
+    rng = np.random.default_rng(11)
+    n = 400
+    e = rng.standard_normal((n, 3)) * np.array([0.01, 0.01, 0.001])
+    P = np.diag([0.8e-4, 0.8e-4, 2e-6])
+    whole = np.mean([nees(x, P) for x in e])
+    parts = [pose_part_nees(x, P) for x in e]
+    position = np.mean([p["position"][1] for p in parts])
+    heading = np.mean([p["heading"][1] for p in parts])
+    assert chi2_interval(n, 3)[0] <= whole <= chi2_interval(n, 3)[1]
+    assert position > chi2_interval(n, 2)[1]
+    assert heading < chi2_interval(n, 1)[0]
 
 
 def test_detections_match_the_truth_box_of_their_type():

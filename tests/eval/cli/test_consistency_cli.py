@@ -17,6 +17,8 @@ def test_consistency_writes_the_table_json_and_plot(tmp_path, capsys):
     rows = {r["quantity"]: r for r in doc["rows"]}
     # one pose a frame from frame 1: frame 0 keeps the odometry (the T265 latency; slam_localizer)
     assert rows["SLAM pose"]["n"] == 9 and rows["SLAM pose"]["d"] == 3
+    assert (rows["SLAM pose position"]["d"], rows["SLAM pose heading"]["d"]) == (2, 1)
+    assert rows["SLAM pose position"]["n"] == rows["SLAM pose heading"]["n"] == 9
     assert any(q.startswith("R cam ") for q in rows) and any(q.startswith("R map ") for q in rows)
     for r in rows.values():
         lo, hi = r["interval_99"]
