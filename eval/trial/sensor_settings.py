@@ -120,9 +120,9 @@ def mean_drift_multiplier(sim) -> float:
 
 def sensor_settings(T_tracker_optical_nominal: np.ndarray, sc, drift_multiplier: float) -> list[str]:
     """What a trial tells the pipeline of its sensors, as a team knows them (module docstring):
-    the nominal mount, scenario ``sc``'s mount, depth registration and T265 error sizes and the arena's mean drift
-    multiplier (:func:`mean_drift_multiplier`; a perception record keeps both inputs, so a
-    replay computes the settings with the code of its day)."""
+    the nominal mount, scenario ``sc``'s mount, depth registration and T265 error sizes and
+    the arena's mean drift multiplier (:func:`mean_drift_multiplier`; a perception record keeps
+    both inputs, so a replay computes the settings with the code of its day)."""
     return (
         mount_settings(T_tracker_optical_nominal)
         + mount_prior_settings(sc)

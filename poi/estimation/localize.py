@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from poi.config import LocalizeConfig, PipelineConfig
+from poi.config import PipelineConfig
 from poi.core.sensor_noise import depth_sigma_m
 from poi.core.types import Detection, Frame, Intrinsics, Observation
 from poi.estimation.covariance import (
@@ -407,24 +407,24 @@ def measure_flat_item(
     return centre, hid_w, hid_h
 
 
-def registration_depth_variance(J1: np.ndarray, var_g: tuple[float, float], lc: LocalizeConfig) -> float:
+def registration_depth_variance(grad: tuple[float, float], var_g: tuple[float, float], sigma_px: float) -> float:
     """Variance of a box's depth from the depth image's registration error against the colour
     image: the depth is read (du, dv) pixels off the colour box, each N(0, s^2 / 2) with s =
-    ``localize.registration_sigma_px`` (the offset's RMS length), so it is off by g_u du + g_v dv
-    for the box's depth slopes g (J1's last row), with variance (g_u^2 + var_g_u + g_v^2 +
-    var_g_v) s^2 / 2 (a slope known to var_g, as for the centre's error in :func:`localize`).
+    ``sigma_px`` (``localize.registration_sigma_px``, the offset's RMS length), so it is off by
+    g_u du + g_v dv for the box's depth slopes ``grad`` (J1's last row), with variance (g_u^2 +
+    var_g_u + g_v^2 + var_g_v) s^2 / 2 (a slope known to var_g, as for the centre's error in
+    :func:`localize`).
 
     A D435 maps depth into the colour image through its factory extrinsics; an error of about
     0.1 degree there moves every pixel about 1 px (docs/FACTS.md "D435 depth"). The offset is
     the same all run long, so a sloping box's depth is off the same way in every view: it is
     a shared error (docs/CONSISTENCY.md "The depth registration").
 
-    >>> lc = LocalizeConfig(registration_sigma_px=1.0)
-    >>> registration_depth_variance(np.array([[1, 0, 0], [0, 1, 0], [0.004, 0.0, 1]]), (0.0, 0.0), lc)
+    >>> registration_depth_variance((0.004, 0.0), (0.0, 0.0), 1.0)
     8e-06
     """
-    s2 = 0.5 * lc.registration_sigma_px**2
-    return float(s2 * (J1[2, 0] ** 2 + var_g[0] + J1[2, 1] ** 2 + var_g[1]))
+    s2 = 0.5 * sigma_px**2
+    return float(s2 * (grad[0] ** 2 + var_g[0] + grad[1] ** 2 + var_g[1]))
 
 
 def extent_covariance(p_c: np.ndarray, sigma_lat_m: float, sigma_ray_m: float) -> np.ndarray:
@@ -598,7 +598,8 @@ def localize(
     Sigma_c = camera_covariance(J1, J2, Sigma_1)
     # the depth image's registration error: its depth is read (du, dv) off the colour box,
     # the same offset all run long (a shared error), so the box's depth is off by g . (du, dv)
-    Sigma_reg = camera_covariance(np.eye(3), J2, np.diag([0.0, 0.0, registration_depth_variance(J1, var_g, lc)]))
+    var_reg = registration_depth_variance((J1[2, 0], J1[2, 1]), var_g, lc.registration_sigma_px)
+    Sigma_reg = camera_covariance(np.eye(3), J2, np.diag([0.0, 0.0, var_reg]))
     Sigma_c = Sigma_c + Sigma_reg
     sigma_lat = lc.extent_sigma_m.get(t, 0.0)
     sigma_ray = lc.extent_ray_sigma_m.get(t, sigma_lat)
