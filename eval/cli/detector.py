@@ -318,10 +318,12 @@ def cmd_evaluate_labels(args) -> int:
     from tqdm import tqdm
 
     from eval.detector.label_eval import (
+        accuracy_by_size,
         confusion_summary,
         fold_confusion,
         label_confusion,
         load_folders,
+        size_matched_accuracy,
         write_outputs,
     )
     from eval.detector.quality import DetectorQualityError, _model_metadata, model_training_seeds
@@ -350,8 +352,10 @@ def cmd_evaluate_labels(args) -> int:
         if seed is not None and seed in seeds:
             print(f"note: {args.label_model} was trained on scenes of seed {seed}, as {folder.root} was rendered")
         with tqdm(total=len(folder.images), desc=folder.name, unit="img", disable=args.quiet) as bar:
-            conf, conf_labels, small = label_confusion(classifier, folder.images, args.min_px, bar.update)
+            by_size, conf_labels, small = label_confusion(classifier, folder.images, args.min_px, bar.update)
+        conf = by_size.sum(axis=0)
         labels_only = fold_confusion(conf_labels, args.absent)
+        sizes = accuracy_by_size(np.array([fold_confusion(c, args.absent) for c in by_size]))
         rows.append(
             {
                 "name": folder.name,
@@ -361,6 +365,8 @@ def cmd_evaluate_labels(args) -> int:
                 "small_left_out": small,
                 **confusion_summary(fold_confusion(conf, args.absent)),
                 "accuracy_labels_only": round(float(np.trace(labels_only) / max(labels_only.sum(), 1)), 4),
+                "by_size": sizes,
+                "size_matched_accuracy": size_matched_accuracy(sizes, rows[0]["by_size"] if rows else sizes),
                 "confusion_unfolded": conf.tolist(),
             }
         )

@@ -30,7 +30,12 @@ and names:
 
 Reported per folder: crops, right names, accuracy with its 95% Wilson
 interval ([Wilson1927]_), per-class recall with the most frequent wrong name, and the most
-frequent confusions; ``summary.json``, ``report.md`` (the printed Markdown
+frequent confusions; the accuracy in each band of box size (the shorter side of the
+labelled box: 0-20, 20-40, 40-80, 80+ px, the bands of ``evaluate-photos``), and for
+every folder after the first its accuracy at the first folder's mix of box sizes
+(:func:`size_matched_accuracy`): rendered frames show many placards far smaller than
+hand-held photos do, and a classifier that cannot read a 15 px placard says nothing
+about how real the renders look. ``summary.json``, ``report.md`` (the printed Markdown
 table) and one ``confusion_NAME.png`` a folder.
 
 References
@@ -52,6 +57,7 @@ import cv2
 import numpy as np
 
 from eval.detector.label_data import BACKGROUND_INDEX, MIN_BOX_PX, RESCUE_TO_LABEL, image_key, read_holdout
+from eval.detector.metrics import SIZE_BINS_PX
 from eval.detector.photos import REAL_SET_FOLD, PhotoFolder, load_folder
 from eval.detector.quality import DetectorQualityError, LabelledImage, plot_confusion
 from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
@@ -67,11 +73,12 @@ def label_confusion(
     min_px: float = MIN_BOX_PX,
     progress: Callable[[int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """((17, 17) counts, rows true label, columns the classifier's name; the same with the most
-    probable label named, background not allowed; boxes left out as too small) over every
-    labelled hazmat box of ``images``."""
+    """((B, 17, 17) counts per band of box size (:data:`SIZE_BINS_PX`, B bands), rows true
+    label, columns the classifier's name; (17, 17) counts with the most probable label named,
+    background not allowed; boxes left out as too small) over every labelled hazmat box of
+    ``images``."""
     n = len(LABEL_CLASSES)
-    conf = np.zeros((n, n), dtype=np.int64)
+    conf = np.zeros((len(SIZE_BINS_PX) - 1, n, n), dtype=np.int64)
     conf_labels = np.zeros((n, n), dtype=np.int64)
     small = 0
     for im in images:
@@ -83,12 +90,13 @@ def label_confusion(
                 raise DetectorQualityError(f"{im.path}: not a readable image")
             rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
             px = im.boxes_px(rgb.shape[1], rgb.shape[0])  # (G, 4)
-            big = np.minimum(px[:, 2] - px[:, 0], px[:, 3] - px[:, 1]) >= min_px
-            small += int(np.sum(keep & ~big))
-            keep &= big
+            side = np.minimum(px[:, 2] - px[:, 0], px[:, 3] - px[:, 1])  # (G,)
+            small += int(np.sum(keep & (side < min_px)))
+            keep &= side >= min_px
             if keep.any():
                 q = classifier.classify(rgb, px[keep])  # (K, 17)
-                np.add.at(conf, (labels[keep], q.argmax(axis=1)), 1)
+                band = np.searchsorted(SIZE_BINS_PX, side[keep], side="right") - 1  # (K,)
+                np.add.at(conf, (band, labels[keep], q.argmax(axis=1)), 1)
                 np.add.at(conf_labels, (labels[keep], np.delete(q, BACKGROUND_INDEX, axis=1).argmax(axis=1)), 1)
         if progress:
             progress(1)
@@ -112,6 +120,43 @@ def fold_confusion(conf: np.ndarray, absent: str) -> np.ndarray:
             M[i, i], M[i, LABEL_CLASSES.index(into)] = 0, 1
         out = M.T @ out @ M
     return out
+
+
+def accuracy_by_size(conf_by_size: np.ndarray) -> list[dict]:
+    """Crops, right names and accuracy (None without crops) in each band of box size, from
+    (B, 17, 17) counts per band (:func:`label_confusion`, folded)."""
+    rows = []
+    for b, conf in enumerate(conf_by_size):
+        lo, hi = SIZE_BINS_PX[b], SIZE_BINS_PX[b + 1]
+        n, right = int(conf.sum()), int(np.trace(conf))
+        rows.append(
+            {
+                "band_px": f"{lo:g}+" if math.isinf(hi) else f"{lo:g}-{hi:g}",
+                "crops": n,
+                "right": right,
+                "accuracy": round(right / n, 4) if n else None,
+            }
+        )
+    return rows
+
+
+def size_matched_accuracy(by_size: list[dict], reference: list[dict]) -> float | None:
+    """The accuracy of ``by_size`` at ``reference``'s mix of box sizes (direct
+    standardisation): sum_b w_b a_b, with a_b the accuracy in band b and w_b the reference's
+    share of crops in it, over the bands where both have crops (weights renormalised to 1).
+    None when they share no band.
+
+    >>> ref = [{"crops": 1, "accuracy": 1.0}, {"crops": 2, "accuracy": 0.5}]
+    >>> size_matched_accuracy([{"crops": 2, "accuracy": 0.5}, {"crops": 1, "accuracy": 1.0}], ref)
+    0.8333
+    """
+    pairs = [
+        (r["crops"], b["accuracy"]) for b, r in zip(by_size, reference, strict=True) if b["crops"] and r["crops"]
+    ]
+    total = sum(w for w, _ in pairs)
+    if not total:
+        return None
+    return round(sum(w * a for w, a in pairs) / total, 4)
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float] | None:
@@ -209,6 +254,12 @@ def _cell(entry: dict | None) -> str:
     return f"{100 * entry['recall']:.0f}% ({entry['right']}/{entry['crops']})"
 
 
+def _band_cell(entry: dict) -> str:
+    if not entry["crops"]:
+        return "-"
+    return f"{100 * entry['accuracy']:.0f}% ({entry['right']}/{entry['crops']})"
+
+
 def format_markdown(summary: dict) -> str:
     """The per-class table (recall, right / crops) side by side across folders, then each
     folder's top confusions."""
@@ -232,6 +283,15 @@ def format_markdown(summary: dict) -> str:
     lines.append("| all | " + " | ".join(overall) + " |")
     no_bg = [f"{100 * f['accuracy_labels_only']:.1f}%" if f["crops"] else "-" for f in folders]
     lines.append("| all, background not allowed | " + " | ".join(no_bg) + " |")
+    if len(folders) > 1:
+        matched = ["(reference)"] + [
+            "-" if f["size_matched_accuracy"] is None else f"{100 * f['size_matched_accuracy']:.1f}%"
+            for f in folders[1:]
+        ]
+        lines.append(f"| all, at {folders[0]['name']}'s box sizes | " + " | ".join(matched) + " |")
+    for b, band in enumerate(folders[0]["by_size"]):
+        cells = [f["by_size"][b] for f in folders]
+        lines.append(f"| boxes {band['band_px']} px | " + " | ".join(_band_cell(c) for c in cells) + " |")
     for label in LABEL_CLASSES:
         cells = [f["per_class"].get(label) for f in folders]
         if any(cells):

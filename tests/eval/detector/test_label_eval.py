@@ -265,3 +265,33 @@ def test_evaluate_labels_errors_are_one_line(tmp_path, photos, capsys):
     (other / HOLDOUT_NAME).write_text(json.dumps({"folders": {"/elsewhere": ["a.png"]}}))
     assert main([*base, "--data", str(photos), "--holdout-of", str(other)]) == 2
     assert "none of which is a --data folder" in capsys.readouterr().err
+
+
+def test_evaluate_labels_by_box_size_and_at_the_first_folders_sizes(tmp_path):
+    """ref: a 30 px explosive (right), 100 px explosive (right) and 100 px poison (named
+    background): 20-40 px 1 of 1, 80+ px 1 of 2. other: 30 px explosive (right) and poison
+    (wrong), 100 px explosive (right): 1 of 2 and 1 of 1, 2 of 3 in all, and at ref's sizes
+    (1/3 of its crops 20-40 px, 2/3 80+) 1/3 * 0.5 + 2/3 * 1.0 = 0.8333."""
+    ref, other = tmp_path / "ref", tmp_path / "other"
+    _photo(ref, "a", [("explosive", RED, (10, 10, 40, 40)), ("explosive", RED, (90, 90, 190, 190))])
+    _photo(ref, "b", [("poison", BLUE, (50, 50, 150, 150))])
+    _photo(other, "a", [("explosive", RED, (10, 10, 40, 40)), ("poison", BLUE, (100, 10, 130, 40))])
+    _photo(other, "b", [("explosive", RED, (50, 50, 150, 150))])
+    model = _colour_model(tmp_path / "colour.onnx")
+    out = tmp_path / "out"
+    argv = ["evaluate-labels", "--label-model", str(model), "--data", str(ref), str(other), "--out", str(out)]
+    assert main([*argv, "--quiet"]) == 0
+    a, b = json.loads((out / "summary.json").read_text())["folders"]
+    assert [(r["band_px"], r["crops"], r["right"]) for r in a["by_size"]] == [
+        ("0-20", 0, 0),
+        ("20-40", 1, 1),
+        ("40-80", 0, 0),
+        ("80+", 2, 1),
+    ]
+    assert [(r["crops"], r["right"]) for r in b["by_size"]] == [(0, 0), (2, 1), (0, 0), (1, 1)]
+    assert (b["right"], b["crops"]) == (2, 3)
+    assert b["size_matched_accuracy"] == pytest.approx(0.8333)
+    assert a["size_matched_accuracy"] == pytest.approx(2 / 3, abs=1e-4)  # itself at its own sizes
+    report = (out / "report.md").read_text()
+    assert "| all, at ref's box sizes | (reference) | 83.3% |" in report
+    assert "| boxes 80+ px | 50% (1/2) | 100% (1/1) |" in report
