@@ -279,8 +279,6 @@ class SlamConfig:
             "fire-extinguisher-sign",
             "hazmat",
             "qr",
-            "valve",
-            "door",
             "pillar-blue",
             "pillar-red",
             "pillar-green",
