@@ -78,8 +78,7 @@ def odometry_latency_settings(sc) -> list[str]:
 def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
     """The SLAM's priors on its odometry's systematic errors (``slam.scale_sigma``,
     ``drift_sigma``, ``drift_sigma_per_sqrt_m``, ``heading_drift_sigma``,
-    ``heading_drift_sigma_per_sqrt_m``, ``height_drift_sigma_per_m``, ``tilt_sigma_deg``) and
-    its white heading noise (``sigma_theta_rad``, ``sigma_theta_per_rad``) for
+    ``heading_drift_sigma_per_sqrt_m``, ``height_drift_sigma_per_m``, ``tilt_sigma_deg``) for
     the scenario's T265, whose drift is ``drift_multiplier`` times its good-light figures on average in the
     arena.
 
@@ -89,12 +88,10 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
     drifts at ``yaw_drift_deg_per_m`` times the multiplier with a sign drawn once (no random
     walk), its height at a rate drawn once with sigma ``z_drift_fraction`` times the
     multiplier, its roll and pitch within ``tilt_sigma_deg``; distances are ``1 + scale_error``
-    times the truth. Its heading has no random walk per frame and no error per radian
-    turned (its jitter is white and does not accumulate), so ``slam.sigma_theta_rad`` and
-    ``sigma_theta_per_rad`` are 0; ``sigma_theta_per_m`` keeps the pipeline's default, for the
-    yaw of relocalisations too small to be caught as jumps. With them the default maze's
-    SLAM heading NEES was 0.28 against [0.61, 1.51] (README "Covariance consistency").
-    With the noise off the T265 is
+    times the truth. The SLAM's white heading noise (``slam.sigma_theta_*``) keeps the
+    pipeline's defaults: the simulated heading does not walk as the robot turns, but over
+    whole runs the SLAM's heading came out over-confident without it (README "Covariance
+    consistency"). With the noise off the T265 is
     exact and every prior is 0 (the SLAM leaves those states out). Wheel odometry keeps the
     pipeline's defaults (a wheel's errors are not this model's).
 
@@ -115,8 +112,6 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
         "slam.heading_drift_sigma_per_sqrt_m=0",
         f"slam.height_drift_sigma_per_m={on * t.z_drift_fraction * drift_multiplier:.6g}",
         f"slam.tilt_sigma_deg={on * t.tilt_sigma_deg:.6g}",
-        "slam.sigma_theta_rad=0",
-        "slam.sigma_theta_per_rad=0",
     ]
 
 
