@@ -279,6 +279,8 @@ class SlamConfig:
             "fire-extinguisher-sign",
             "hazmat",
             "qr",
+            "valve",
+            "door",
             "pillar-blue",
             "pillar-red",
             "pillar-green",

@@ -88,10 +88,7 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
     drifts at ``yaw_drift_deg_per_m`` times the multiplier with a sign drawn once (no random
     walk), its height at a rate drawn once with sigma ``z_drift_fraction`` times the
     multiplier, its roll and pitch within ``tilt_sigma_deg``; distances are ``1 + scale_error``
-    times the truth. The SLAM's white heading noise (``slam.sigma_theta_*``) keeps the
-    pipeline's defaults: the simulated heading does not walk as the robot turns, but over
-    whole runs the SLAM's heading came out over-confident without it (README "Covariance
-    consistency"). With the noise off the T265 is
+    times the truth. With the noise off the T265 is
     exact and every prior is 0 (the SLAM leaves those states out). Wheel odometry keeps the
     pipeline's defaults (a wheel's errors are not this model's).
 

@@ -14,7 +14,7 @@ from poi.estimation.slam_localizer import SlamLocalizer
 
 
 def _obs(p_map, sigma=0.02) -> Observation:
-    det = make_detection("exit-sign", (100.0, 100.0, 120.0, 120.0), 0.9, source="test", class_probs=None)
+    det = make_detection("valve", (100.0, 100.0, 120.0, 120.0), 0.9, source="test", class_probs=None)
     p = np.asarray(p_map, dtype=float)
     return Observation(
         detection=det,
@@ -30,14 +30,14 @@ def _obs(p_map, sigma=0.02) -> Observation:
 def test_observations_are_mapped_with_the_pose_before_their_own_update():
     loc = SlamLocalizer(SlamConfig(n_min=0, start_sigma_m=1e-4, start_sigma_rad=1e-4, odometry_latency_s=0.0))
     T0 = np.eye(4)
-    loc.step(T0, [_obs([2.0, 0.0, 0.5])], 0.0)  # the sign becomes a landmark at (2, 0)
-    # odometry says the robot moved 0.5 m along x; the sign is seen 0.1 m off where the map has it
+    loc.step(T0, [_obs([2.0, 0.0, 0.5])], 0.0)  # the valve becomes a landmark at (2, 0)
+    # odometry says the robot moved 0.5 m along x; the valve is seen 0.1 m off where the map has it
     T1 = make_transform(rot_z(0.0), [0.5, 0.0, 0.0])
     step = loc.step(T1, [_obs([2.1, 0.0, 0.5])], 1.0)  # 0.5 m/s: motion, not a jump
     slam = loc.slam
     before = np.array([0.5, 0.0, 0.0])  # the predicted pose: odometry exactly, the start being exact
     after = planar_pose(step.pose)
-    assert after[0] < before[0] - 1e-3  # the update moved the robot back towards the sign's map position
+    assert after[0] < before[0] - 1e-3  # the update moved the robot back towards the valve's map position
     # the observation keeps its place relative to the odometry pose, moved by the predicted pose
     # (here the odometry pose itself), not by the updated one
     assert step.observations[0].position_map == pytest.approx([2.1, 0.0, 0.5], abs=1e-6)
@@ -104,7 +104,7 @@ def test_a_relocalisation_jump_is_not_taken_as_motion():
 
 
 def test_the_height_drift_grows_r_on_z_with_the_distance_travelled():
-    # 0.5 m steps at 0.5 m/s along x; after 10 m a sign's R gains (0.003 * 10)^2 on z, shared
+    # 0.5 m steps at 0.5 m/s along x; after 10 m a valve's R gains (0.003 * 10)^2 on z, shared
     cfg = SlamConfig(odometry_latency_s=0.0, height_drift_sigma_per_m=0.003, tilt_sigma_deg=0.0, landmark_types=[])
     loc = SlamLocalizer(cfg)
     for k in range(21):
@@ -126,7 +126,7 @@ def test_the_height_drift_grows_r_on_z_with_the_distance_travelled():
 
 
 def test_the_tilt_error_moves_a_point_ahead_up_and_down_by_its_distance():
-    # a sign 2 m ahead of the tracker (map x), at its height: a 0.5 degree tilt gives
+    # a valve 2 m ahead of the tracker (map x), at its height: a 0.5 degree tilt gives
     # (2 * 0.5 deg)^2 on z only, beside the run with no tilt
     def run(tilt: float):
         loc = SlamLocalizer(
