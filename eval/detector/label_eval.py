@@ -57,7 +57,7 @@ import cv2
 import numpy as np
 
 from eval.detector.label_data import BACKGROUND_INDEX, MIN_BOX_PX, RESCUE_TO_LABEL, image_key, read_holdout
-from eval.detector.metrics import SIZE_BINS_PX
+from eval.detector.metrics import SIZE_BINS_PX, size_band_label
 from eval.detector.photos import REAL_SET_FOLD, PhotoFolder, load_folder
 from eval.detector.quality import DetectorQualityError, LabelledImage, plot_confusion
 from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
@@ -127,11 +127,10 @@ def accuracy_by_size(conf_by_size: np.ndarray) -> list[dict]:
     (B, 17, 17) counts per band (:func:`label_confusion`, folded)."""
     rows = []
     for b, conf in enumerate(conf_by_size):
-        lo, hi = SIZE_BINS_PX[b], SIZE_BINS_PX[b + 1]
         n, right = int(conf.sum()), int(np.trace(conf))
         rows.append(
             {
-                "band_px": f"{lo:g}+" if math.isinf(hi) else f"{lo:g}-{hi:g}",
+                "band_px": size_band_label(b),
                 "crops": n,
                 "right": right,
                 "accuracy": round(right / n, 4) if n else None,

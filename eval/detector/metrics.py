@@ -248,6 +248,16 @@ def confusion_counts(images: list[ImageBoxes], n_classes: int, conf: float, iou_
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, float("inf"))
 
 
+def size_band_label(band: int, bins: tuple[float, ...] = SIZE_BINS_PX) -> str:
+    """The name of band ``band`` of ``bins`` (pixels): "20-40", or "80+" for the open last one.
+
+    >>> [size_band_label(b) for b in (0, 3)]
+    ['0-20', '80+']
+    """
+    lo, hi = bins[band], bins[band + 1]
+    return f"{lo:g}+" if math.isinf(hi) else f"{lo:g}-{hi:g}"
+
+
 def recall_by_size(
     images: list[ImageBoxes],
     group_of_class: list[str],
@@ -289,11 +299,10 @@ def recall_by_size(
                 n_found_right[2] += int(dcls[matched[g]] == c)
     rows = []
     for (group, band), (n, found, right) in sorted(counts.items()):
-        lo, hi = bins[band], bins[band + 1]
         rows.append(
             {
                 "group": group,
-                "band_px": f"{lo:g}+" if math.isinf(hi) else f"{lo:g}-{hi:g}",
+                "band_px": size_band_label(band, bins),
                 "n": n,
                 "found": round(found / n, 4),
                 "right_class": round(right / n, 4),
