@@ -266,6 +266,8 @@ class SlamConfig:
     height_drift_sigma_per_m: float = number(0.002, lo=0.0)
     tilt_sigma_deg: float = number(0.3, lo=0.0, hi=90.0)
     max_speed_m_s: float = number(1.5, lo=0.0, lo_open=True)
+    relocalisation_speed_sigma_m_s: float = number(0.05, lo=0.0)
+    relocalisation_turn_sigma_rad_s: float = number(0.25, lo=0.0)
     odometry_latency_s: float = number(0.01, lo=0.0, hi=1.0)
     start_sigma_m: float = number(0.005, lo=0.0, lo_open=True)
     start_sigma_rad: float = number(0.0005, lo=0.0, lo_open=True)

@@ -210,7 +210,7 @@ class Pipeline:
         t2 = time.perf_counter()
         timing["localize"] = 1e3 * (t2 - t1)
         if self.slam is not None:
-            corrected = self.slam.step(frame.pose, observations, frame.timestamp_s)
+            corrected = self.slam.step(frame.pose, observations, frame.timestamp_s, frame.pose_relocalised)
             observations = corrected.observations
             frame = dataclasses.replace(frame, pose=corrected.pose)
             t_slam = time.perf_counter()

@@ -655,10 +655,11 @@ class Simulation:
             )
         if T_map_rig is None:
             t_s, pose, confidence = float(self.times_s[k]), self.pose_track.poses[k], self.pose_track.confidence[k]
+            relocalised = bool(self.pose_track.relocalised[k])
             T_map_tracker = self.T_map_tracker_true[k]
         else:
             T_map_tracker = T_map_rig @ self._T_rig_tracker
-            t_s, pose, confidence = 0.0, T_map_tracker, "high"
+            t_s, pose, confidence, relocalised = 0.0, T_map_tracker, "high", False
         frame = Frame(
             index=k,
             timestamp_s=t_s,
@@ -667,6 +668,7 @@ class Simulation:
             depth_m=depth,
             pose=pose,
             pose_confidence=confidence,
+            pose_relocalised=relocalised,
             thermal_c=thermal,
             thermal_intrinsics=self.thermal_intrinsics if thermal is not None else None,
         )

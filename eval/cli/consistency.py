@@ -1,8 +1,10 @@
-"""``poibench consistency [SCENARIO] [--suite NAME] [--frames N] [--runs M] [--seed S] [--fit-extents]``.
+"""``poibench consistency [SCENARIO] [--suite NAME] [--frames N|all] [--runs M] [--seed S] [--fit-extents]``.
 
 Monte Carlo NEES of the pipeline's covariances against the simulator's truth
 (:mod:`eval.consistency`): prints the table (quantity, N, d, mean NEES, its chi-square 99%
 interval, inside?) and writes ``consistency.json`` and ``consistency.png`` to ``--out``.
+``--frames all`` runs each scenario to its end (what happens late in a run, such as the
+T265's loop closures, is outside the first few hundred frames).
 A SCENARIO (file or shipped name, default the built-in one) runs ``--runs`` times with seeds
 S, S + 1, ...; ``--suite`` (repeatable) runs the first ``--runs`` scenarios of each suite with
 their own seeds (or S, S + 1, ... when ``--seed`` is given: other mazes of the same kind; then
@@ -23,6 +25,16 @@ DEFAULT_FRAMES = 600
 DEFAULT_RUNS = 2
 
 
+def frame_count(text: str) -> int | None:
+    """``--frames``: a whole number, or ``all`` (None: each run to its end)."""
+    if text.strip().lower() == "all":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of frames or 'all', got {text!r}") from None
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "consistency",
@@ -38,7 +50,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="run the first --runs scenarios of this suite (e.g. rrl-hard) instead; repeatable; with --seed, "
         "--runs may exceed the suite's size (its scenarios again, with fresh seeds)",
     )
-    p.add_argument("--frames", type=int, default=DEFAULT_FRAMES, help=f"frames per run (default {DEFAULT_FRAMES})")
+    p.add_argument(
+        "--frames",
+        type=frame_count,
+        default=DEFAULT_FRAMES,
+        help=f"frames per run, or 'all': each run to its end (default {DEFAULT_FRAMES})",
+    )
     p.add_argument("--runs", type=int, default=DEFAULT_RUNS, help=f"number of runs (default {DEFAULT_RUNS})")
     p.add_argument(
         "--seed",
@@ -92,7 +109,7 @@ def cmd_consistency(args: argparse.Namespace) -> int:
     from eval.trial.scenarios import resolve_scenario, split_settings
     from sim.scenario import apply_settings
 
-    if args.frames < 1:
+    if args.frames is not None and args.frames < 1:
         raise ConsistencyError(f"--frames: expected a positive number of frames, got {args.frames}")
     if args.runs < 1:
         raise ConsistencyError(f"--runs: expected a positive number of runs, got {args.runs}")
@@ -128,9 +145,9 @@ def cmd_consistency(args: argparse.Namespace) -> int:
         sys.stdout.write("\n" + format_fits(fits) + "\n" + "\n".join(f"--set '{x}'" for x in sets) + "\n")
         extra["extent_fit"] = {"fits": [dataclasses.asdict(f) for f in fits], "settings": sets}
     meta = {
-        "title": f"{title}, {len(scenarios)} run(s) x {args.frames} frames",
+        "title": f"{title}, {len(scenarios)} run(s) x {'all' if args.frames is None else args.frames} frames",
         "scenario": title,
-        "frames_per_run": args.frames,
+        "frames_per_run": "all" if args.frames is None else args.frames,
         "settings": args.set,
         **extra,
     }

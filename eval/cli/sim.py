@@ -117,6 +117,7 @@ def cmd_render(args) -> int:
                     "t_s": round(frame.timestamp_s, 6),
                     "pose": None if frame.pose is None else np.round(frame.pose, 6).tolist(),
                     "pose_confidence": frame.pose_confidence,
+                    "pose_relocalised": frame.pose_relocalised,
                     "true_T_map_camera": np.round(truth.T_map_camera, 6).tolist(),
                     "objects": [
                         {

@@ -56,7 +56,9 @@ import numpy as np
 
 from poi.core.types import Detection, Frame, Intrinsics
 
-CACHE_FORMAT = 3  # 2: detections carry class_probs over 29 classes (landolt-c added); 3: drift_multiplier
+# 2: detections carry class_probs over 29 classes (landolt-c added); 3: drift_multiplier;
+# 4: frames carry pose_relocalised
+CACHE_FORMAT = 4
 CONF_FLOOR = 0.05  # ONNX detections are recorded down to this score; detector.conf below it runs in full
 TILE_PX = 32
 MAGIC = b"POIBPCR\x00"
@@ -200,6 +202,7 @@ class FrameRecord:
     timestamp_s: float
     pose: np.ndarray | None
     pose_confidence: str
+    pose_relocalised: bool
     depth: TiledDepth | None
     detections: list[Detection]  # every detector's, in order; the ONNX detector's down to the floor
     qr_texts: dict[tuple[float, float, float, float], str]  # box -> text read, for QR boxes without text
@@ -237,6 +240,7 @@ class PerceptionRecord:
                 depth_m=f.depth,
                 pose=None if f.pose is None else f.pose.copy(),
                 pose_confidence=f.pose_confidence,
+                pose_relocalised=f.pose_relocalised,
             )
             yield frame, f.T_map_tracker_true
 

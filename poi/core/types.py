@@ -95,6 +95,9 @@ class Frame:
 
     ``pose`` is None when the tracking camera gave no pose for this frame
     (dropout); the pipeline then skips localisation for the frame.
+    ``pose_relocalised`` is True when the tracking camera relocalised (its pose jumped)
+    since the last frame with a pose, as librealsense's pose-relocalisation notification
+    tells; False where the source cannot tell (a recording without notifications).
     """
 
     index: int
@@ -104,6 +107,7 @@ class Frame:
     depth_m: np.ndarray | None = None
     pose: np.ndarray | None = None
     pose_confidence: str = "high"
+    pose_relocalised: bool = False
     thermal_c: np.ndarray | None = None
     thermal_intrinsics: Intrinsics | None = None
 

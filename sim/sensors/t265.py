@@ -35,7 +35,10 @@ the two samples around it (positions linearly, rotations by slerp): a stale pose
 pipeline that reads the latest pose at a frame's arrival gets. With ``latency_extrapolate``
 the same two samples are extrapolated to t_k (constant velocity, as librealsense's pose
 prediction does). Dropouts (Poisson, 3-7 s) deliver no pose, confidence "low"; frames
-within 2 s after a false jump have confidence "medium". With noise off the pose is the
+within 2 s after a false jump have confidence "medium". A frame whose pose is the first to
+include a jump (a loop closure or a false one) since the last frame with a pose is flagged
+``relocalised``: the real device tells the host of each relocalisation (librealsense's
+RS2_NOTIFICATION_CATEGORY_POSE_RELOCALIZATION, [IntelNotifications]). With noise off the pose is the
 truth at t_k.
 """
 
@@ -63,6 +66,9 @@ class PoseTrack:
     confidence: list[str]
     error_m: np.ndarray  # |p_meas - p_true| per frame (NaN in dropouts), for reports
     relocalisations_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  # loop-closure times
+    # per frame: the pose jumped (a loop closure or a false relocalisation) since the last frame
+    # that had a pose, as librealsense's pose-relocalisation notification tells a pipeline
+    relocalised: list[bool] = field(default_factory=list)
 
 
 @dataclass(kw_only=True)
@@ -154,10 +160,17 @@ def simulate_t265(
     t_s = np.asarray(t_s, dtype=float)
     n = len(t_s)
     if not spec.enabled:
-        return PoseTrack(poses=[None] * n, confidence=["failed"] * n, error_m=np.full(n, np.nan))
+        return PoseTrack(
+            poses=[None] * n, confidence=["failed"] * n, error_m=np.full(n, np.nan), relocalised=[False] * n
+        )
     T_frames = truth(t_s)
     if not noise:
-        return PoseTrack(poses=[T.copy() for T in T_frames], confidence=["high"] * n, error_m=np.zeros(n))
+        return PoseTrack(
+            poses=[T.copy() for T in T_frames],
+            confidence=["high"] * n,
+            error_m=np.zeros(n),
+            relocalised=[False] * n,
+        )
 
     dt = 1.0 / spec.rate_hz
     t0 = (np.floor((t_s[0] - spec.latency_s) / dt) - 1.0) * dt  # samples at multiples of dt: own clock
@@ -212,6 +225,7 @@ def simulate_t265(
     cum = np.cumsum(inc, axis=0)
     p_est = p_true[0] + cum + offset
     reloc_t: list[float] = []
+    jump_samples = list(np.searchsorted(grid, jump_t, side="left"))  # first sample each jump moves
     if rel.enabled and len(kf) > 1 and rel.probability > 0:
         yaw_true = np.arctan2(Tg[:, 1, 0], Tg[:, 0, 0])
         max_dyaw = np.deg2rad(rel.max_heading_deg)
@@ -235,6 +249,7 @@ def simulate_t265(
             cum[ia + 1 :] = cum[ia] + np.cumsum(inc[ia + 1 :], axis=0)
             p_est[ia:] = p_true[0] + cum[ia:] + offset[ia:]
             reloc_t.append(float(grid[ia]))
+            jump_samples.append(int(ia))
     p_est = p_est + jitter_p
 
     tilt = np.deg2rad(spec.tilt_sigma_deg)
@@ -260,4 +275,30 @@ def simulate_t265(
     err[dropped] = np.nan
     poses = [None if dropped[k] else T_out[k] for k in range(n)]
     conf = ["low" if dropped[k] else "medium" if recent_jump[k] else "high" for k in range(n)]
-    return PoseTrack(poses=poses, confidence=conf, error_m=err, relocalisations_s=np.array(reloc_t))
+    return PoseTrack(
+        poses=poses,
+        confidence=conf,
+        error_m=err,
+        relocalisations_s=np.array(reloc_t),
+        relocalised=relocalised_frames(np.asarray(jump_samples, dtype=int), ia + 1, dropped),
+    )
+
+
+def relocalised_frames(jump_samples: np.ndarray, last_sample: np.ndarray, dropped: np.ndarray) -> list[bool]:
+    """Per frame: whether its pose is the first since the last delivered one to include a jump.
+    ``jump_samples``: the first sample index each jump moves; ``last_sample``: the latest
+    sample index each frame's pose is made from; ``dropped``: frames without a pose.
+
+    >>> relocalised_frames(np.array([5]), np.array([2, 4, 5, 7]), np.zeros(4, bool))
+    [False, False, True, False]
+    >>> relocalised_frames(np.array([5]), np.array([2, 4, 5, 7]), np.array([False, False, True, False]))
+    [False, False, False, True]
+    """
+    seen = np.searchsorted(np.sort(jump_samples), last_sample, side="right")  # jumps in each pose
+    out: list[bool] = []
+    before = None  # jumps in the last delivered pose
+    for count, gone in zip(seen, dropped, strict=True):
+        out.append(bool(not gone and before is not None and count > before))
+        if not gone:
+            before = int(count)
+    return out

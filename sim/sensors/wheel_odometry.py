@@ -76,9 +76,11 @@ def simulate_wheel_odometry(
     """
     n = len(T_true)
     if n == 0:
-        return PoseTrack(poses=[], confidence=[], error_m=np.zeros(0))
+        return PoseTrack(poses=[], confidence=[], error_m=np.zeros(0), relocalised=[])
     if not noise:
-        return PoseTrack(poses=[T.copy() for T in T_true], confidence=["high"] * n, error_m=np.zeros(n))
+        return PoseTrack(
+            poses=[T.copy() for T in T_true], confidence=["high"] * n, error_m=np.zeros(n), relocalised=[False] * n
+        )
     rot1, trans, rot2 = motion_steps(T_true)
     b = spec.wheel_base_m
     gain_r = (1.0 + spec.wheel_radius_error) / (1.0 + spec.wheel_radius_mismatch / 2.0)
@@ -118,4 +120,4 @@ def simulate_wheel_odometry(
         p = np.array([x, y, Tt[2, 3]])
         poses.append(make_transform(rot_z(th - th_true) @ Tt[:3, :3], p))
         err[k] = float(np.linalg.norm(p - Tt[:3, 3]))
-    return PoseTrack(poses=poses, confidence=["high"] * n, error_m=err)
+    return PoseTrack(poses=poses, confidence=["high"] * n, error_m=err, relocalised=[False] * n)

@@ -26,10 +26,32 @@ def test_consistency_writes_the_table_json_and_plot(tmp_path, capsys):
     assert (out / "consistency.png").stat().st_size > 10_000
 
 
+def test_frames_all_runs_each_scenario_to_its_end(tmp_path):
+    out = tmp_path / "c"
+    # the default maze cut to 1.2 s: 13 frames at 10 frames a second
+    args = [
+        "consistency",
+        "--frames",
+        "all",
+        "--runs",
+        "1",
+        "--set",
+        "robot.max_duration_s=1.2",
+        "--out",
+        str(out),
+    ]
+    assert main(args) == 0
+    doc = json.loads((out / "consistency.json").read_text())
+    assert doc["frames"] == 13 and doc["frames_per_run"] == "all"
+
+
 def test_consistency_refuses_bad_arguments_in_one_line(tmp_path, capsys):
     assert main(["consistency", "--frames", "0", "--out", str(tmp_path / "c")]) == 2
     err = capsys.readouterr().err.strip()
     assert err == "poibench consistency: error: --frames: expected a positive number of frames, got 0"
+    with pytest.raises(SystemExit):
+        main(["consistency", "--frames", "most", "--out", str(tmp_path / "c")])
+    assert "--frames: expected a number of frames or 'all', got 'most'" in capsys.readouterr().err
     assert main(["consistency", "default", "--suite", "rrl-hard", "--out", str(tmp_path / "c")]) == 2
     assert "SCENARIO or --suite" in capsys.readouterr().err
 

@@ -89,15 +89,26 @@ def test_with_latency_the_filter_starts_on_the_first_pose_it_can_bring_to_its_fr
 
 def test_a_relocalisation_jump_is_not_taken_as_motion():
     # the robot stands still; the odometry jumps 1 m and 5 degrees in 0.1 s (10 m/s): the filter
-    # keeps its pose, its covariance takes the jump's size, and the jump is counted
-    cfg = SlamConfig(start_sigma_m=1e-3, start_sigma_rad=1e-3, odometry_latency_s=0.0, max_speed_m_s=1.5)
+    # keeps its pose (the last clean increment's motion: none yet), its covariance takes what a
+    # change of speed and turn rate over the frame may miss (0.05 m/s and 0.25 rad/s sigma, 0.1 s),
+    # not the jump's size, and the jump is counted
+    cfg = SlamConfig(
+        start_sigma_m=1e-3,
+        start_sigma_rad=1e-3,
+        odometry_latency_s=0.0,
+        max_speed_m_s=1.5,
+        sigma_xy_m=0.0,
+        sigma_theta_rad=0.0,
+        relocalisation_speed_sigma_m_s=0.05,
+        relocalisation_turn_sigma_rad_s=0.25,
+    )
     loc = SlamLocalizer(cfg)
     loc.step(np.eye(4), [], 0.0)
     loc.step(make_transform(rot_z(np.deg2rad(5.0)), [1.0, 0.0, 0.0]), [], 0.1)
     assert loc.jumps == 1
     assert loc.slam.pose == pytest.approx([0.0, 0.0, 0.0], abs=1e-9)
-    assert np.sqrt(loc.slam.pose_covariance[0, 0]) == pytest.approx(1.0, rel=0.01)
-    assert np.sqrt(loc.slam.pose_covariance[2, 2]) == pytest.approx(np.deg2rad(5.0), rel=0.01)
+    assert np.sqrt(loc.slam.pose_covariance[0, 0]) == pytest.approx(np.hypot(1e-3, 0.005), rel=0.01)
+    assert np.sqrt(loc.slam.pose_covariance[2, 2]) == pytest.approx(np.hypot(1e-3, 0.025), rel=0.01)
     # 0.1 m in 0.1 s is motion
     loc.step(make_transform(rot_z(np.deg2rad(5.0)), [1.1, 0.0, 0.0]), [], 0.2)
     assert loc.jumps == 1 and loc.slam.pose[0] == pytest.approx(0.1 * np.cos(np.deg2rad(0.0)), abs=0.01)
@@ -138,3 +149,45 @@ def test_the_tilt_error_moves_a_point_ahead_up_and_down_by_its_distance():
 
     d = run(0.5).R - run(0.0).R
     np.testing.assert_allclose(d, np.diag([0.0, 0.0, (2.0 * np.deg2rad(0.5)) ** 2]), atol=1e-15)
+
+
+def _drive(loc: SlamLocalizer, jump_deg: float, announce: bool) -> tuple[float, float, float]:
+    """Drive along x at 0.3 m/s, 10 frames a second, the odometry exact but for a loop closure
+    at 15 m that turns its heading by ``jump_deg`` from then on: the filter's heading variance
+    before the closure's frame and after the next, and its heading then (rad)."""
+    for k in range(502):
+        if k == 500:
+            var_before = float(loc.slam.pose_covariance[2, 2])
+        heading = np.deg2rad(jump_deg) if k >= 500 else 0.0
+        T = make_transform(rot_z(heading), [0.03 * k, 0.0, 0.0])
+        loc.step(T, [], 0.1 * k, relocalised=announce and k == 500)
+    return var_before, float(loc.slam.pose_covariance[2, 2]), float(loc.slam.pose[2])
+
+
+def test_an_announced_loop_closure_is_not_taken_as_motion():
+    # the T265 jumps 1 degree back toward an earlier error: announced, the filter drives on at
+    # its last velocity over that frame and the next, its heading widened by one and then two
+    # changes of the turn rate (sigma 0.25 rad/s over 0.1 s frames); unannounced, it turns with
+    # the odometry
+    cfg = SlamConfig(
+        odometry_latency_s=0.01,
+        start_sigma_m=1e-3,
+        start_sigma_rad=1e-4,
+        sigma_theta_rad=0.0,
+        sigma_theta_per_rad=0.0,
+        sigma_theta_per_m=0.0,
+        heading_drift_sigma=np.deg2rad(0.1),
+        drift_sigma=0.01,
+        relocalisation_turn_sigma_rad_s=0.25,
+    )
+    told = SlamLocalizer(cfg)
+    before, after, heading = _drive(told, 1.0, announce=True)
+    assert told.relocalisations == 1 and told.jumps == 0
+    assert heading == pytest.approx(0.0, abs=1e-9)  # straight on: the jump is no turn
+    blind = SlamLocalizer(cfg)
+    before_b, after_b, heading_b = _drive(blind, 1.0, announce=False)
+    assert blind.relocalisations == 0 and heading_b == pytest.approx(np.deg2rad(1.0), abs=1e-9)
+    # the two frames add (1 + 4) x (0.25 rad/s x 0.1 s)^2 to the heading's variance, besides
+    # what the heading drift state adds over 6 cm (the unannounced run's growth)
+    assert after_b - before_b < 0.01 * (after - before)
+    assert (after - before) - (after_b - before_b) == pytest.approx(5 * 0.025**2, rel=0.01)

@@ -175,6 +175,14 @@ def test_relocalisation_pulls_the_error_back_on_a_second_lap():
     # every keyframe of lap 2 closes the loop on lap 1: the error is lap 1's, not twice it
     assert np.mean(tr_on.error_m[lap2]) < 0.6 * np.mean(tr_off.error_m[lap2])
     assert np.allclose(tr_on.error_m[t_s < 36.0], tr_off.error_m[t_s < 36.0])
+    # each loop closure is announced once, on the first frame whose pose holds its jump: that
+    # of t_k - latency, interpolated between the samples around it, so within a frame and a
+    # sample after the closure
+    flagged = t_s[np.array(tr_on.relocalised)]
+    assert len(flagged) == len(tr_on.relocalisations_s)
+    lag = flagged - np.asarray(tr_on.relocalisations_s) - on.latency_s
+    assert np.all(lag > -1.0 / on.rate_hz) and np.all(lag <= 0.1 + 1e-9)
+    assert not any(tr_off.relocalised)
 
 
 def test_scale_error_dropouts_clean_mode_and_determinism():
