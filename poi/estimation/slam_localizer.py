@@ -14,17 +14,17 @@ wheel odometry, drift included):
    extrapolated (no velocity yet): that frame keeps the odometry's pose and observations,
    and the filter starts at the next one, on its extrapolated pose with the start
    covariance (it started on the stale report, up to a degree off during a turn against a
-   start sigma of 0.17 degrees, and frame 0's pose NEES reached 36). An increment faster than
-   ``slam.max_speed_m_s`` is a relocalisation jump of the tracker (the T265 jumps back
-   toward a place it recognises), not motion: the filter does not move, and its process
-   noise gets the jump's size, so the landmarks decide where it is. A relocalisation the
+   start sigma of 0.17 degrees, and frame 0's pose NEES reached 36). A relocalisation the
    odometry announces (``Frame.pose_relocalised``) is a loop closure: the pose jumped back
-   toward the error it had at a place passed before, too little to stand out by speed
+   toward the error it had at a place passed before, often too little to stand out by speed
    (rrl's: 3-5 cm and a degree). The jump is no motion, and the filter, whose drift states
    already take the odometry's drift out, must not follow it: the increments of that frame
    and the next (the pose interpolation may split the jump between them) are replaced by
    the last clean one (:func:`lost_increment`), and both frames are extrapolated over the
-   latency at the velocity before the jump. Taken as motion, a 1-degree loop closure put a
+   latency at the velocity before the jump. An increment faster than ``slam.max_speed_m_s``
+   is an unannounced jump (a false relocalisation) and is replaced the same way, for its
+   frame alone; it had held the filter still with the jump's size as noise, which lost the
+   turn the robot made in that frame. Taken as motion, a 1-degree loop closure put a
    whole rrl run's heading NEES at 13, and taking it with the noise of the drift it removes
    made `rrl-hard`'s 1.1 m closure (hard-02) a heading error of degrees (README
    "Covariance consistency");
@@ -97,10 +97,11 @@ def corrected_pose(T_odom: np.ndarray, odom: np.ndarray, planar: np.ndarray) -> 
 
 
 def lost_increment(
-    previous: np.ndarray | None, dt_prev: float, dt: float, n: int, cfg: SlamConfig
+    previous: tuple[np.ndarray, float] | None, dt: float, n: int, cfg: SlamConfig
 ) -> tuple[np.ndarray, tuple[float, float]]:
     """The increment of a frame whose odometry jumped, the ``n``-th such frame in a row, and
-    the standard deviations (m, rad) of its error: the last clean increment scaled to this
+    the standard deviations (m, rad) of its error: the last clean increment ``previous``
+    (increment, its duration) scaled to this
     frame's duration (constant velocity), off by n changes of the robot's speed and turn rate
     from frame to frame (``slam.relocalisation_speed_sigma_m_s``,
     ``slam.relocalisation_turn_sigma_rad_s``, times ``dt`` each: the velocity walks, so the
@@ -108,14 +109,14 @@ def lost_increment(
 
     >>> from poi.config import SlamConfig
     >>> cfg = SlamConfig(relocalisation_speed_sigma_m_s=0.05, relocalisation_turn_sigma_rad_s=0.25)
-    >>> d, s = lost_increment(np.array([0.01, 0.0, 0.02]), 0.05, 0.1, 2, cfg)
+    >>> d, s = lost_increment((np.array([0.01, 0.0, 0.02]), 0.05), 0.1, 2, cfg)
     >>> d.tolist(), [round(x, 6) for x in s]
     ([0.02, 0.0, 0.04], [0.01, 0.05])
     """
     sigma = (n * cfg.relocalisation_speed_sigma_m_s * dt, n * cfg.relocalisation_turn_sigma_rad_s * dt)
-    if previous is None or dt_prev <= 0.0:
+    if previous is None or previous[1] <= 0.0:
         return np.zeros(3), sigma
-    return previous * (dt / dt_prev), sigma
+    return previous[0] * (dt / previous[1]), sigma
 
 
 class SlamLocalizer:
@@ -136,32 +137,27 @@ class SlamLocalizer:
         self._lost = 0  # frames in a row whose increment was replaced (lost_increment)
         self._velocity: tuple[np.ndarray, float] | None = None  # last two reports' difference, time
 
-    def frame_time_odometry(self, odom: np.ndarray, t_s: float, jumped: bool = False) -> np.ndarray:
-        """The reported planar pose extrapolated over ``slam.odometry_latency_s`` at the
-        velocity of the last two reports: the pose at the frame's time (what librealsense's
-        pose prediction does). At frame 0, or with latency 0, the pose as reported. When the
-        odometry jumped the last two reports straddle the jump, so the velocity before it is
-        kept."""
-        lat = self.cfg.odometry_latency_s
-        if lat <= 0.0 or self._last_odometry is None or t_s <= self._last_t_s:
-            return odom
-        d = odom - self._last_odometry
-        d[2] = wrap_angle(d[2])
-        dt = t_s - self._last_t_s
-        if jumped and self._velocity is not None:
-            d, dt = self._velocity
-        out = odom + d * (lat / dt)
-        out[2] = wrap_angle(out[2])
-        return out
-
-    def _velocity_of(self, reported: np.ndarray, t_s: float, jumped: bool) -> tuple[np.ndarray, float] | None:
-        """The velocity (difference, time) the next frame extrapolates with: the last two
-        reports', or the one before a jump."""
-        if self._last_odometry is None or t_s <= self._last_t_s or (jumped and self._velocity is not None):
-            return self._velocity
+    def _report_difference(self, reported: np.ndarray, t_s: float) -> tuple[np.ndarray, float] | None:
+        """The difference of this report from the last (heading wrapped) and the time between
+        them; None at the first report or when the time did not advance."""
+        if self._last_odometry is None or t_s <= self._last_t_s:
+            return None
         d = reported - self._last_odometry
         d[2] = wrap_angle(d[2])
         return d, t_s - self._last_t_s
+
+    def frame_time_odometry(self, odom: np.ndarray, velocity: tuple[np.ndarray, float] | None) -> np.ndarray:
+        """The reported planar pose extrapolated over ``slam.odometry_latency_s`` at
+        ``velocity`` (a difference of two reports and the time between them): the pose at the
+        frame's time (what librealsense's pose prediction does). Without a velocity (frame 0),
+        or with latency 0, the pose as reported."""
+        lat = self.cfg.odometry_latency_s
+        if lat <= 0.0 or velocity is None:
+            return odom
+        d, dt = velocity
+        out = odom + d * (lat / dt)
+        out[2] = wrap_angle(out[2])
+        return out
 
     def step(
         self, T_odom: np.ndarray, observations: list[Observation], t_s: float, relocalised: bool = False
@@ -177,7 +173,11 @@ class SlamLocalizer:
             self.relocalisations += 1
             self._jumped = 2
         jumped = self._jumped > 0
-        odom = self.frame_time_odometry(reported, t_s, jumped)
+        # the velocity to extrapolate with: the last two reports', or, when the odometry jumped
+        # and they straddle the jump, the one before it
+        current = self._report_difference(reported, t_s)
+        before_jump = current if current is None or self._velocity is None else self._velocity
+        odom = self.frame_time_odometry(reported, before_jump if jumped else current)
         if self.slam is None:
             self.slam = UkfSlam(self.cfg, pose0=tuple(odom))
         else:
@@ -188,23 +188,21 @@ class SlamLocalizer:
                 # relocalisation); this frame's extrapolation over the latency held it too
                 self.jumps += 1
                 jumped, self._jumped = True, 1
-                odom = self.frame_time_odometry(reported, t_s, jumped)
+                odom = self.frame_time_odometry(reported, before_jump)
             if jumped:
                 # the increment holds the motion and the jump, which no model here can part:
                 # the motion is taken as the last clean increment's, and the filter learns
                 # what that may miss (lost_increment)
                 self._lost += 1
-                prev = self._last_increment
-                delta, sigma = lost_increment(
-                    None if prev is None else prev[0], 0.0 if prev is None else prev[1], dt, self._lost, self.cfg
-                )
+                delta, sigma = lost_increment(self._last_increment, dt, self._lost, self.cfg)
                 self.slam.predict(delta, extra_sigma=sigma)
             else:
                 self._lost = 0
                 self.slam.predict(delta)
                 self._last_increment = (delta, dt)
             self.distance_m += float(np.hypot(delta[0], delta[1]))
-        self._velocity = self._velocity_of(reported, t_s, jumped)
+        if current is not None:
+            self._velocity = before_jump if jumped else current
         self._jumped = max(self._jumped - 1, 0)
         self._last_odometry, self._last_t_s, self._last_filter_odometry = reported, t_s, odom
         odom = reported  # the observations were placed with the reported pose

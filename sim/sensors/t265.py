@@ -68,7 +68,7 @@ class PoseTrack:
     relocalisations_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  # loop-closure times
     # per frame: the pose jumped (a loop closure or a false relocalisation) since the last frame
     # that had a pose, as librealsense's pose-relocalisation notification tells a pipeline
-    relocalised: list[bool] = field(default_factory=list)
+    relocalised: list[bool]
 
 
 @dataclass(kw_only=True)
