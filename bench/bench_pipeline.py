@@ -10,7 +10,8 @@ the figures are the pipeline's own cost. With ``--model FILE.onnx`` (and
 classifier) it also times the ONNX detector on every tenth frame, stage by
 stage (letterbox, network, decoding and NMS, placard labels); with ``--slam`` the pipeline runs in ``localize.mode:
 slam``. At the end it times the UKF-SLAM alone ([Bouda2025]_ 2.2) with ``--landmarks``
-mapped landmarks (default 40), five of them observed per step. Run:
+mapped landmarks (default 40), five of them observed per step, without and with view biases
+(observations with a shared part). Run:
 ``python bench/bench_pipeline.py``.
 
 References
@@ -145,12 +146,15 @@ def main() -> None:
         )
         for k, v in onnx_stages.items():
             print(f"  {k:26s} mean {np.mean(v[1:]):7.3f} ms   p90 {np.percentile(v[1:], 90):7.3f} ms")
-    bench_slam(args.landmarks)
+    for shared in (False, True):
+        bench_slam(args.landmarks, shared)
 
 
-def bench_slam(n_landmarks: int, visible: int = 5, steps: int = 500) -> None:
-    """The UKF-SLAM's predict and update with ``n_landmarks`` in the state (n = 3 + 2L),
-    ``visible`` of them observed per step, on a robot driving a circle among them."""
+def bench_slam(n_landmarks: int, shared: bool, visible: int = 5, steps: int = 500) -> None:
+    """The UKF-SLAM's predict and update with ``n_landmarks`` in the state, ``visible`` of
+    them observed per step, on a robot driving a circle among them. ``shared``: each
+    observation's R has a shared part (half of it), so every landmark carries a view bias
+    (n = r + 4L, r the robot's states); otherwise n = r + 2L."""
     from poi.config import SlamConfig
     from poi.estimation.slam import LandmarkObservation, UkfSlam, rot2
 
@@ -158,8 +162,14 @@ def bench_slam(n_landmarks: int, visible: int = 5, steps: int = 500) -> None:
     names = [f"lm{i}" for i in range(n_landmarks)]
     truth = rng.uniform(-6, 6, (n_landmarks, 2))
     slam = UkfSlam(SlamConfig(n_min=1))
+    S = 0.5 if shared else None
     slam.observe(
-        [LandmarkObservation(class_name=c, xy=p, R=0.01 * np.eye(2)) for c, p in zip(names, truth, strict=True)],
+        [
+            LandmarkObservation(
+                class_name=c, xy=p, R=0.01 * np.eye(2), R_shared=None if S is None else S * 0.01 * np.eye(2)
+            )
+            for c, p in zip(names, truth, strict=True)
+        ],
         0.0,
     )
     robot = np.zeros(3)
@@ -173,6 +183,7 @@ def bench_slam(n_landmarks: int, visible: int = 5, steps: int = 500) -> None:
                 class_name=names[i],
                 xy=rot2(robot[2]).T @ (truth[i] - robot[:2]) + rng.normal(0, 0.03, 2),
                 R=0.03**2 * np.eye(2),
+                R_shared=None if S is None else S * 0.03**2 * np.eye(2),
             )
             for i in seen
         ]
@@ -184,7 +195,11 @@ def bench_slam(n_landmarks: int, visible: int = 5, steps: int = 500) -> None:
         t_pred.append(1e3 * (t1 - t0))
         t_obs.append(1e3 * (t2 - t1))
     tot = np.add(t_pred, t_obs)
-    print(f"UKF-SLAM alone: {n_landmarks} landmarks (state n = {slam.n}), {visible} seen per step, {steps} steps")
+    what = "with view biases" if shared else "without shared parts"
+    print(
+        f"UKF-SLAM alone, {what}: {len(slam.landmarks)} of {n_landmarks} landmarks mapped at the end "
+        f"(state n = {slam.n}), {visible} seen per step, {steps} steps"
+    )
     for name, v in (("slam predict", t_pred), ("slam update", t_obs), ("slam predict + update", tot)):
         print(f"{name:28s} mean {np.mean(v):7.3f} ms   p90 {np.percentile(v, 90):7.3f} ms")
 

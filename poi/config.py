@@ -274,6 +274,8 @@ class SlamConfig:
     associate_m: float = number(0.5, lo=0.0, lo_open=True)
     n_min: int = number(4, lo=0)
     t_max_s: float = number(3.0, lo=0.0, lo_open=True)
+    shared_errors: bool = True
+    view_decorrelation_deg: float = number(10.0, lo=0.0, lo_open=True)
     max_range_m: float = number(4.0, lo=0.0, lo_open=True)
     landmark_types: list[str] = field(
         default_factory=lambda: [

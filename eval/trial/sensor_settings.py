@@ -78,7 +78,8 @@ def odometry_latency_settings(sc) -> list[str]:
 def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
     """The SLAM's priors on its odometry's systematic errors (``slam.scale_sigma``,
     ``drift_sigma``, ``drift_sigma_per_sqrt_m``, ``heading_drift_sigma``,
-    ``heading_drift_sigma_per_sqrt_m``, ``height_drift_sigma_per_m``, ``tilt_sigma_deg``) for
+    ``heading_drift_sigma_per_sqrt_m``, ``height_drift_sigma_per_m``, ``tilt_sigma_deg``) and
+    its white heading noise (``sigma_theta_rad``, ``sigma_theta_per_rad``) for
     the scenario's T265, whose drift is ``drift_multiplier`` times its good-light figures on average in the
     arena.
 
@@ -88,7 +89,10 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
     drifts at ``yaw_drift_deg_per_m`` times the multiplier with a sign drawn once (no random
     walk), its height at a rate drawn once with sigma ``z_drift_fraction`` times the
     multiplier, its roll and pitch within ``tilt_sigma_deg``; distances are ``1 + scale_error``
-    times the truth. With the noise off the T265 is
+    times the truth. Its heading does not walk as the robot turns, and its jitter does not add
+    up from frame to frame, so the white heading noise of the SLAM's Q_c is 0
+    (``slam.sigma_theta_rad``, ``sigma_theta_per_rad``; the defaults are for a tracker whose
+    gyro may walk). With the noise off the T265 is
     exact and every prior is 0 (the SLAM leaves those states out). Wheel odometry keeps the
     pipeline's defaults (a wheel's errors are not this model's).
 
@@ -109,6 +113,8 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
         "slam.heading_drift_sigma_per_sqrt_m=0",
         f"slam.height_drift_sigma_per_m={on * t.z_drift_fraction * drift_multiplier:.6g}",
         f"slam.tilt_sigma_deg={on * t.tilt_sigma_deg:.6g}",
+        "slam.sigma_theta_rad=0",
+        "slam.sigma_theta_per_rad=0",
     ]
 
 

@@ -88,6 +88,26 @@ Where this departs from the document, on purpose:
   pose error is counted as independent information, and the map and pose become
   over-confident (measured with ``poibench consistency``: README, "Covariance
   consistency").
+* View biases (``shared_errors``, on by default). Eq. 19 takes each observation's error
+  as fresh. Much of it is not: the offset between an object's reference point and where
+  its depth and box put it (the side of a valve or door in view), and the mount's error,
+  repeat from frame to frame while the landmark is seen from about one direction
+  (``LandmarkObservation.R_shared``). Taken as fresh, a landmark mapped from one side and
+  seen again from another pulls the pose by the difference of the two offsets frame after
+  frame while the pose covariance shrinks as if they averaged away (`rrl-hard`'s hard-02:
+  a valve mapped 37 cm off moved the heading 1.4 degrees in seven frames). Each landmark
+  mapped with a shared part carries a view bias ``b`` in the state, ``x = [..., l_1, ...,
+  l_n, b_1, ..., b_n]``, which its observations add: ``h = R(theta)^T (l + b - p)``, with R's
+  fresh part ``R - R_shared``. It is a time-correlated (coloured) measurement noise taken
+  into the state ([BarShalom2001]_), correlated not over time but over the direction it is
+  seen from: a first-order Gauss-Markov process in the view bearing phi (the direction from
+  the landmark to the robot), ``E[b(phi) b(phi')^T] = S exp(-|phi - phi'| / phi_c)`` with
+  ``phi_c = view_decorrelation_deg`` and S the observation's shared part in the map frame
+  (:meth:`UkfSlam._move_view`). Frames seen from one place add the fresh noise's worth; a
+  robot that drives past, or comes back from the other side, sees a new bias. A promoted
+  landmark's bias starts with covariance ``S = J_z R_shared J_z^T`` and cross-covariance
+  ``-S`` with the landmark (:meth:`UkfSlam._augment`). The state grows by 4 per landmark
+  instead of 2.
 
 References
 ----------
@@ -135,21 +155,29 @@ class SlamError(ValueError):
 @dataclass(kw_only=True)
 class LandmarkObservation:
     """A static object seen from the robot: position (x_l, y_l) in the robot frame, its
-    2x2 covariance, and its class (association is per class)."""
+    2x2 covariance R, and its class (association is per class). ``R_shared``, when given, is
+    the part of R whose error repeats from frame to frame while the landmark is seen from
+    about one direction (the object's extent, the mount: :attr:`poi.core.types.Observation.R_shared`
+    in the robot frame); the rest, ``R - R_shared``, is fresh each frame (module docstring,
+    "View biases")."""
 
     class_name: str
     xy: np.ndarray
     R: np.ndarray
+    R_shared: np.ndarray | None = None  # the part of R that repeats from one direction
 
 
 @dataclass(kw_only=True)
 class Landmark:
-    """A mapped landmark: its slot in the state (``robot_dim + 2 * slot``) and class."""
+    """A mapped landmark: its slot in the state (``robot_dim + 2 * slot``; its view bias, if
+    any, at :meth:`UkfSlam.bias_index`) and class."""
 
     slot: int
     class_name: str
     n_seen: int
     last_seen_s: float
+    # where the robot was (map frame) after the landmark's last update: the view its bias is of
+    view_from: np.ndarray = field(default_factory=lambda: np.zeros(2))
 
 
 @dataclass(kw_only=True)
@@ -205,10 +233,30 @@ def _symmetric(P: np.ndarray) -> np.ndarray:
     return 0.5 * (P + P.T)
 
 
+def check_observation(o: LandmarkObservation) -> None:
+    """Raise :class:`SlamError` unless xy is 2 finite values, R and R_shared (when given)
+    finite 2x2, and R - R_shared positive semidefinite (the fresh part is a covariance)."""
+    finite = bool(np.all(np.isfinite(o.xy)) and np.all(np.isfinite(o.R)))
+    if o.xy.shape != (2,) or o.R.shape != (2, 2) or not finite:
+        raise SlamError(f"landmark observation of {o.class_name!r}: expected finite xy (2,) and R (2, 2)")
+    if o.R_shared is None:
+        return
+    if o.R_shared.shape != (2, 2) or not np.all(np.isfinite(o.R_shared)):
+        raise SlamError(f"landmark observation of {o.class_name!r}: expected a finite R_shared (2, 2)")
+    if np.linalg.eigvalsh(_symmetric(o.R - o.R_shared))[0] < -1e-12 * max(1.0, float(np.trace(o.R))):
+        raise SlamError(f"landmark observation of {o.class_name!r}: R_shared exceeds R (R - R_shared not >= 0)")
+
+
+def fresh_covariance(o: LandmarkObservation) -> np.ndarray:
+    """The part of an observation's R that is fresh each frame: ``R - R_shared``."""
+    return o.R if o.R_shared is None else _symmetric(o.R - o.R_shared)
+
+
 class UkfSlam:
-    """The filter. ``x`` (robot_dim + 2n,) and ``P`` are the state and covariance (robot_dim:
-    the pose's 3 and the odometry error parameters switched on); ``landmarks`` the mapped
-    ones by slot, ``candidates`` the candidate map."""
+    """The filter. ``x`` (robot_dim + 2n + 2m,) and ``P`` are the state and covariance
+    (robot_dim: the pose's 3 and the odometry error parameters switched on; n landmarks, then
+    the view biases of the m of them in ``biased``); ``landmarks`` the mapped ones by slot,
+    ``candidates`` the candidate map."""
 
     def __init__(self, params: SlamConfig, pose0: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         self.params = params
@@ -227,6 +275,8 @@ class UkfSlam:
         self.P = np.diag(np.square(sd0))
         self.landmarks: list[Landmark] = []
         self.candidates: list[Candidate] = []
+        # slots of the landmarks with a view bias, in the order of their bias states (after the landmarks)
+        self.biased: list[int] = []
         self._points: MerweScaledSigmaPoints = sigma_points(self.robot_dim, params)
         self.repairs = 0  # times P had no Cholesky factor and was repaired (see the module docstring)
 
@@ -265,6 +315,17 @@ class UkfSlam:
     def landmark_covariance(self, slot: int) -> np.ndarray:
         i = self.robot_dim + 2 * slot
         return self.P[i : i + 2, i : i + 2].copy()
+
+    def bias_index(self, slot: int) -> int:
+        """Index in the state of landmark ``slot``'s view bias (which it must have)."""
+        return self.robot_dim + 2 * len(self.landmarks) + 2 * self.biased.index(slot)
+
+    def view_bias(self, slot: int) -> np.ndarray | None:
+        """The estimated view bias (map frame, m) of landmark ``slot``; None if it has none."""
+        if slot not in self.biased:
+            return None
+        i = self.bias_index(slot)
+        return self.x[i : i + 2].copy()
 
     def _sigmas(self) -> np.ndarray:
         try:
@@ -422,22 +483,28 @@ class UkfSlam:
         return self.landmark_xy(entry.slot) if isinstance(entry, Landmark) else entry.xy
 
     def _update(self, pairs: list[tuple[int, int]], observations: list[LandmarkObservation]) -> None:
-        """Eq. 8 with h of eq. 17 for the associated landmarks, R block-diagonal (eq. 19)."""
+        """Eq. 8 with h of eq. 17 for the associated landmarks, R block-diagonal (eq. 19).
+        For a landmark with a view bias, h observes the landmark moved by it,
+        ``R(theta)^T (l + b - p)``, and R is the observation's fresh part (module docstring)."""
         chi = _unwrap_heading(self._sigmas())
         k = len(pairs)
         slots = np.array([slot for _, slot in pairs])
         cols = self.robot_dim + 2 * slots
         L = np.stack([chi[:, cols], chi[:, cols + 1]], axis=2)  # (2n+1, k, 2)
+        R = np.zeros((2 * k, 2 * k))
+        z = np.empty(2 * k)
+        for m, (i, slot) in enumerate(pairs):
+            o = observations[i]
+            if slot in self.biased:
+                b = self.bias_index(slot)
+                L[:, m, :] += chi[:, b : b + 2]
+            R[2 * m : 2 * m + 2, 2 * m : 2 * m + 2] = fresh_covariance(o) if slot in self.biased else o.R
+            z[2 * m : 2 * m + 2] = o.xy
         d = L - chi[:, None, :2]
         c, s = np.cos(chi[:, 2])[:, None], np.sin(chi[:, 2])[:, None]
         Z = np.empty((chi.shape[0], 2 * k))
         Z[:, 0::2] = c * d[:, :, 0] + s * d[:, :, 1]
         Z[:, 1::2] = -s * d[:, :, 0] + c * d[:, :, 1]
-        R = np.zeros((2 * k, 2 * k))
-        z = np.empty(2 * k)
-        for m, (i, _) in enumerate(pairs):
-            R[2 * m : 2 * m + 2, 2 * m : 2 * m + 2] = observations[i].R
-            z[2 * m : 2 * m + 2] = observations[i].xy
         Wm, Wc = self._points.Wm, self._points.Wc
         mu_z, Pz = unscented_transform(Z, Wm, Wc, R)
         dx = chi - self.x
@@ -449,25 +516,52 @@ class UkfSlam:
         self.P = _symmetric(self.P - K @ Pz @ K.T)
 
     def observe(self, observations: list[LandmarkObservation], t_s: float) -> ObserveResult:
-        """Associate, update, grow the candidate map and promote (2.2.4-2.2.5)."""
+        """Associate, step the view biases of the associated landmarks to this view, update,
+        grow the candidate map and promote (2.2.4-2.2.5)."""
         for o in observations:
-            finite = bool(np.all(np.isfinite(o.xy)) and np.all(np.isfinite(o.R)))
-            if o.xy.shape != (2,) or o.R.shape != (2, 2) or not finite:
-                raise SlamError(f"landmark observation of {o.class_name!r}: expected finite xy (2,) and R (2, 2)")
+            check_observation(o)
         result = ObserveResult()
         classes = [o.class_name for o in observations]
         pts = [self.to_map(o.xy) for o in observations]
         pairs = self._associate(pts, classes, self.landmarks)
         if pairs:
             result.associated = sorted(pairs.items())
+            for i, slot in result.associated:
+                if slot in self.biased:
+                    self._move_view(slot, observations[i].R_shared)
             self._update(result.associated, observations)
             for _, slot in result.associated:
                 self.landmarks[slot].n_seen += 1
                 self.landmarks[slot].last_seen_s = t_s
+                self.landmarks[slot].view_from = self.x[:2].copy()
         rest = [i for i in range(len(observations)) if i not in pairs]
         result.to_candidates = rest
         self._grow_candidates([observations[i] for i in rest], t_s, result)
         return result
+
+    # --- view biases ---------------------------------------------------------------------
+    def _move_view(self, slot: int, R_shared: np.ndarray | None) -> None:
+        """Landmark ``slot``'s view bias, as the robot's view of it turned by ``dphi`` since its
+        last update: a first-order Gauss-Markov step ``b <- a b + sqrt(1 - a^2) w`` with
+        ``a = exp(-dphi / view_decorrelation_deg)`` and w of the observation's shared
+        covariance S (map frame): the bias's mean and its rows and columns of P are scaled by a,
+        and ``(1 - a^2) S`` is added to its block. ``dphi`` is the angle between the lines of
+        sight from the landmark to the robot after its last update and now (predicted, before
+        this frame's update, so that only the robot's motion turns it). A robot that stops or
+        turns in place keeps its view, and the bias; one that drives past or comes back from
+        elsewhere sees the object from another side."""
+        l = self.landmark_xy(slot)
+        r, r0 = self.x[:2] - l, self.landmarks[slot].view_from - l
+        if R_shared is None or not np.any(r) or not np.any(r0):
+            return
+        dphi = abs(float(np.arctan2(r0[0] * r[1] - r0[1] * r[0], r0 @ r)))
+        a = float(np.exp(-dphi / np.deg2rad(self.params.view_decorrelation_deg)))
+        i = self.bias_index(slot)
+        J = rot2(self.x[2])
+        self.x[i : i + 2] *= a
+        self.P[i : i + 2, :] *= a
+        self.P[:, i : i + 2] *= a
+        self.P[i : i + 2, i : i + 2] += (1.0 - a * a) * _symmetric(J @ R_shared @ J.T)
 
     # --- map update (2.2.5) --------------------------------------------------------------
     def _grow_candidates(self, observations: list[LandmarkObservation], t_s: float, result: ObserveResult) -> None:
@@ -494,7 +588,7 @@ class UkfSlam:
             # "seen more than n_min times" ([Bouda2025]_ 2.2.5); only a candidate seen this frame
             # can have crossed the threshold
             if cd.n_seen > p.n_min and id(cd) in latest:
-                result.promoted.append(self._augment(cd, latest[id(cd)].R, t_s))
+                result.promoted.append(self._augment(cd, latest[id(cd)], t_s))
             else:
                 keep.append(cd)
         self.candidates = keep
@@ -508,23 +602,46 @@ class UkfSlam:
         Jx[:, 2] = (-s * z[0] - c * z[1], c * z[0] - s * z[1])  # d(R(theta) z) / d theta
         return Jx, rot2(self.x[2])
 
-    def _augment(self, cd: Candidate, R: np.ndarray, t_s: float) -> int:
-        """Append a promoted candidate to the state with the standard augmentation (see the
+    def _augment(self, cd: Candidate, sighting: LandmarkObservation, t_s: float) -> int:
+        """Add a promoted candidate to the state with the standard augmentation (see the
         module docstring): x = [x; g(x, z)], P = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]]
-        with z the candidate's mean in the robot frame and R its latest sighting's covariance;
-        then new sigma-point weights for the new dimension."""
+        with z the candidate's mean in the robot frame and R its latest ``sighting``'s
+        covariance; then new sigma-point weights for the new dimension.
+
+        With a shared part ``R_shared`` (and ``shared_errors``), the landmark gets its view
+        bias b: covariance ``S = J_z R_shared J_z^T`` and cross-covariance ``-S`` with the
+        landmark, whose error ``J_x e_x + b + J_z w`` holds the bias of the view it was mapped
+        from (the bias estimate's error is ``-b``), so ``l + b`` is known to
+        ``J_x P J_x^T + J_z (R - R_shared) J_z^T``."""
         z = rot2(self.x[2]).T @ (cd.xy - self.x[:2])  # so that g(x, z) = cd.xy
         Jx, Jz = self.augmentation_jacobians(z)
         n = self.n
+        biased = self.params.shared_errors and sighting.R_shared is not None
+        size = 4 if biased else 2
         PJ = self.P @ Jx.T  # (n, 2): the landmark's cross-covariance with the state
-        P = np.zeros((n + 2, n + 2))
+        P = np.zeros((n + size, n + size))
         P[:n, :n] = self.P
-        P[:n, n:] = PJ
-        P[n:, :n] = PJ.T
-        P[n:, n:] = _symmetric(Jx @ PJ + Jz @ R @ Jz.T)
-        self.x = np.concatenate([self.x, cd.xy])
-        self.P = P
-        self._points = sigma_points(self.n, self.params)
+        P[:n, n : n + 2] = PJ
+        P[n : n + 2, :n] = PJ.T
+        P[n : n + 2, n : n + 2] = _symmetric(Jx @ PJ + Jz @ sighting.R @ Jz.T)
+        x = np.concatenate([self.x, cd.xy])
+        if biased:
+            S = _symmetric(Jz @ sighting.R_shared @ Jz.T)
+            P[n : n + 2, n + 2 :] = P[n + 2 :, n : n + 2] = -S
+            P[n + 2 :, n + 2 :] = S
+            x = np.concatenate([x, np.zeros(2)])
+        # the landmarks stay in slot order, ahead of the view biases
+        end = self.robot_dim + 2 * len(self.landmarks)
+        order = np.r_[0:end, n : n + 2, end:n, n + 2 : n + size]
+        self.x = x[order]
+        self.P = P[np.ix_(order, order)]
         slot = len(self.landmarks)
-        self.landmarks.append(Landmark(slot=slot, class_name=cd.class_name, n_seen=cd.n_seen, last_seen_s=t_s))
+        self.landmarks.append(
+            Landmark(
+                slot=slot, class_name=cd.class_name, n_seen=cd.n_seen, last_seen_s=t_s, view_from=self.x[:2].copy()
+            )
+        )
+        if biased:
+            self.biased.append(slot)
+        self._points = sigma_points(self.n, self.params)
         return slot

@@ -31,7 +31,8 @@ wheel odometry, drift included):
 2. observations of static types (``slam.landmark_types``) within ``slam.max_range_m``
    are expressed in the levelled robot frame: ``p_l = Rz(theta)^T (p_map - t)``, which
    undoes exactly the pose the observation was placed with, and ``R_l = Rz(theta)^T R
-   Rz(theta)``; their (x, y) parts update the filter (:meth:`UkfSlam.observe`);
+   Rz(theta)`` (its shared part likewise, for the landmark's view bias); their (x, y) parts
+   update the filter (:meth:`UkfSlam.observe`);
 3. the corrected pose keeps the odometry's height, roll and pitch and replaces its
    planar part with the filter's: ``Q' = Rz(theta' - theta) Q``, ``t' = (x', y', t_z)``;
    every observation is moved to ``p' = Rz(theta' - theta) (p_map - t) + t'`` and its
@@ -218,7 +219,10 @@ class SlamLocalizer:
                 continue
             p_l = Rz_T @ (obs.position_map - t)
             R_l = Rz_T @ obs.R @ Rz_T.T
-            lms.append(LandmarkObservation(class_name=obs.detection.class_name, xy=p_l[:2], R=R_l[:2, :2]))
+            S_l = None if obs.R_shared is None else (Rz_T @ obs.R_shared @ Rz_T.T)[:2, :2]
+            lms.append(
+                LandmarkObservation(class_name=obs.detection.class_name, xy=p_l[:2], R=R_l[:2, :2], R_shared=S_l)
+            )
         self.slam.observe(lms, t_s)
 
         T_prior = corrected_pose(T_odom, odom, prior_pose)

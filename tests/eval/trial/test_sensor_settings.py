@@ -51,6 +51,8 @@ def test_the_odometry_priors_follow_the_t265_settings_and_the_arena():
     assert v["slam.heading_drift_sigma"] == pytest.approx(np.deg2rad(0.08) * 2.0, rel=1e-5)
     assert v["slam.height_drift_sigma_per_m"] == pytest.approx(0.002 * 2.0)
     assert v["slam.tilt_sigma_deg"] == pytest.approx(0.3)  # bounded: light does not grow it
+    # the simulated T265's heading does not walk as it turns, and its jitter does not add up
+    assert v["slam.sigma_theta_rad"] == 0.0 and v["slam.sigma_theta_per_rad"] == 0.0
     # an exact sensor: no systematic error, so the SLAM leaves those states out
     clean = _values(odometry_prior_settings(apply_settings(Scenario(), ["sensors.noise=false"]), 1.0))
     assert set(clean.values()) == {0.0}

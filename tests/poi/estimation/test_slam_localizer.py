@@ -3,6 +3,8 @@ the tracker with the pose before that update)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -191,3 +193,17 @@ def test_an_announced_loop_closure_is_not_taken_as_motion():
     # what the heading drift state adds over 6 cm (the unannounced run's growth)
     assert after_b - before_b < 0.01 * (after - before)
     assert (after - before) - (after_b - before_b) == pytest.approx(5 * 0.025**2, rel=0.01)
+
+
+def test_an_observations_shared_part_reaches_the_slam_in_the_robot_frame():
+    """R_shared (map frame) is rotated into the robot frame like R and starts the landmark's
+    visit bias, whose covariance is then R_shared's planar block in the map frame."""
+    loc = SlamLocalizer(SlamConfig(n_min=0, odometry_latency_s=0.0))
+    T0 = make_transform(rot_z(np.pi / 2), [0.0, 0.0, 0.0])
+    obs = _obs([0.0, 2.0, 0.5], sigma=0.05)
+    shared = np.diag([0.0016, 0.0004, 0.0009])  # map frame: larger along x
+    loc.step(T0, [dataclasses.replace(obs, R_shared=shared)], 0.0)
+    slam = loc.slam
+    assert slam.biased == [0]
+    i = slam.bias_index(0)
+    np.testing.assert_allclose(slam.P[i : i + 2, i : i + 2], shared[:2, :2], atol=1e-12)
