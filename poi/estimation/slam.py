@@ -81,10 +81,11 @@ Where this departs from the document, on purpose:
   gets the standard EKF/UKF-SLAM augmentation ([Bailey2006]_, [BarShalom2001]_):
   ``P_new = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]]`` with ``J_x = dg/dx``
   (``[I_2, dR(theta)/dtheta z, 0, ...]``, zero for the odometry errors and the landmarks),
-  ``J_z = R(theta)``, ``z`` the candidate's mean in the robot frame and ``R`` its latest
-  sighting's covariance. The mean of n sightings is at least as good as one, so R is an
-  upper bound on its noise; the sightings, all within ``t_max_s`` of each other, are
-  taken to share the current pose's error. Without the cross-covariance a landmark's
+  ``J_z = R(theta)``, ``z`` the candidate's mean in the robot frame and ``R`` the noise of
+  that mean of n sightings: with the latest sighting's shared part ``R_shared`` known,
+  ``R_shared + (R - R_shared) / n`` (the fresh errors average, the shared one does not);
+  without it the latest sighting's whole R, an upper bound. The sightings, all within
+  ``t_max_s`` of each other, are taken to share the current pose's error. Without the cross-covariance a landmark's
   pose error is counted as independent information, and the map and pose become
   over-confident (measured with ``poibench consistency``: README, "Covariance
   consistency").
@@ -605,14 +606,15 @@ class UkfSlam:
     def _augment(self, cd: Candidate, sighting: LandmarkObservation, t_s: float) -> int:
         """Add a promoted candidate to the state with the standard augmentation (see the
         module docstring): x = [x; g(x, z)], P = [[P, P J_x^T], [J_x P, J_x P J_x^T + J_z R J_z^T]]
-        with z the candidate's mean in the robot frame and R its latest ``sighting``'s
-        covariance; then new sigma-point weights for the new dimension.
+        with z the candidate's mean in the robot frame and R the noise of that mean of n
+        sightings, from the latest ``sighting``'s covariance; then new sigma-point weights for
+        the new dimension.
 
         With a shared part ``R_shared`` (and ``shared_errors``), the landmark gets its view
         bias b: covariance ``S = J_z R_shared J_z^T`` and cross-covariance ``-S`` with the
         landmark, whose error ``J_x e_x + b + J_z w`` holds the bias of the view it was mapped
-        from (the bias estimate's error is ``-b``), so ``l + b`` is known to
-        ``J_x P J_x^T + J_z (R - R_shared) J_z^T``."""
+        from (the bias estimate's error is ``-b``); R is then ``R_shared + (R - R_shared) / n``,
+        and ``l + b`` is known to ``J_x P J_x^T + J_z (R - R_shared) J_z^T / n``."""
         z = rot2(self.x[2]).T @ (cd.xy - self.x[:2])  # so that g(x, z) = cd.xy
         Jx, Jz = self.augmentation_jacobians(z)
         n = self.n
@@ -623,7 +625,9 @@ class UkfSlam:
         P[:n, :n] = self.P
         P[:n, n : n + 2] = PJ
         P[n : n + 2, :n] = PJ.T
-        P[n : n + 2, n : n + 2] = _symmetric(Jx @ PJ + Jz @ sighting.R @ Jz.T)
+        # the noise of the candidate's mean of n sightings (module docstring)
+        R_mean = sighting.R_shared + fresh_covariance(sighting) / cd.n_seen if biased else sighting.R
+        P[n : n + 2, n : n + 2] = _symmetric(Jx @ PJ + Jz @ R_mean @ Jz.T)
         x = np.concatenate([self.x, cd.xy])
         if biased:
             S = _symmetric(Jz @ sighting.R_shared @ Jz.T)

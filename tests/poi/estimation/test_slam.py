@@ -363,7 +363,7 @@ def test_a_heading_drift_is_learnt_on_a_circuit():
     assert float(e @ np.linalg.solve(slam.pose_covariance, e)) < 16.27
 
 
-def test_a_visit_bias_starts_with_the_landmark_by_hand():
+def test_a_view_bias_starts_with_the_landmark_by_hand():
     """With R_shared S, promotion adds the landmark and its visit bias b: cov(b) = J_z S J_z^T,
     cov(l, b) = -cov(b), and l + b is known to J_x P J_x^T + J_z (R - S) J_z^T."""
     slam = UkfSlam(SlamConfig(n_min=0, **DOCUMENT_STATE), pose0=(1.0, 2.0, math.pi / 2))
@@ -381,6 +381,23 @@ def test_a_visit_bias_starts_with_the_landmark_by_hand():
     A = np.hstack([np.eye(2), np.eye(2)])  # l + b
     np.testing.assert_allclose(A @ slam.P[3:, 3:] @ A.T, np.diag([0.0203, 0.0404]), atol=1e-12)
     assert np.linalg.eigvalsh(slam.P).min() > -1e-15
+
+
+def test_a_landmark_mapped_from_n_sightings_has_their_fresh_noise_averaged():
+    """Promoted at its 4th sighting, the landmark's R is R_shared + (R - R_shared) / 4: the
+    candidate is the mean of four sightings, whose fresh errors average and shared one does not."""
+    slam = UkfSlam(SlamConfig(n_min=3, **DOCUMENT_STATE))
+    slam.P = np.diag([0.01, 0.04, 0.0025])
+    R, S = np.diag([0.0009, 0.0004]), np.diag([0.0005, 0.0001])
+    for k in range(4):
+        res = slam.observe(
+            [LandmarkObservation(class_name="valve", xy=np.array([2.0, 0.0]), R=R, R_shared=S)], 0.1 * k
+        )
+    assert res.promoted == [0]
+    # facing +x: J_x = [[1, 0, 0], [0, 1, 2]], J_z = I; J_x P J_x^T = diag(0.01, 0.04 + 4 * 0.0025)
+    R_mean = S + (R - S) / 4  # diag(0.0006, 0.000175)
+    np.testing.assert_allclose(slam.landmark_covariance(0), np.diag([0.01, 0.05]) + R_mean, atol=1e-12)
+    np.testing.assert_allclose(slam.P[5:, 5:], S, atol=1e-12)
 
 
 def test_a_turned_view_decorrelates_the_bias_by_hand():
