@@ -178,7 +178,7 @@ class Landmark:
     n_seen: int
     last_seen_s: float
     # where the robot was (map frame) after the landmark's last update: the view its bias is of
-    view_from: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    view_from: np.ndarray
 
 
 @dataclass(kw_only=True)
@@ -496,10 +496,12 @@ class UkfSlam:
         z = np.empty(2 * k)
         for m, (i, slot) in enumerate(pairs):
             o = observations[i]
+            R_m = o.R
             if slot in self.biased:
                 b = self.bias_index(slot)
                 L[:, m, :] += chi[:, b : b + 2]
-            R[2 * m : 2 * m + 2, 2 * m : 2 * m + 2] = fresh_covariance(o) if slot in self.biased else o.R
+                R_m = fresh_covariance(o)
+            R[2 * m : 2 * m + 2, 2 * m : 2 * m + 2] = R_m
             z[2 * m : 2 * m + 2] = o.xy
         d = L - chi[:, None, :2]
         c, s = np.cos(chi[:, 2])[:, None], np.sin(chi[:, 2])[:, None]
