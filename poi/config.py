@@ -143,6 +143,11 @@ class LocalizeConfig:
     # no observation: past a near edge an item lies in the edge's stereo shadow, and the few
     # valid pixels are the occluder's (poi.estimation.localize.box_depth).
     min_depth_fill: float = number(0.4, lo=0.0, hi=1.0)
+    # A box whose inner valid depths lie more than depth_split_m from their median in more
+    # than max_depth_split of its pixels holds two surfaces (an occluder before the item, a
+    # wall behind it) and gives no observation; 1 turns the check off (box_depth).
+    depth_split_m: float = number(0.3, lo=0.0, lo_open=True)
+    max_depth_split: float = number(0.25, lo=0.0, hi=1.0)
     sigma_d_px: float = number(0.08, lo=0.0)
     baseline_m: float = number(0.05, lo=0.0, lo_open=True)
     fx_depth_px: float = number(384.2, lo=0.0, lo_open=True)

@@ -84,7 +84,15 @@ def _inner_span(shape: tuple[int, int], box_xyxy, inner_fraction: float) -> tupl
     return r0, r1, c0, c1
 
 
-def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float, min_fill: float = 0.0) -> float | None:
+def box_depth(
+    depth_m: np.ndarray,
+    box_xyxy,
+    inner_fraction: float,
+    min_fill: float = 0.0,
+    *,
+    split_m: float = math.inf,
+    max_split: float = 1.0,
+) -> float | None:
     """Median of the valid depths (finite, > 0) in the inner fraction of a box ([Bouda2025]_ 2.1.3).
 
     The box (corner convention) is shrunk about its centre to ``inner_fraction`` of its
@@ -93,12 +101,21 @@ def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float, min_fill: fl
     them are: an item seen past a near edge lies in that edge's stereo shadow (no depth), so
     the few valid pixels in its box are the occluder's (``localize.min_depth_fill``).
 
+    None also when more than ``max_split`` of the valid depths lie farther than ``split_m``
+    from their median (``localize.max_depth_split``, ``localize.depth_split_m``): the box
+    holds two surfaces, and the median may be either or neither. An extinguisher behind a
+    bucket (the bucket fills the inner box, the extinguisher shows above and beside it) read
+    the bucket, 0.65 m short; a valve on a pipe read the wall behind it, 0.4-1.3 m long.
+
     >>> d = np.zeros((10, 10), np.float32); d[2:8, 2:8] = 3.0; d[4, 4] = np.nan
     >>> box_depth(d, (0, 0, 10, 10), 0.5)
     3.0
     >>> box_depth(np.zeros((10, 10)), (0, 0, 10, 10), 0.5) is None
     True
     >>> d[2:8, 2:6] = 0.0; box_depth(d, (0, 0, 10, 10), 0.5, min_fill=0.4) is None  # 12 of 36 valid
+    True
+    >>> d = np.full((10, 10), 3.0); d[2:8, 2:4] = 2.0  # 12 of the inner 36 pixels 1 m nearer
+    >>> box_depth(d, (0, 0, 10, 10), 0.5, split_m=0.3, max_split=0.25) is None
     True
     """
     r0, r1, c0, c1 = _inner_span(depth_m.shape, box_xyxy, inner_fraction)
@@ -108,7 +125,10 @@ def box_depth(depth_m: np.ndarray, box_xyxy, inner_fraction: float, min_fill: fl
     valid = patch[np.isfinite(patch) & (patch > 0.0)]
     if valid.size == 0 or valid.size < min_fill * patch.size:
         return None
-    return float(np.median(valid))
+    median = float(np.median(valid))
+    if max_split < 1.0 and np.count_nonzero(np.abs(valid - median) > split_m) > max_split * valid.size:
+        return None
+    return median
 
 
 @dataclass(kw_only=True)
@@ -525,9 +545,10 @@ def localize(
     :mod:`poi.estimation.tracker`).
 
     None when the frame has no pose or no depth, too little valid depth lies in the box
-    (``localize.min_depth_fill``, :func:`box_depth`), the depth
-    is out of range, or (``localize.flat_reject_corner``) the box of a flat item touches the
-    image border on both axes.
+    (``localize.min_depth_fill``, :func:`box_depth`) or it holds two surfaces
+    (``localize.max_depth_split``), the depth is out of range, or
+    (``localize.flat_reject_corner``) the box of a flat item touches the image border on both
+    axes.
     """
     if frame.pose is None or frame.depth_m is None:
         return None
@@ -539,7 +560,14 @@ def localize(
             f"the colour intrinsics {intr.width}x{intr.height} (depth must be aligned to colour)"
         )
     lc = cfg.localize
-    d_med = box_depth(depth, detection.box_xyxy, lc.inner_fraction, lc.min_depth_fill)
+    d_med = box_depth(
+        depth,
+        detection.box_xyxy,
+        lc.inner_fraction,
+        lc.min_depth_fill,
+        split_m=lc.depth_split_m,
+        max_split=lc.max_depth_split,
+    )
     if d_med is None:
         return None
     d = d_med * lc.depth_scale

@@ -259,13 +259,34 @@ def test_an_item_in_a_near_edges_stereo_shadow_gives_no_observation():
     f.depth_m[:, 326:] = 2.2  # ... the wall beyond it: 4 of the inner 20 columns are valid
     assert box_depth(f.depth_m, box, 0.5) == pytest.approx(2.2)  # what the median would say
     assert localize(det(box, "qr"), f, cfg, np.eye(4)) is None
-    f.depth_m[:, 318:326] = 5.0  # 12 of 20 columns valid: 60% >= min_depth_fill
-    assert localize(det(box, "qr"), f, cfg, np.eye(4)) is not None
+    f.depth_m[:, 318:326] = 5.0  # 12 of 20 columns valid: 60% >= min_depth_fill ...
+    one_surface = apply_overrides(cfg, ["localize.max_depth_split=1"])
+    assert localize(det(box, "qr"), f, one_surface, np.eye(4)) is not None
+    assert localize(det(box, "qr"), f, cfg, np.eye(4)) is None  # ... a third the wall's: two surfaces
     off = apply_overrides(cfg, ["localize.min_depth_fill=0"])
     f.depth_m[:, :326] = 0.0
     assert localize(det(box, "qr"), f, off, np.eye(4)).depth_m == pytest.approx(2.2)
     with pytest.raises(ConfigError, match="min_depth_fill"):
         apply_overrides(cfg, ["localize.min_depth_fill=1.5"])
+
+
+def test_a_box_holding_two_surfaces_gives_no_observation():
+    """An extinguisher 3.4 m away behind a bucket at 2.7 m (rrl-hard's first maze): the bucket
+    fills 40% of the inner box, so its median reads the bucket, 0.7 m short; a split box gives
+    no observation, and a box whose far part is within depth_split_m of the rest does."""
+    cfg = load_config()
+    box = (300.0, 200.0, 340.0, 280.0)  # inner box: columns 310..329, rows 220..259
+    f = frame(depth=3.4)
+    f.depth_m[220:260, 310:318] = 2.7  # 8 of the inner 20 columns: 40% of its pixels
+    f.depth_m[220:232, 318:330] = 2.7  # and the bucket's top left: 58% in all
+    assert box_depth(f.depth_m, box, 0.5) == pytest.approx(2.7)  # what the median would say
+    assert localize(det(box, "fire-extinguisher"), f, cfg, np.eye(4)) is None
+    off = apply_overrides(cfg, ["localize.max_depth_split=1"])
+    assert localize(det(box, "fire-extinguisher"), f, off, np.eye(4)).depth_m == pytest.approx(2.7)
+    f.depth_m[f.depth_m < 3.0] = 3.2  # the near part 0.2 m in front: one surface's relief
+    assert localize(det(box, "fire-extinguisher"), f, cfg, np.eye(4)) is not None
+    with pytest.raises(ConfigError, match="max_depth_split"):
+        apply_overrides(cfg, ["localize.max_depth_split=1.5"])
 
 
 def test_in_view():
