@@ -272,8 +272,8 @@ def test_an_item_in_a_near_edges_stereo_shadow_gives_no_observation():
 
 def test_a_box_holding_two_surfaces_gives_no_observation():
     """An extinguisher 3.4 m away behind a bucket at 2.7 m (rrl-hard's first maze): the bucket
-    fills 40% of the inner box, so its median reads the bucket, 0.7 m short; a split box gives
-    no observation, and a box whose far part is within depth_split_m of the rest does."""
+    fills 58% of the inner box, so its median reads the bucket, 0.7 m short; a split box gives
+    no observation, and a box whose near part is within depth_split_m of the rest does."""
     cfg = load_config()
     box = (300.0, 200.0, 340.0, 280.0)  # inner box: columns 310..329, rows 220..259
     f = frame(depth=3.4)
