@@ -271,6 +271,18 @@ def match_detections(detections, visible) -> list[int | None]:
     return out
 
 
+def box_size_at_depth(obs, intr, border_px: float) -> tuple[float, float] | None:
+    """An observation's box as metres at its depth z, (w z / fx, h z / fy); None when the box
+    touches the image border (``border_px``): it may hold part of the item only."""
+    from poi.estimation.localize import box_at_border
+
+    if any(box_at_border(obs.detection.box_xyxy, intr.width, intr.height, border_px)):
+        return None
+    w, h = obs.detection.size_wh
+    z = float(obs.position_cam[2])
+    return w * z / intr.fx, h * z / intr.fy
+
+
 def pipeline_settings(sim, extra: list[str]) -> list[str]:
     """The settings a consistency run gives the pipeline: the sensors as a trial gives them,
     no thermal detector (the oracle boxes heat sources), then ``extra``."""
@@ -325,7 +337,14 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                 if t in solid_types:
                     ray = obs.position_cam / float(np.linalg.norm(obs.position_cam))
                     samples.extent.append(
-                        ExtentSample(type=t, object_key=run_object, e_cam=e_cam, Sigma_c=obs.Sigma_c, ray=ray)
+                        ExtentSample(
+                            type=t,
+                            object_key=run_object,
+                            e_cam=e_cam,
+                            Sigma_c=obs.Sigma_c,
+                            ray=ray,
+                            box_m=box_size_at_depth(obs, frame.intrinsics, lc.border_px),
+                        )
                     )
                 samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam), run_object)
                 for axis, q in zip(AXES, axis_nees(e_cam, Sigma_cam), strict=True):

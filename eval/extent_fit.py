@@ -16,6 +16,11 @@ the values that make them consistent (``poibench consistency --fit-extents``):
 
 each 0 when the sensor model alone already brings its NEES down to the target. The fit is the
 method of moments on the NEES, so a few gross errors weigh in full, as they do in the NEES.
+
+It also gives the width and height a type's box spans in full view (``localize.box_width_m``,
+``box_height_m``: how much of an item the image border hides, :func:`poi.estimation.localize.
+hidden_solid_px`): the 75th percentile of w z / fx and h z / fy over the boxes that touch no
+image border.
 """
 
 from __future__ import annotations
@@ -37,6 +42,9 @@ class ExtentSample:
     e_cam: np.ndarray
     Sigma_c: np.ndarray
     ray: np.ndarray  # unit vector from the camera to the observation
+    # the box's (w z / fx, h z / fy) in metres at the observation's depth z; None when it touches
+    # the image border (cut: not the item's full size)
+    box_m: tuple[float, float] | None = None
 
 
 @dataclass(kw_only=True)
@@ -49,6 +57,28 @@ class ExtentFit:
     offset_change_m: float
     sigma_ray_m: float
     sigma_lat_m: float
+    box_width_m: float | None  # None: no box in full view
+    box_height_m: float | None
+
+
+BOX_SIZE_PERCENTILE = 75.0
+
+
+def box_size_m(samples: list[ExtentSample]) -> tuple[float, float] | tuple[None, None]:
+    """The (width, height) in metres three in four of the samples' uncut boxes span no more
+    than (their 75th percentile); None when none is uncut.
+
+    >>> xs = [ExtentSample(type="valve", object_key=0, e_cam=np.zeros(3), Sigma_c=np.eye(3), ray=np.ones(3),
+    ...                    box_m=(0.1 * k, 0.2 * k)) for k in range(1, 6)]
+    >>> [round(x, 3) for x in box_size_m(xs + [ExtentSample(type="valve", object_key=0, e_cam=np.zeros(3),
+    ...                                    Sigma_c=np.eye(3), ray=np.ones(3))])]
+    [0.4, 0.8]
+    """
+    sizes = np.array([s.box_m for s in samples if s.box_m is not None], dtype=float).reshape(-1, 2)
+    if len(sizes) == 0:
+        return None, None
+    w, h = np.percentile(sizes, BOX_SIZE_PERCENTILE, axis=0)
+    return float(w), float(h)
 
 
 def _solve_spread(nees_of_variance, target: float) -> float:
@@ -100,7 +130,10 @@ def fit_type(samples: list[ExtentSample]) -> ExtentFit:
             np.mean(np.einsum("ik,ik->i", x, np.linalg.solve(S_lat + var * np.eye(2), x[..., None])[..., 0]))
         )
 
+    box_w, box_h = box_size_m(samples)
     return ExtentFit(
+        box_width_m=box_w,
+        box_height_m=box_h,
         type=samples[0].type,
         n=len(samples),
         objects=len({s.object_key for s in samples}),
@@ -125,10 +158,13 @@ def fitted_settings(fits: list[ExtentFit], cfg) -> list[str]:
     offsets = dict(lc.surface_to_center_m)
     ray = dict(lc.extent_ray_sigma_m)
     lat = dict(lc.extent_sigma_m)
+    box_w, box_h = dict(lc.box_width_m), dict(lc.box_height_m)
     for f in fits:
         offsets[f.type] = round(offsets.get(f.type, 0.0) + f.offset_change_m, 3)
         ray[f.type] = round(f.sigma_ray_m, 3)
         lat[f.type] = round(f.sigma_lat_m, 3)
+        if f.box_width_m is not None:
+            box_w[f.type], box_h[f.type] = round(f.box_width_m, 3), round(f.box_height_m, 3)
 
     def flow(d: dict[str, float]) -> str:
         return "{" + ", ".join(f"{k}: {v:g}" for k, v in d.items()) + "}"
@@ -137,15 +173,18 @@ def fitted_settings(fits: list[ExtentFit], cfg) -> list[str]:
         f"localize.surface_to_center_m={flow(offsets)}",
         f"localize.extent_ray_sigma_m={flow(ray)}",
         f"localize.extent_sigma_m={flow(lat)}",
+        f"localize.box_width_m={flow(box_w)}",
+        f"localize.box_height_m={flow(box_h)}",
     ]
 
 
 def format_fits(fits: list[ExtentFit]) -> str:
     """The table ``poibench consistency --fit-extents`` prints."""
-    cols = f"{'offset change (m)':>18} {'sigma ray (m)':>14} {'sigma lat (m)':>14}"
+    cols = f"{'offset change (m)':>18} {'sigma ray (m)':>14} {'sigma lat (m)':>14} {'box w x h (m)':>14}"
     head = f"{'type':<20} {'N':>5} {'objects':>7} {cols}"
     lines = [head, "-" * len(head)]
     for f in fits:
-        fit = f"{f.offset_change_m:>18.3f} {f.sigma_ray_m:>14.3f} {f.sigma_lat_m:>14.3f}"
+        box = "-" if f.box_width_m is None else f"{f.box_width_m:.3f} x {f.box_height_m:.3f}"
+        fit = f"{f.offset_change_m:>18.3f} {f.sigma_ray_m:>14.3f} {f.sigma_lat_m:>14.3f} {box:>14}"
         lines.append(f"{f.type:<20} {f.n:>5} {f.objects:>7} {fit}")
     return "\n".join(lines) + "\n"

@@ -170,11 +170,11 @@ class LocalizeConfig:
     # ray (a 3-D object's silhouette centre is not its centroid's projection).
     extent_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.057,
-            "valve": 0.022,
-            "fire-extinguisher": 0.016,
-            "baby-doll": 0.015,
-            "heat-source": 0.026,
+            "door": 0.042,
+            "valve": 0.018,
+            "fire-extinguisher": 0.012,
+            "baby-doll": 0.013,
+            "heat-source": 0.015,
         }
     )
     # Per type, the spread (m) along the camera ray: how far behind the surface the depth hits
@@ -182,11 +182,11 @@ class LocalizeConfig:
     # spreads as much along the ray as across it.
     extent_ray_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.058,
-            "valve": 0.056,
+            "door": 0.04,
+            "valve": 0.043,
             "fire-extinguisher": 0.0,
             "baby-doll": 0.0,
-            "heat-source": 0.036,
+            "heat-source": 0.033,
         }
     )
     # Per type, how far behind the surface the depth hits its reference point lies (m), on
@@ -198,10 +198,32 @@ class LocalizeConfig:
             "pillar-green": 0.025,
             "ball": 0.105,
             "fire-extinguisher": 0.065,
-            "baby-doll": 0.059,
+            "baby-doll": 0.06,
             "heat-source": 0.103,
             "door": 0.064,
-            "valve": -0.059,
+            "valve": -0.056,
+        }
+    )
+    # Per 3-D type, the width and the height (m) its box spans when the item is in full view,
+    # at the depth of its centre: a box touching the image border on an axis is short of it by
+    # the hidden length, and its centre sigma on that axis grows by half of it
+    # (poi.estimation.localize.hidden_solid_px). A flat type is judged by its ``aspect``.
+    box_width_m: dict[str, float] = field(
+        default_factory=lambda: {
+            "door": 0.771,
+            "valve": 0.253,
+            "fire-extinguisher": 0.163,
+            "baby-doll": 0.366,
+            "heat-source": 0.327,
+        }
+    )
+    box_height_m: dict[str, float] = field(
+        default_factory=lambda: {
+            "door": 1.352,
+            "valve": 0.255,
+            "fire-extinguisher": 0.523,
+            "baby-doll": 0.163,
+            "heat-source": 0.356,
         }
     )
     # Per flat type, its width over its height (a square QR code, hazmat placard or
@@ -238,6 +260,11 @@ class LocalizeConfig:
         for key in ("extent_sigma_m", "extent_ray_sigma_m"):
             check_per_type(key, getattr(self, key), lambda r: 0.0 <= r < 1.0, "metres in [0, 1)")
         check_per_type("aspect", self.aspect, lambda r: r > 0.0, "a width / height ratio > 0")
+        for key in ("box_width_m", "box_height_m"):
+            check_per_type(key, getattr(self, key), lambda r: 0.0 < r < 10.0, "metres in (0, 10)")
+            for t in getattr(self, key):
+                if t in self.aspect:
+                    raise FieldError(f"{key}.{t}", "a flat type: its cut is judged by localize.aspect, not a size")
         for i, t in enumerate(self.diamond_types):
             if t not in self.aspect:
                 raise FieldError(

@@ -336,6 +336,37 @@ def hidden_lengths_px(
     return 0.0, 0.0
 
 
+def hidden_solid_px(
+    size_wh: tuple[float, float],
+    size_m: tuple[float, float],
+    depth_m: float,
+    focal_px: tuple[float, float],
+    at_border: tuple[bool, bool],
+) -> tuple[float, float]:
+    """How many pixels of a 3-D item a box cut by the image border leaves out, (across u,
+    across v): f S / z - w on an axis where the box touches the border (``at_border``, from
+    :func:`box_at_border`), S the width or height the type's uncut box spans (``size_m``,
+    ``localize.box_width_m`` / ``box_height_m``; 0: not known), z the depth of its centre and
+    f the focal length (a length S at depth z spans f S / z pixels);
+    0 on an axis the box does not touch, or where it is no shorter than f S / z.
+
+    A flat item's box says by its own shape how much of it is cut (:func:`hidden_lengths_px`);
+    a 3-D item's shape changes with the side seen, so only the border says that it is cut, and
+    its known size how much. The box holds the visible part, its centre off the item's by up
+    to half the hidden length, toward the image's inside (:func:`localize`).
+
+    >>> hidden_solid_px((90.0, 240.0), (0.16, 0.52), 1.0, (615.0, 615.0), (False, True))
+    (0.0, 79.8)
+    >>> hidden_solid_px((90.0, 240.0), (0.16, 0.52), 1.0, (615.0, 615.0), (True, False))
+    (8.4, 0.0)
+    """
+    out = []
+    for n_px, s_m, f_px, cut in zip(size_wh, size_m, focal_px, at_border, strict=True):
+        full = f_px * s_m / depth_m if cut and s_m > 0.0 and depth_m > 0.0 else 0.0
+        out.append(round(max(full - n_px, 0.0), 9))
+    return out[0], out[1]
+
+
 def box_at_border(box_xyxy, width: int, height: int, border_px: float) -> tuple[bool, bool]:
     """Whether a box (corner convention) comes within ``border_px`` of the image's left or right
     edge, and of its top or bottom edge.
@@ -531,7 +562,9 @@ def localize(
       inner depths, :func:`box_depth_plane`), J2 the Jacobian of the deprojection and, for
       a type with ``surface_to_center_m``, of its centre offset (:func:`surface_to_center`);
       Sigma_1's centre variances grow by (hidden / 2)^2 on an axis along which a flat item of
-      known ``localize.aspect`` is cut (:func:`hidden_lengths_px`);
+      known ``localize.aspect`` is cut (:func:`hidden_lengths_px`), or along which the box of
+      a 3-D item of known ``localize.box_width_m`` / ``box_height_m`` is cut by the image
+      border (:func:`hidden_solid_px`);
     * Sigma_ext (:func:`extent_covariance`, ``Observation.Sigma_extent_c``) is the spread of
       a 3-D object's reference point about the observation, ``extent_ray_sigma_m`` along the
       camera ray and ``extent_sigma_m`` across it;
@@ -616,6 +649,13 @@ def localize(
         if centre is not None and lc.flat_center:
             p_c = centre
         # a cut box: its centre is off the item's by up to half the hidden length
+        sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
+        sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
+    elif t in lc.box_width_m or t in lc.box_height_m:
+        # a 3-D item cut by the image border: the same, its hidden length from its known size
+        size_m = (lc.box_width_m.get(t, 0.0), lc.box_height_m.get(t, 0.0))
+        at = box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)
+        hid_w, hid_h = hidden_solid_px((w, h), size_m, float(p_c[2]), (intr.fx, intr.fy), at)
         sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
         sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
     sigma_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)

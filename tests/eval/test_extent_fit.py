@@ -48,3 +48,24 @@ def test_fitted_settings_start_from_the_configs_offsets_and_load():
     assert new.surface_to_center_m["door"] == pytest.approx(old["door"] + 0.02, abs=0.005)
     assert new.extent_ray_sigma_m["valve"] == pytest.approx(0.02, abs=0.003)
     assert new.surface_to_center_m["ball"] == old["ball"]  # a type with no samples keeps its value
+
+
+def test_the_box_size_is_the_75th_percentile_of_the_uncut_boxes_and_loads():
+    """Boxes of 0.10-0.50 m by 0.2-1.0 m (uniform) in full view, and a border-cut one that is
+    smaller still (ignored): the fitted size is the uncut boxes' 75th percentile, 0.4 x 0.8 m."""
+    cfg = load_config()
+    samples = _samples("valve", np.array([0.0, 0.0, 1.0]), 0.0, 0.02, 0.03, 401, 4)
+    for i, s in enumerate(samples):
+        s.box_m = (0.1 + 0.4 * i / 400, 0.2 + 0.8 * i / 400)
+    samples[0].box_m = None
+    (fit,) = fit_extents(samples)
+    assert (fit.box_width_m, fit.box_height_m) == pytest.approx((0.401, 0.802), abs=0.002)
+    new = apply_overrides(cfg, fitted_settings([fit], cfg)).localize
+    assert (new.box_width_m["valve"], new.box_height_m["valve"]) == (
+        round(fit.box_width_m, 3),
+        round(fit.box_height_m, 3),
+    )
+    assert new.box_height_m["door"] == cfg.localize.box_height_m["door"]  # no samples: kept
+    for s in samples:
+        s.box_m = None
+    assert fit_type(samples).box_width_m is None  # no box in full view: no size

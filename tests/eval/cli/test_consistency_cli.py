@@ -71,9 +71,12 @@ def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
         "localize.surface_to_center_m",
         "localize.extent_ray_sigma_m",
         "localize.extent_sigma_m",
+        "localize.box_width_m",
+        "localize.box_height_m",
     ]
     cfg = apply_overrides(load_config(), sets)  # the printed settings load as they are
     assert cfg.localize.extent_sigma_m["valve"] == round(fits["valve"]["sigma_lat_m"], 3)
+    assert cfg.localize.box_height_m["valve"] == round(fits["valve"]["box_height_m"], 3)  # seen in full
     before = load_config().localize.surface_to_center_m.get("valve", 0.0)
     assert cfg.localize.surface_to_center_m["valve"] == round(before + fits["valve"]["offset_change_m"], 3)
     # no 3-D type in the pipeline's settings: nothing to fit, said in one line

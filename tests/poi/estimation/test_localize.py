@@ -20,6 +20,7 @@ from poi.estimation.localize import (
     deproject_pixel_to_point,
     flat_item,
     hidden_lengths_px,
+    hidden_solid_px,
     localize,
     project_point_to_pixel,
 )
@@ -505,6 +506,44 @@ def test_a_cut_sign_widens_its_centre_sigma_and_a_corner_gives_none():
     assert localize(
         det(corner, class_name="qr"), f, apply_overrides(cfg, ["localize.flat_reject_corner=false"]), T
     )
+
+
+def test_a_solid_item_cut_by_the_border_widens_its_centre_sigma_by_half_the_hidden_length():
+    """An extinguisher's box at the bottom of the image, 180 px tall at 1 m: in full view
+    box_height_m (0.523 m) spans f S / z = 246 px at its centre's depth, so 66 px are hidden
+    and sigma_v grows by half of that; the same box inside the image, or a box taller than
+    f S / z, is not widened; a 3-D type with no size is not either."""
+    cfg = load_config()
+    T = np.eye(4)
+    f = frame(depth=1.0)
+    box = (270.0, 300.0, 370.0, 480.0)  # touches the bottom edge
+    cut = localize(det(box, class_name="fire-extinguisher"), f, cfg, T)
+    no_size = apply_overrides(cfg, ["localize.box_height_m={}"])
+    uncut = localize(det(box, class_name="fire-extinguisher"), f, no_size, T)
+    z = float(cut.position_cam[2])
+    assert z == pytest.approx(1.0 + cfg.localize.surface_to_center_m["fire-extinguisher"], abs=0.01)
+    hid = hidden_solid_px((100.0, 180.0), (0.159, 0.523), z, (500.0, 500.0), (False, True))
+    assert hid[0] == 0.0 and hid[1] == pytest.approx(500.0 * 0.523 / z - 180.0)
+    # Sigma_c's v block grows by (hid / 2)^2 times (dY / dv)^2, dY / dv about z / fy
+    added = cut.Sigma_c[1, 1] - uncut.Sigma_c[1, 1]
+    assert added == pytest.approx((0.5 * hid[1] * z / 500.0) ** 2, rel=0.05)
+    assert cut.Sigma_c[0, 0] == pytest.approx(uncut.Sigma_c[0, 0], rel=1e-9)  # u: not at the border
+    inside = (270.0, 200.0, 370.0, 380.0)
+    a = localize(det(inside, class_name="fire-extinguisher"), f, cfg, T)
+    b = localize(det(inside, class_name="fire-extinguisher"), f, no_size, T)
+    assert a.Sigma_c[1, 1] == pytest.approx(b.Sigma_c[1, 1], rel=1e-9)
+    tall = (270.0, 200.0, 370.0, 480.0)  # 280 px: no shorter than the item
+    a = localize(det(tall, class_name="fire-extinguisher"), f, cfg, T)
+    b = localize(det(tall, class_name="fire-extinguisher"), f, no_size, T)
+    assert a.Sigma_c[1, 1] == pytest.approx(b.Sigma_c[1, 1], rel=1e-9)
+
+
+def test_box_sizes_are_checked_at_load():
+    cfg = load_config()
+    with pytest.raises(ConfigError, match=r"localize.box_width_m.qr: a flat type"):
+        apply_overrides(cfg, ["localize.box_width_m.qr=0.2"])
+    with pytest.raises(ConfigError, match=r"localize.box_height_m.valve: expected metres in \(0, 10\)"):
+        apply_overrides(cfg, ["localize.box_height_m.valve=-0.2"])
 
 
 def test_the_depth_plane_takes_a_depth_image_that_only_slices_whole_pixels():
