@@ -641,6 +641,7 @@ def localize(
         b=lc.center_sigma_px.b,
         calibration=calibration,
     )
+    hid_w = hid_h = 0.0  # pixels of the item its box leaves out, across u and v
     if t in lc.aspect:
         if lc.flat_reject_corner and all(box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)):
             # cut by two borders: its shape cannot say how much of it is hidden
@@ -648,16 +649,14 @@ def localize(
         centre, hid_w, hid_h = measure_flat_item(detection, intr, u, v, d, (J1[2, 0], J1[2, 1]), var_g, lc, depth)
         if centre is not None and lc.flat_center:
             p_c = centre
-        # a cut box: its centre is off the item's by up to half the hidden length
-        sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
-        sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
     elif t in lc.box_width_m or t in lc.box_height_m:
-        # a 3-D item cut by the image border: the same, its hidden length from its known size
+        # a 3-D item cut by the image border: its hidden length from its known size
         size_m = (lc.box_width_m.get(t, 0.0), lc.box_height_m.get(t, 0.0))
         at = box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)
         hid_w, hid_h = hidden_solid_px((w, h), size_m, float(p_c[2]), (intr.fx, intr.fy), at)
-        sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
-        sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
+    # a cut box: its centre is off the item's by up to half the hidden length
+    sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
+    sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
     sigma_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
     # the slope's own error times the centre's: var(g du) = g^2 var(du) (in J1) + var(g) var(du)
     var_d = sigma_d**2 + var_g[0] * sigma_u**2 + var_g[1] * sigma_v**2
