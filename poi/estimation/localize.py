@@ -406,6 +406,8 @@ def measure_flat_item(
     var_g: tuple[float, float],
     lc,
     depth_m: np.ndarray | None = None,
+    *,
+    at_border: tuple[bool, bool],
 ) -> tuple[np.ndarray | None, float, float]:
     """(centre, hidden_w, hidden_h) of a flat item of ``lc.aspect``: its centre measured on
     the depth plane (:func:`flat_item`) when the plane's tilt is known to
@@ -422,8 +424,9 @@ def measure_flat_item(
     is an upper bound at that many sigmas. Judging such a box face-on, as this did before,
     took a sign seen at 75 degrees (15 x 65 px) for one cut to a quarter: its sigma_u grew by
     25 px and R's widest axis to 0.2-0.4 m against errors of 2-3 cm (README, "Covariance
-    consistency"). A box touching the image border (within ``lc.border_px``) on an axis counts
-    as cut there whenever it is short of the shape at all (no tolerance on that axis).
+    consistency"). A box touching the image border on an axis (``at_border``, u and v:
+    :func:`box_at_border`) counts as cut there whenever it is short of the shape at all (no
+    tolerance on that axis).
     """
     t = detection.type
     diamond = t in lc.diamond_types
@@ -449,7 +452,7 @@ def measure_flat_item(
         size_m = (shape.width_m, shape.height_m)
         tol = lc.truncation_tolerance + (slope_sigma**2 if fitted else 0.0)
         hid_w, hid_h = hidden_lengths_px((w, h), size_m, lc.aspect[t], tol)
-        at_u, at_v = box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)
+        at_u, at_v = at_border
         if at_u or at_v:
             bw, bh = hidden_lengths_px((w, h), size_m, lc.aspect[t], 0.0)
             hid_w = max(hid_w, bw) if at_u else hid_w
@@ -642,17 +645,19 @@ def localize(
         calibration=calibration,
     )
     hid_w = hid_h = 0.0  # pixels of the item its box leaves out, across u and v
+    at = box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)
     if t in lc.aspect:
-        if lc.flat_reject_corner and all(box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)):
+        if lc.flat_reject_corner and all(at):
             # cut by two borders: its shape cannot say how much of it is hidden
             return None
-        centre, hid_w, hid_h = measure_flat_item(detection, intr, u, v, d, (J1[2, 0], J1[2, 1]), var_g, lc, depth)
+        centre, hid_w, hid_h = measure_flat_item(
+            detection, intr, u, v, d, (J1[2, 0], J1[2, 1]), var_g, lc, depth, at_border=at
+        )
         if centre is not None and lc.flat_center:
             p_c = centre
     elif t in lc.box_width_m or t in lc.box_height_m:
         # a 3-D item cut by the image border: its hidden length from its known size
         size_m = (lc.box_width_m.get(t, 0.0), lc.box_height_m.get(t, 0.0))
-        at = box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)
         hid_w, hid_h = hidden_solid_px((w, h), size_m, float(p_c[2]), (intr.fx, intr.fy), at)
     # a cut box: its centre is off the item's by up to half the hidden length
     sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
