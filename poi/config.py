@@ -236,6 +236,9 @@ class LocalizeConfig:
     # A flat item of ``aspect`` is placed at its centre measured on the depth plane (undoing
     # the perspective that puts its box's centre off its centre's image), not at the box centre.
     flat_center: bool = True
+    # A flat item's depth at its box centre: plane (its depth plane's there,
+    # poi.estimation.localize.DepthPlane.depth_at) or median (the median of its inner box).
+    flat_depth: Literal["plane", "median"] = "plane"
     # A flat item is measured on the depth plane (centre, truncation) only when the plane's
     # tilt is known to this standard deviation (of its tangent) or better.
     flat_max_slope_sigma: float = number(0.2, lo=0.0)

@@ -133,13 +133,25 @@ def box_depth(
 
 @dataclass(kw_only=True)
 class DepthPlane:
-    """The depth plane of a box (:func:`box_depth_plane`): slopes in metres per pixel and their
-    variances (m^2 / px^2)."""
+    """The depth plane of a box (:func:`box_depth_plane`): its depth ``d0`` (m) at pixel
+    (``u0``, ``v0``), the centre of the block it was fitted to, its slopes in metres per pixel
+    and their variances (m^2 / px^2)."""
 
+    d0: float
+    u0: float
+    v0: float
     g_u: float
     g_v: float
     var_g_u: float
     var_g_v: float
+
+    def depth_at(self, u: float, v: float) -> float:
+        """The plane's depth (m) at pixel (u, v): d0 + g_u (u - u0) + g_v (v - v0).
+
+        >>> DepthPlane(d0=2.0, u0=10.0, v0=5.0, g_u=0.01, g_v=0.0, var_g_u=0.0, var_g_v=0.0).depth_at(12.0, 9.0)
+        2.02
+        """
+        return self.d0 + self.g_u * (u - self.u0) + self.g_v * (v - self.v0)
 
 
 def box_depth_plane(
@@ -160,6 +172,9 @@ def box_depth_plane(
     wall seen at 45 degrees (about 1.7 mm per pixel), so the gradient they give points anywhere,
     and Sigma_c, which is thin across the surface, came out thin in the wrong direction. The
     plane averages that noise over the box.
+
+    ``d0`` is the plane's depth at the block's centre (u0, v0), where :func:`localize` reads a
+    flat item's depth (:meth:`DepthPlane.depth_at`).
 
     The slopes' variances are the least-squares ones, s^2 (A^T A)^-1, times ``window_px``^2:
     stereo matching correlates the noise of neighbouring pixels over its window, so N pixels
@@ -184,8 +199,9 @@ def box_depth_plane(
     if int(ok.sum()) < PLANE_MIN_PIXELS:
         return None
     d = patch[ok]
-    du = cols[ok] - 0.5 * (c0 + c1)
-    dv = rows[ok] - 0.5 * (r0 + r1)
+    u0, v0 = 0.5 * (c0 + c1), 0.5 * (r0 + r1)
+    du = cols[ok] - u0
+    dv = rows[ok] - v0
     if np.ptp(du) == 0 or np.ptp(dv) == 0:
         return None
     A = np.stack([np.ones_like(d), du, dv], axis=1)  # (N, 3)
@@ -200,7 +216,15 @@ def box_depth_plane(
     s2 = float(res @ res) / max(d.size - 3, 1) if noise_sigma_m is None else noise_sigma_m**2
     # each sample of the grid stands for step^2 pixels; the window correlates window^2 of them
     cov = s2 * max(window_px / step, 1.0) ** 2 * np.linalg.pinv(A.T @ A)  # (3, 3)
-    return DepthPlane(g_u=float(coef[1]), g_v=float(coef[2]), var_g_u=float(cov[1, 1]), var_g_v=float(cov[2, 2]))
+    return DepthPlane(
+        d0=float(coef[0]),
+        u0=u0,
+        v0=v0,
+        g_u=float(coef[1]),
+        g_v=float(coef[2]),
+        var_g_u=float(cov[1, 1]),
+        var_g_v=float(cov[2, 2]),
+    )
 
 
 @dataclass(kw_only=True)
@@ -580,6 +604,11 @@ def localize(
     from frame to frame: they are the observation's shared part (``Observation.R_shared``,
     :mod:`poi.estimation.tracker`).
 
+    The depth is the median of the box's inner block (:func:`box_depth`), or for a flat item
+    (``localize.flat_depth``: plane) its depth plane's at the box centre
+    (:meth:`DepthPlane.depth_at`): on a sloping sign the median is the depth where the block's
+    valid pixels centre, off the box centre's where holes lie to one side.
+
     None when the frame has no pose or no depth, too little valid depth lies in the box
     (``localize.min_depth_fill``, :func:`box_depth`) or it holds two surfaces
     (``localize.max_depth_split``), the depth is out of range, or
@@ -606,20 +635,10 @@ def localize(
     )
     if d_med is None:
         return None
-    d = d_med * lc.depth_scale
-    if not lc.min_depth_m <= d <= lc.max_depth_m:
-        return None
     cx, cy = detection.center_uv
     u, v = cx - BOX_CORNER_TO_CENTER_PX, cy - BOX_CORNER_TO_CENTER_PX
     w, h = detection.size_wh
     t = detection.type
-    to_center = lc.surface_to_center_m.get(t, 0.0)
-
-    def point(a: float, b: float, c: float) -> np.ndarray:
-        # a 3-D object: the depth is its front surface, the report names its centre
-        return surface_to_center(deproject_pixel_to_point(intr, a, b, c), to_center)
-
-    p_c = point(u, v, d)
 
     # J1: the depth gradient of the box, from its depth plane or central differences
     var_g = (0.0, 0.0)
@@ -635,6 +654,19 @@ def localize(
             var_g = (lc.depth_scale**2 * plane.var_g_u, lc.depth_scale**2 * plane.var_g_v)
     else:
         J1 = depth_jacobian(depth, u, v, lc.depth_scale)
+    # a flat item's depth at its box centre: its plane's there (the median of a sloping
+    # surface is the depth where its valid pixels centre, off the box centre where holes lie)
+    on_plane = lc.flat_depth == "plane" and t in lc.aspect and plane is not None
+    d = (plane.depth_at(u, v) if on_plane else d_med) * lc.depth_scale
+    if not lc.min_depth_m <= d <= lc.max_depth_m:
+        return None
+    to_center = lc.surface_to_center_m.get(t, 0.0)
+
+    def point(a: float, b: float, c: float) -> np.ndarray:
+        # a 3-D object: the depth is its front surface, the report names its centre
+        return surface_to_center(deproject_pixel_to_point(intr, a, b, c), to_center)
+
+    p_c = point(u, v, d)
     # Sigma_1 = diag(sigma_u^2, sigma_v^2, sigma_d^2)
     sigma_u, sigma_v = center_sigmas_px(
         detection.class_name,

@@ -601,3 +601,26 @@ def test_a_sign_seen_steeply_is_foreshortened_not_cut():
     cut = localize(det(box, class_name="qr"), frame(depth=2.0), cfg, T)
     w, h = box[2] - box[0], box[3] - box[1]
     assert np.sqrt(cut.Sigma_c[0, 0]) * K.fx / 2.0 > 0.4 * (h - w)
+
+
+def test_a_flat_items_depth_is_its_planes_at_the_box_centre_where_holes_lie_to_one_side():
+    """A qr code on a wall turned 45 degrees at 1 m (depth rising 2 mm a pixel), its box 40 px
+    at the image centre, the left 40% of its inner block holes (no depth: texture the stereo
+    matcher cannot match). The median of the valid pixels is the depth 4 px right of the box
+    centre, 8 mm too far; the depth plane through them reads the box centre's depth
+    (``localize.flat_depth``, default plane). A door, a 3-D item, keeps the median."""
+    slope = 0.002
+    depth = _wall(1.0, slope, 0.0, np.random.default_rng(0))
+    box = (300.0, 220.0, 340.0, 260.0)  # centre (u, v) = (ppx, ppy): depth 1 m there
+    depth[230:250, 310:318] = 0.0  # the inner block is columns 310..329: its left 8 are holes
+    f = frame()
+    f.depth_m = depth
+    cfg = apply_overrides(load_config(), ["localize.flat_center=false"])
+    on_plane = localize(det(box, class_name="qr"), f, cfg, np.eye(4))
+    by_median = apply_overrides(cfg, ["localize.flat_depth=median"])
+    median = localize(det(box, class_name="qr"), f, by_median, np.eye(4))
+    assert on_plane.depth_m == pytest.approx(1.0, abs=1e-4)
+    assert median.depth_m == pytest.approx(1.0 + 4 * slope, abs=1e-3)
+    assert localize(det(box, class_name="door"), f, cfg, np.eye(4)).depth_m == pytest.approx(median.depth_m)
+    with pytest.raises(ConfigError, match="localize.flat_depth"):
+        apply_overrides(cfg, ["localize.flat_depth=mean"])
