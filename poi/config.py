@@ -247,6 +247,9 @@ class LocalizeConfig:
     flat_tilt_sigmas: float = number(2.0, lo=0.0)
     # A box side within this many pixels of the image's edge touches it (the item may go on).
     border_px: float = number(8.0, lo=0.0)
+    # A flat item's box touches the border also when its side lies within this many of its
+    # centre sigmas beyond border_px (a cut box's edge jitters inward with the box).
+    flat_border_sigmas: float = number(2.5, lo=0.0)
     # A flat item whose box touches the image border on both axes gives no observation.
     flat_reject_corner: bool = True
     # The flat types of ``aspect`` that are diamonds (a box touches them at its sides' middles).

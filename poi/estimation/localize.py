@@ -391,15 +391,18 @@ def hidden_solid_px(
     return out[0], out[1]
 
 
-def box_at_border(box_xyxy, width: int, height: int, border_px: float) -> tuple[bool, bool]:
+def box_at_border(box_xyxy, width: int, height: int, border_px: float | tuple[float, float]) -> tuple[bool, bool]:
     """Whether a box (corner convention) comes within ``border_px`` of the image's left or right
-    edge, and of its top or bottom edge.
+    edge, and of its top or bottom edge; ``border_px`` may be one margin or one per axis (u, v).
 
     >>> box_at_border((0.0, 100.0, 50.0, 200.0), 640, 480, 2.0), box_at_border((3, 3, 637, 477), 640, 480, 2.0)
     ((True, False), (False, False))
+    >>> box_at_border((3, 3, 637, 477), 640, 480, (2.0, 4.0))
+    (False, True)
     """
     x1, y1, x2, y2 = (float(c) for c in box_xyxy)
-    return x1 <= border_px or x2 >= width - border_px, y1 <= border_px or y2 >= height - border_px
+    bu, bv = border_px if isinstance(border_px, tuple) else (border_px, border_px)
+    return x1 <= bu or x2 >= width - bu, y1 <= bv or y2 >= height - bv
 
 
 def least_tilted_gradient(
@@ -613,7 +616,8 @@ def localize(
     (``localize.min_depth_fill``, :func:`box_depth`) or it holds two surfaces
     (``localize.max_depth_split``), the depth is out of range, or
     (``localize.flat_reject_corner``) the box of a flat item touches the image border on both
-    axes.
+    axes (within ``localize.border_px`` plus ``localize.flat_border_sigmas`` of its centre
+    sigmas: a cut box's edge jitters inward with it).
     """
     if frame.pose is None or frame.depth_m is None:
         return None
@@ -679,6 +683,11 @@ def localize(
     hid_w = hid_h = 0.0  # pixels of the item its box leaves out, across u and v
     at = box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)
     if t in lc.aspect:
+        # a flat item's box edge may sit a few of its sigmas inside the image and still be cut
+        # there (a 3-D item's may not: its hidden length comes from its full size, and a whole
+        # door called cut got a needle-thin R)
+        margin = (lc.border_px + lc.flat_border_sigmas * sigma_u, lc.border_px + lc.flat_border_sigmas * sigma_v)
+        at = box_at_border(detection.box_xyxy, intr.width, intr.height, margin)
         if lc.flat_reject_corner and all(at):
             # cut by two borders: its shape cannot say how much of it is hidden
             return None

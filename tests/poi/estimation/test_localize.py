@@ -508,6 +508,22 @@ def test_a_cut_sign_widens_its_centre_sigma_and_a_corner_gives_none():
     )
 
 
+def test_a_flat_items_box_a_few_sigmas_inside_the_border_counts_as_touching_it():
+    """A 200 px qr code box at 1 m on the image's bottom edge, its right side 20 px inside the
+    right edge: within border_px (8) plus 2.5 of its centre sigmas (1 + 0.03 * 200 = 7 px), so
+    it may be cut there too, and a box in a corner gives no observation. 40 px inside it is cut
+    at the bottom only. A door's box keeps border_px (it is not rejected either way)."""
+    cfg = load_config()
+    T, f = np.eye(4), frame(depth=1.0)
+    near = (420.0, 280.0, 620.0, 480.0)
+    assert localize(det(near, class_name="qr"), f, cfg, T) is None
+    assert localize(det(near, class_name="qr"), f, apply_overrides(cfg, ["localize.flat_border_sigmas=0"]), T)
+    assert localize(det((400.0, 280.0, 600.0, 480.0), class_name="qr"), f, cfg, T) is not None
+    assert localize(det(near, class_name="door"), f, cfg, T) is not None
+    with pytest.raises(ConfigError, match="localize.flat_border_sigmas"):
+        apply_overrides(cfg, ["localize.flat_border_sigmas=-1"])
+
+
 def test_a_solid_item_cut_by_the_border_widens_its_centre_sigma_by_half_the_hidden_length():
     """An extinguisher's box at the bottom of the image, 180 px tall at 1 m: in full view
     box_height_m (0.523 m) spans f S / z = 246 px at its centre's depth, so 66 px are hidden
