@@ -681,13 +681,13 @@ def localize(
         calibration=calibration,
     )
     hid_w = hid_h = 0.0  # pixels of the item its box leaves out, across u and v
-    at = box_at_border(detection.box_xyxy, intr.width, intr.height, lc.border_px)
+    # a flat item's box edge may sit a few of its sigmas inside the image and still be cut there
+    # (a 3-D item's may not: its hidden length comes from its full size, and a whole door called
+    # cut got a needle-thin R)
+    n_sigmas = lc.flat_border_sigmas if t in lc.aspect else 0.0
+    margin = (lc.border_px + n_sigmas * sigma_u, lc.border_px + n_sigmas * sigma_v)
+    at = box_at_border(detection.box_xyxy, intr.width, intr.height, margin)
     if t in lc.aspect:
-        # a flat item's box edge may sit a few of its sigmas inside the image and still be cut
-        # there (a 3-D item's may not: its hidden length comes from its full size, and a whole
-        # door called cut got a needle-thin R)
-        margin = (lc.border_px + lc.flat_border_sigmas * sigma_u, lc.border_px + lc.flat_border_sigmas * sigma_v)
-        at = box_at_border(detection.box_xyxy, intr.width, intr.height, margin)
         if lc.flat_reject_corner and all(at):
             # cut by two borders: its shape cannot say how much of it is hidden
             return None
