@@ -11,8 +11,11 @@ wheel odometry, drift included):
    robot's look-around does, that is 0.9 degrees); the increment from the previous
    frame's extrapolated pose ([Bouda2025]_ eq. 11) drives
    :meth:`poi.estimation.slam.UkfSlam.predict`. With a latency the first report cannot be
-   extrapolated (no velocity yet): that frame keeps the odometry's pose and observations,
-   and the filter starts at the next one, on its extrapolated pose with the start
+   extrapolated (no velocity yet): that frame keeps the odometry's pose, its observations
+   are marked stale (:attr:`SlamStep.stale`: placed with a pose up to a degree off, which
+   their R does not hold, so the pipeline drops them; a placard 1.7 m away came out 28 mm
+   off across the ray against a sigma of 5 mm and started its track there, docs/CONSISTENCY.md
+   "The first frame's stale pose"), and the filter starts at the next one, on its extrapolated pose with the start
    covariance (it started on the stale report, up to a degree off during a turn against a
    start sigma of 0.17 degrees, and frame 0's pose NEES reached 36). A relocalisation the
    odometry announces (``Frame.pose_relocalised``) is a loop closure: the pose jumped back
@@ -86,6 +89,7 @@ class SlamStep:
 
     pose: np.ndarray
     observations: list[Observation]
+    stale: bool = False  # the observations were placed with a pose older than the frame
 
 
 def corrected_pose(T_odom: np.ndarray, odom: np.ndarray, planar: np.ndarray) -> np.ndarray:
@@ -168,7 +172,7 @@ class SlamLocalizer:
             # a stale pose and no velocity yet to bring it to the frame's time: the filter
             # starts at the next frame (module docstring); these observations keep the odometry
             self._last_odometry, self._last_t_s = reported, t_s
-            return SlamStep(pose=np.array(T_odom, dtype=float), observations=list(observations))
+            return SlamStep(pose=np.array(T_odom, dtype=float), observations=list(observations), stale=True)
         if relocalised:
             # the pose interpolation may split the jump between this frame and the next
             self.relocalisations += 1

@@ -76,16 +76,17 @@ def test_with_latency_the_filter_starts_on_the_first_pose_it_can_bring_to_its_fr
     loc = SlamLocalizer(cfg)
     T0 = make_transform(rot_z(0.0), [0.0, 0.0, 0.0])
     first = loc.step(T0, [_obs([2.0, 0.0, 0.5])], 0.0)
-    assert loc.slam is None
+    assert loc.slam is None and first.stale  # the pipeline drops its observations
     assert first.pose == pytest.approx(T0)
     r_first = first.observations[0].R
     assert r_first == pytest.approx(0.02**2 * np.eye(3))  # as placed: no pose covariance added
-    loc.step(make_transform(rot_z(0.1), [0.0, 0.0, 0.0]), [], 0.1)  # 0.1 rad in 0.1 s
+    second = loc.step(make_transform(rot_z(0.1), [0.0, 0.0, 0.0]), [], 0.1)  # 0.1 rad in 0.1 s
+    assert not second.stale
     assert loc.slam.pose == pytest.approx([0.0, 0.0, 0.11], abs=1e-9)  # the frame's time
     assert np.sqrt(loc.slam.pose_covariance[2, 2]) == pytest.approx(5e-4, rel=1e-6)
     # without latency the first report is the frame's pose: the filter starts at once
     loc = SlamLocalizer(SlamConfig(odometry_latency_s=0.0))
-    loc.step(T0, [], 0.0)
+    assert not loc.step(T0, [], 0.0).stale
     assert loc.slam is not None
 
 
