@@ -213,8 +213,9 @@ class Pipeline:
             corrected = self.slam.step(frame.pose, observations, frame.timestamp_s, frame.pose_relocalised)
             # a stale pose (frame 0 with a latency): R does not hold its error, the
             # observations are dropped (poi.estimation.slam_localizer, step 1)
-            observations = [] if corrected.stale else corrected.observations
-            det_of_obs = [] if corrected.stale else det_of_obs
+            observations = corrected.observations
+            if corrected.stale:
+                observations, det_of_obs = [], []
             frame = dataclasses.replace(frame, pose=corrected.pose)
             t_slam = time.perf_counter()
             timing["slam"] = 1e3 * (t_slam - t2)

@@ -14,10 +14,11 @@ wheel odometry, drift included):
    extrapolated (no velocity yet): that frame keeps the odometry's pose, its observations
    are marked stale (:attr:`SlamStep.stale`: placed with a pose up to a degree off, which
    their R does not hold, so the pipeline drops them; a placard 1.7 m away came out 28 mm
-   off across the ray against a sigma of 5 mm and started its track there, docs/CONSISTENCY.md
-   "The first frame's stale pose"), and the filter starts at the next one, on its extrapolated pose with the start
-   covariance (it started on the stale report, up to a degree off during a turn against a
-   start sigma of 0.17 degrees, and frame 0's pose NEES reached 36). A relocalisation the
+   off across the ray against a sigma of 5 mm and started its track there,
+   docs/CONSISTENCY.md "The first frame's stale pose"), and the filter starts at the next
+   one, on its extrapolated pose with the start covariance (it started on the stale report,
+   up to a degree off during a turn against a start sigma of 0.17 degrees, and frame 0's
+   pose NEES reached 36). A relocalisation the
    odometry announces (``Frame.pose_relocalised``) is a loop closure: the pose jumped back
    toward the error it had at a place passed before, often too little to stand out by speed
    (rrl's: 3-5 cm and a degree). The jump is no motion, and the filter, whose drift states
@@ -170,7 +171,8 @@ class SlamLocalizer:
         reported = planar_pose(T_odom)
         if self.slam is None and self.cfg.odometry_latency_s > 0.0 and self._last_odometry is None:
             # a stale pose and no velocity yet to bring it to the frame's time: the filter
-            # starts at the next frame (module docstring); these observations keep the odometry
+            # starts at the next frame (module docstring); these observations, placed with the
+            # stale pose, are marked so
             self._last_odometry, self._last_t_s = reported, t_s
             return SlamStep(pose=np.array(T_odom, dtype=float), observations=list(observations), stale=True)
         if relocalised:
