@@ -40,11 +40,15 @@ Reference points and extents, for a characteristic size ``s = obj.size_m``:
 - landolt-c (the concentric Landolt-C target of the RMRC Sensor Cabinet and Linear Rail
   Inspect tests, [RMRC2025]_; poi/core/landolt.py): a matte white card ``s`` square (the
   rings' card, 64 mm for the default rings) printed with its rings (maze_assets.landolt,
-  ``LANDOLT_TEXTURE_PX``), drawn as a flat item. Its board or sensor cabinet
-  (``PlacedObject.holder``) is a body of its own (:func:`build_holder`, named
-  ``landolt_{holder}_{id}``, so only the card's pixels belong to the object): a plywood board
-  ``LANDOLT_BOARD_M`` on the wall, the card on its face; or a grey box open to the front,
-  ``LANDOLT_CABINET_M``, hung on the wall, the card on the inside of its back panel.
+  ``LANDOLT_TEXTURE_PX``), drawn as a flat item.
+- holders (``PlacedObject.holder``): a flat item's board, cabinet or crate is a body of its
+  own (:func:`build_holder`, named ``holder_{holder}_{id}``, so only the item's pixels belong
+  to the object): a plywood board ``BOARD_THICKNESS_M`` thick on the wall, the item on its
+  face (a Landolt-C card's ``LANDOLT_BOARD_M``, or one board for a placard, a QR code and a
+  card, drawn by the placard); a grey box open to the front, ``LANDOLT_CABINET_M``, hung on
+  the wall, a Landolt-C card on the inside of its back panel; or a pine crate open to the
+  front, standing on the floor, a placard on the inside of its back panel
+  (:func:`crate_inner_m`).
 
 >>> from maze_assets.mjcf import SceneAssets
 >>> from maze_assets.objects import PlacedObject
@@ -113,6 +117,16 @@ LANDOLT_BOARD_M = (0.40, 0.30, 0.018)
 LANDOLT_BOARD_RGBA = (0.76, 0.62, 0.42, 1.0)  # light plywood
 LANDOLT_CABINET_M = (0.30, 0.30, 0.25, 0.012)
 LANDOLT_CABINET_RGBA = (0.35, 0.37, 0.40, 1.0)  # grey-painted sheet metal
+BOARD_THICKNESS_M = LANDOLT_BOARD_M[2]  # every board: 18 mm plywood
+# A crate holding a placard (sim/placement.py put_placards_in_crates): open to the front, standing
+# on the floor against a wall, the placard on the inside of its back panel. Inside it is
+# CRATE_INNER_SIDES placard sides wide and high (a square sheet at 45 degrees, sqrt(2) sides across,
+# fits) and CRATE_DEPTH_SIDES deep, with CRATE_WALL_M boards; rough pine, slats darker.
+CRATE_INNER_SIDES = 1.5
+CRATE_DEPTH_SIDES = 1.0
+CRATE_WALL_M = 0.012
+CRATE_RGBA = (0.62, 0.48, 0.30, 1.0)
+CRATE_SLAT_RGBA = (0.45, 0.33, 0.20, 1.0)
 ARENA_SIZE_M: dict[str, float] = {
     "pillar-blue": PILLAR_HEIGHT_M,
     "pillar-red": PILLAR_HEIGHT_M,
@@ -623,50 +637,86 @@ def qr_side_m(text: str, module_m: float) -> float:
     return TEXTURE_PX / (TEXTURE_PX // m) * module_m
 
 
-def build_holder(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
-    """A Landolt-C target's board or sensor cabinet (module docstring) as a ``<body>`` of its own
-    named ``landolt_{holder}_{id}`` (no object owns its pixels), or None without a holder.
+def crate_inner_m(placard_side_m: float) -> tuple[float, float]:
+    """(inner width = inner height, inner depth) of the crate that holds a placard of this side.
 
-    The body's origin is on the wall face behind the card (the card's reference point less
-    its standoff), its +x out of the wall."""
-    if obj.holder is None:
+    >>> crate_inner_m(0.25)
+    (0.375, 0.25)
+    """
+    return CRATE_INNER_SIDES * placard_side_m, CRATE_DEPTH_SIDES * placard_side_m
+
+
+def holder_name(obj: PlacedObject) -> str:
+    """The body name of an object's holder: ``holder_{kind}_{id}`` (no object owns its pixels)."""
+    return f"holder_{obj.holder}_{obj.id}"
+
+
+def build_holder(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
+    """A flat item's board, sensor cabinet or crate (``PlacedObject.holder``) as a ``<body>`` of its
+    own named by :func:`holder_name`, or None without a holder or where another item of a shared
+    board draws it (``holder_m`` None).
+
+    The body's origin is on the wall face behind the item (the item's reference point less its
+    standoff, ``holder_standoff_m``), its +x out of the wall. A board is a plywood panel over
+    ``holder_m``; a cabinet the grey box ``LANDOLT_CABINET_M`` open to the front; a crate a pine
+    box over ``holder_m`` (its floor on the ground), ``crate_inner_m`` deep inside, open to the
+    front, with two darker slats across each side."""
+    if obj.holder is None or (obj.holder != "cabinet" and obj.holder_m is None):
         return None
     yaw = obj.yaw
     n = np.array([np.cos(yaw), np.sin(yaw), 0.0])
-    name = f"landolt_{obj.holder}_{obj.id}"
+    name = holder_name(obj)
     kw = {"contype": "0", "conaffinity": "0", "group": "0"}
-    if obj.holder == "board":
-        w, h, t = LANDOLT_BOARD_M
-        origin = obj.position - n * t
-        body = ET.Element("body", name=name, pos=fmt(origin), euler=fmt([0.0, 0.0, yaw]))
-        wood = _material(assets, "plywood", LANDOLT_BOARD_RGBA, specular=0.05, shininess=0.05)
+    origin = obj.position - n * holder_standoff_m(obj.holder)
+    body = ET.Element("body", name=name, pos=fmt(origin), euler=fmt([0.0, 0.0, yaw]))
+
+    def box(part: str, material: str, pos, size) -> None:
         ET.SubElement(
-            body,
-            "geom",
-            name=f"{name}_panel",
-            type="box",
-            material=wood,
-            pos=fmt([t / 2, 0.0, 0.0]),
-            size=fmt([t / 2, w / 2, h / 2]),
-            **kw,
+            body, "geom", name=f"{name}_{part}", type="box", material=material, pos=fmt(pos), size=fmt(size), **kw
+        )
+
+    if obj.holder == "board":
+        t = BOARD_THICKNESS_M
+        left, right, bottom, top = obj.holder_m
+        wood = _material(assets, "plywood", LANDOLT_BOARD_RGBA, specular=0.05, shininess=0.05)
+        box(
+            "panel",
+            wood,
+            (t / 2, (left + right) / 2, (bottom + top) / 2),
+            (t / 2, (right - left) / 2, (top - bottom) / 2),
         )
         return body
-    w, h, d, t = LANDOLT_CABINET_M
-    origin = obj.position - n * t
-    body = ET.Element("body", name=name, pos=fmt(origin), euler=fmt([0.0, 0.0, yaw]))
-    metal = _material(assets, "cabinet_grey", LANDOLT_CABINET_RGBA, specular=0.2, shininess=0.2)
+    if obj.holder == "cabinet":
+        w, h, d, t = LANDOLT_CABINET_M
+        y0, z0 = 0.0, 0.0
+        metal = _material(assets, "cabinet_grey", LANDOLT_CABINET_RGBA, specular=0.2, shininess=0.2)
+    else:  # crate
+        t = CRATE_WALL_M
+        left, right, bottom, top = obj.holder_m
+        w, h = right - left, top - bottom
+        d = crate_inner_m(obj.size_m)[1] + t
+        y0, z0 = (left + right) / 2, (bottom + top) / 2
+        metal = _material(assets, "crate_pine", CRATE_RGBA, specular=0.03, shininess=0.05)
+        slat = _material(assets, "crate_slat", CRATE_SLAT_RGBA, specular=0.03, shininess=0.05)
+        for side, y in (("left", y0 - w / 2 - 0.004), ("right", y0 + w / 2 + 0.004)):
+            for j, z in enumerate((z0 - h / 4, z0 + h / 4)):
+                box(f"slat_{side}_{j}", slat, (d / 2, y, z), (d / 2, 0.004, 0.02))
     panels = {  # (centre x, y, z), half sizes (x, y, z) in the body frame
-        "back": ((t / 2, 0.0, 0.0), (t / 2, w / 2, h / 2)),
-        "left": ((d / 2, -w / 2 + t / 2, 0.0), (d / 2, t / 2, h / 2)),
-        "right": ((d / 2, w / 2 - t / 2, 0.0), (d / 2, t / 2, h / 2)),
-        "top": ((d / 2, 0.0, h / 2 - t / 2), (d / 2, w / 2, t / 2)),
-        "bottom": ((d / 2, 0.0, -h / 2 + t / 2), (d / 2, w / 2, t / 2)),
+        "back": ((t / 2, y0, z0), (t / 2, w / 2, h / 2)),
+        "left": ((d / 2, y0 - w / 2 + t / 2, z0), (d / 2, t / 2, h / 2)),
+        "right": ((d / 2, y0 + w / 2 - t / 2, z0), (d / 2, t / 2, h / 2)),
+        "top": ((d / 2, y0, z0 + h / 2 - t / 2), (d / 2, w / 2, t / 2)),
+        "bottom": ((d / 2, y0, z0 - h / 2 + t / 2), (d / 2, w / 2, t / 2)),
     }
     for part, (pos, size) in panels.items():
-        ET.SubElement(
-            body, "geom", name=f"{name}_{part}", type="box", material=metal, pos=fmt(pos), size=fmt(size), **kw
-        )
+        box(part, metal, pos, size)
     return body
+
+
+def holder_standoff_m(holder: str | None) -> float:
+    """How far a held item's face stands out from its wall face: the board's thickness, the
+    cabinet's back panel or the crate's; 0 on the wall itself."""
+    return {None: 0.0, "board": BOARD_THICKNESS_M, "cabinet": LANDOLT_CABINET_M[3], "crate": CRATE_WALL_M}[holder]
 
 
 def build_page(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:

@@ -20,7 +20,15 @@ import numpy as np
 from poi.core.names import TYPES
 
 MOUNTS = ("wall", "floor", "opening")
-LANDOLT_HOLDERS = ("board", "cabinet")
+# What a flat item may be fixed to, and which types each holder takes (sim/placement.py,
+# maze_assets.models.build_holder): a wooden board on the wall (a Landolt-C card alone, or a
+# group of a placard, a QR code and a Landolt-C card), a sensor cabinet (Landolt-C) or an open
+# crate standing on the floor (a placard on the inside of its back panel).
+HOLDER_TYPES: dict[str, tuple[str, ...]] = {
+    "board": ("hazmat", "qr", "landolt-c"),
+    "cabinet": ("landolt-c",),
+    "crate": ("hazmat",),
+}
 
 _GEOM_RE = re.compile(r"^poi_(\d+)_([a-z\-]+)(?:_.*)?$")
 
@@ -61,20 +69,34 @@ class PlacedObject:
     # wall, not part of the object (maze_assets.models.build_page).
     page_m: tuple[float, float, float, float] | None = None
     module_m: float | None = None  # a QR code's module side, metres (None: whatever its size gives)
-    # What a Landolt-C target's card is fixed to (sim/placement.py, maze_assets.models.build_holder):
-    # None (the wall itself), "board" (a wooden board on the wall) or "cabinet" (the back of a
-    # sensor cabinet, a box open to the front hung on the wall); drawn apart from the object.
+    # What a flat item is fixed to (``HOLDER_TYPES``; sim/placement.py, maze_assets.models.
+    # build_holder): None (the wall itself), "board" (a wooden board on the wall), "cabinet" (the
+    # back of a sensor cabinet, a box open to the front hung on the wall) or "crate" (the inside
+    # of an open crate's back panel); drawn apart from the object.
     holder: str | None = None
+    # The board's or crate's front face (left, right, bottom, top) in the object's local (y, z),
+    # metres, for the one object that draws it; None on the other items of a shared board (and
+    # on a cabinet, whose size is fixed).
+    holder_m: tuple[float, float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:
             raise ValueError(f"object {self.id}: unknown type {self.type!r}; expected one of {TYPES}")
         if self.mount not in MOUNTS:
             raise ValueError(f"object {self.id}: mount must be one of {MOUNTS}, got {self.mount!r}")
-        if self.holder is not None and (self.type != "landolt-c" or self.holder not in LANDOLT_HOLDERS):
+        if self.holder is not None and self.type not in HOLDER_TYPES.get(self.holder, ()):
+            takes = [h for h, types in HOLDER_TYPES.items() if self.type in types]
             raise ValueError(
-                f"object {self.id}: holder {self.holder!r} is for a landolt-c target, one of {LANDOLT_HOLDERS}"
+                f"object {self.id} ({self.type}): holder {self.holder!r} is not for this type; "
+                f"expected one of {takes or 'none'}"
             )
+        if self.holder_m is not None:
+            left, right, bottom, top = self.holder_m
+            if self.holder not in ("board", "crate") or not (left < 0 < right and bottom < 0 < top):
+                raise ValueError(
+                    f"object {self.id}: holder_m {self.holder_m} must be a board's or crate's face "
+                    "(left, right, bottom, top) around the object"
+                )
         self.position = np.asarray(self.position, dtype=float).reshape(3)
 
     @property

@@ -33,13 +33,17 @@ from maze_assets.landolt import card_side_mm
 from maze_assets.models import (
     ARENA_SIZE_M,
     BACKING_M,
+    BOARD_THICKNESS_M,
+    CRATE_WALL_M,
     DOOR_PANELS,
     FIDUCIAL_DIAMETER_M,
     FIDUCIAL_LENGTH_M,
     LANDOLT_BOARD_M,
     LANDOLT_CABINET_M,
+    crate_inner_m,
     door_height_m,
     door_panel_face_m,
+    holder_standoff_m,
     qr_side_m,
 )
 from maze_assets.objects import PlacedObject, fiducial_text
@@ -163,7 +167,7 @@ def object_at_face(
         pos = np.array([base[0], base[1], FIDUCIAL_LENGTH_M / 2])
         mount = "wall"
     elif type_ == "landolt-c":  # the card's centre; a holder puts it out from the wall
-        xy = base + n * landolt_standoff_m(holder)
+        xy = base + n * holder_standoff_m(holder)
         pos = np.array([xy[0], xy[1], height_m])
         mount = "wall"
     else:
@@ -180,16 +184,6 @@ def object_at_face(
         wall=face.wall,
         holder=holder,
     )
-
-
-def landolt_standoff_m(holder: str | None) -> float:
-    """How far a Landolt-C card's face stands out from its wall face: the board's thickness,
-    or the cabinet's back panel (maze_assets.models); 0 on the wall itself."""
-    if holder == "board":
-        return LANDOLT_BOARD_M[2]
-    if holder == "cabinet":
-        return LANDOLT_CABINET_M[3]
-    return 0.0
 
 
 def landolt_extent_m(holder: str | None) -> tuple[float, float]:
@@ -244,6 +238,8 @@ def place_landolt(
             offset = float(rng.uniform(-margin, margin))
             height = float(rng.uniform(lo, hi))
             cand = object_at_face(len(objects), "landolt-c", text, face, height, offset, size, maze, None, holder)
+            if holder == "board":
+                cand.holder_m = (-w / 2, w / 2, -h / 2, h / 2)
             if face.wall in {o.wall for o in objects if o.type in ("door", "fiducial")}:
                 continue
             if all(np.linalg.norm(cand.position - o.position) >= min_spacing_m for o in objects):
@@ -581,6 +577,147 @@ def hang_placards_on_doors(objects: list[PlacedObject], count: int, seed: int, m
         o.yaw = float(np.arctan2(normal[1], normal[0]))
         o.size_m = min(o.size_m, (b - a) * H / np.sqrt(2.0))  # the diamond fits the panel
         o.wall = door.wall
+
+
+def _free_wall_items(objects: list[PlacedObject], type_: str) -> list[PlacedObject]:
+    """Items of ``type_`` hanging on a wall by themselves: not on the floor, a door, a holder or
+    a QR page (a page's codes stay together)."""
+    door_walls = {o.wall for o in objects if o.type == "door"}
+    return [
+        o
+        for o in objects
+        if o.type == type_
+        and o.mount == "wall"
+        and o.holder is None
+        and o.module_m is None
+        and o.wall is not None
+        and o.wall not in door_walls
+    ]
+
+
+def _face_axes(o: PlacedObject) -> tuple[np.ndarray, np.ndarray]:
+    """(out of the wall, the viewer's right) in plan for an item facing ``o.yaw``."""
+    n = np.array([np.cos(o.yaw), np.sin(o.yaw)])
+    return n, -_along(n)
+
+
+def put_placards_in_crates(objects: list[PlacedObject], count: int, seed: int, maze) -> None:
+    """Move up to ``count`` wall placards into open crates standing on the floor against their walls.
+
+    Real arenas hide placards in crates and boxes, where the robot must look in. A crate
+    (maze_assets.models.build_holder) stands where the placard hung along its wall, on the
+    floor, open towards the corridor; the placard sits on the inside of its back panel,
+    centred, and keeps its turn. Placards are taken in an order drawn from a seed sequence of
+    the scenario seed, so the stream that placed the objects is untouched; one whose crate
+    would stand against another object stays on its wall.
+    """
+    if count < 0:
+        raise PlacementError(f"hazmat_in_crates must be >= 0, got {count}")
+    if count == 0:
+        return
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 176]))
+    candidates = _free_wall_items(objects, "hazmat")
+    moved = 0
+    for i in rng.permutation(len(candidates)):
+        if moved == count:
+            break
+        o = candidates[int(i)]
+        inner, depth = crate_inner_m(o.size_m)
+        t = CRATE_WALL_M
+        side = inner + 2 * t
+        n, _ = _face_axes(o)
+        wall_xy = o.position[:2]
+        centre = wall_xy + n * (t + depth) / 2
+        reach = 0.5 * np.hypot(side, depth + t)
+        if any(p is not o and np.hypot(*(p.position[:2] - centre)) < reach + 0.5 * p.size_m for p in objects):
+            continue
+        z = t + inner / 2
+        o.position = np.array([*(wall_xy + n * t), z])
+        o.holder = "crate"
+        o.holder_m = (float(-side / 2), float(side / 2), float(-z), float(side - z))
+        moved += 1
+
+
+BOARD_MARGIN_M = 0.03  # round a board's items and between them, at RRL scale
+
+
+def hang_placard_boards(objects: list[PlacedObject], count: int, seed: int, maze) -> None:
+    """Hang up to ``count`` plywood boards, each holding a placard with a QR code and a Landolt-C
+    card beside it, as real arenas group their test sheets.
+
+    Each board takes a wall placard, then, while any are left, a QR code and a Landolt-C card
+    that hang on walls by themselves, in orders drawn from a seed sequence of the scenario
+    seed (the stream that placed the objects is untouched). The board hangs on the placard's
+    wall face at the placard's height, moved along the face and down as far as it must to fit;
+    its items stand in a row, left to right as listed, ``BOARD_MARGIN_M`` apart and from its
+    edges, each in a square as wide as it can turn in (a placard's sheet at 45 degrees), its
+    face ``BOARD_THICKNESS_M`` out from the wall. The placard's ``holder_m`` draws the board. A
+    board that would cover another object is not hung, and its items stay where they were.
+    """
+    if count < 0:
+        raise PlacementError(f"hazmat_on_boards must be >= 0, got {count}")
+    if count == 0:
+        return
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 177]))
+    pools = {t: _free_wall_items(objects, t) for t in ("hazmat", "qr", "landolt-c")}
+    orders = {t: [items[int(i)] for i in rng.permutation(len(items))] for t, items in pools.items()}
+    faces = list(maze.wall_faces())
+    margin = BOARD_MARGIN_M * _scale(maze)
+    wall_h = maze.settings.wall_height_m
+    hung = 0
+    while hung < count and orders["hazmat"]:
+        placard = orders["hazmat"].pop(0)
+        group = [placard] + [orders[t][0] for t in ("qr", "landolt-c") if orders[t]]
+        spans = [o.size_m * (np.sqrt(2.0) if o.type == "hazmat" else 1.0) for o in group]
+        width = sum(spans) + margin * (len(group) + 1)
+        height = max(spans) + 2 * margin
+        face = _face_of(placard, faces)
+        if face is None or face.length_m < width + 0.02 or wall_h < height + 0.02:
+            continue
+        n = np.asarray(face.normal_xy, float)
+        right = -_along(n)
+        # the board's centre: along the face where the placard is, kept on the face and the wall
+        u_placard = float((placard.position[:2] - np.asarray(face.center_xy, float)) @ right)
+        room = 0.5 * (face.length_m - width) - 0.01
+        u_centre = float(np.clip(u_placard, -room, room))
+        z_centre = float(np.clip(placard.position[2], height / 2 + 0.01, wall_h - height / 2 - 0.01))
+        centre = np.asarray(face.center_xy, float) + right * u_centre
+        others = [p for p in objects if all(p is not g for g in group)]
+        if any(_covers(centre, z_centre, width, height, n, p) for p in others):
+            continue
+        u = u_centre - width / 2 + margin
+        for o, span in zip(group, spans, strict=True):
+            xy = centre + right * (u + span / 2 - u_centre) + n * BOARD_THICKNESS_M
+            o.position = np.array([xy[0], xy[1], z_centre])
+            o.yaw = _yaw(n)
+            o.wall = face.wall
+            o.mount = "wall"
+            o.holder = "board"
+            u += span + margin
+        lr = (u_centre - width / 2, u_centre + width / 2)
+        u_p = float((placard.position[:2] - centre) @ right) + u_centre
+        placard.holder_m = (float(lr[0] - u_p), float(lr[1] - u_p), float(-height / 2), float(height / 2))
+        for t in ("qr", "landolt-c"):
+            if orders[t] and orders[t][0] in group:
+                orders[t].pop(0)
+        hung += 1
+
+
+def _face_of(o: PlacedObject, faces: list) -> object | None:
+    """The wall face ``o`` hangs on: the face of its wall that it faces out of (None: none)."""
+    n = np.array([np.cos(o.yaw), np.sin(o.yaw)])
+    return next((f for f in faces if f.wall == o.wall and float(np.asarray(f.normal_xy, float) @ n) > 0.99), None)
+
+
+def _covers(centre_xy: np.ndarray, z: float, width: float, height: float, n: np.ndarray, p: PlacedObject) -> bool:
+    """A board ``width`` x ``height`` centred at (``centre_xy``, ``z``) on a face with normal ``n``
+    comes within half of object ``p``'s size of it (in the face's plane, and near the wall)."""
+    d = p.position - np.array([*centre_xy, z])
+    right = -_along(n)
+    out = float(d[:2] @ n)
+    if out < -0.01 or out > 0.5 + p.size_m:
+        return False
+    return abs(float(d[:2] @ right)) < width / 2 + p.size_m / 2 and abs(float(d[2])) < height / 2 + p.size_m / 2
 
 
 def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedObject]:

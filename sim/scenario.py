@@ -202,6 +202,11 @@ class ObjectsGenerate:
     hazmat_on_floor: float = number(0.0, lo=0.0, hi=1.0)
     # wall placards moved onto doors, one per door face (sim.placement.hang_placards_on_doors)
     hazmat_on_doors: int = number(0, lo=0, hi=100)
+    # wall placards moved into open crates on the floor (sim.placement.put_placards_in_crates)
+    hazmat_in_crates: int = number(0, lo=0, hi=100)
+    # boards of a wall placard with a QR code and a Landolt-C card beside it
+    # (sim.placement.hang_placard_boards)
+    hazmat_on_boards: int = number(0, lo=0, hi=100)
     qr_sheets: QrSheets | None = None
     landolt: LandoltTargets | None = None  # where the landolt-c targets go (default: all on walls)
 

@@ -58,7 +58,14 @@ from sim.maze import (
     load_maze,
 )
 from sim.maze_gen import generate_maze
-from sim.placement import assign_placard_looks, hang_placards_on_doors, lay_placards_on_floor, place_objects
+from sim.placement import (
+    assign_placard_looks,
+    hang_placard_boards,
+    hang_placards_on_doors,
+    lay_placards_on_floor,
+    place_objects,
+    put_placards_in_crates,
+)
 from sim.render import SceneRenderer
 from sim.route import Route, load_route_csv, rig_pose, route_from_tour
 from sim.scenario import TURTLEBOT_CAMERA_HEIGHT_M, ColourSpec, MountSpec, Scenario
@@ -192,8 +199,11 @@ class Simulation:
             self.objects = place_objects(sc, self.maze, rng)
             if sc.objects.generate is not None:
                 generated = self.objects[len(sc.objects.explicit) :]
-                lay_placards_on_floor(generated, sc.objects.generate.hazmat_on_floor, sc.seed, self.maze)
-                hang_placards_on_doors(generated, sc.objects.generate.hazmat_on_doors, sc.seed, self.maze)
+                gen = sc.objects.generate
+                lay_placards_on_floor(generated, gen.hazmat_on_floor, sc.seed, self.maze)
+                hang_placards_on_doors(generated, gen.hazmat_on_doors, sc.seed, self.maze)
+                put_placards_in_crates(generated, gen.hazmat_in_crates, sc.seed, self.maze)
+                hang_placard_boards(generated, gen.hazmat_on_boards, sc.seed, self.maze)
             start_xy, start_yaw = self.maze.cell_center(*self.maze.start_cell), self.maze.start_heading_rad
         assign_placard_looks(self.objects, sc.seed)
         d = sc.sensors.d435

@@ -331,7 +331,7 @@ def build_world_xml(
         page = build_page(obj, assets)  # the A4 sheet of a QR page (sim/placement.py)
         if page is not None:
             world.append(page)
-        holder = build_holder(obj, assets)  # a Landolt-C target's board or sensor cabinet
+        holder = build_holder(obj, assets)  # a flat item's board, sensor cabinet or crate
         if holder is not None:
             world.append(holder)
 

@@ -44,6 +44,19 @@ def register(sub: argparse._SubParsersAction) -> None:
         f"two a door at most (default {DatasetSpec.hazmat_on_doors})",
     )
     d.add_argument(
+        "--hazmat-in-crates",
+        type=int,
+        default=DatasetSpec.hazmat_in_crates,
+        help=f"placards per scenario moved into open crates on the floor (default {DatasetSpec.hazmat_in_crates})",
+    )
+    d.add_argument(
+        "--hazmat-on-boards",
+        type=int,
+        default=DatasetSpec.hazmat_on_boards,
+        help="boards per scenario holding a placard with a QR code beside it "
+        f"(default {DatasetSpec.hazmat_on_boards})",
+    )
+    d.add_argument(
         "--distance",
         choices=DISTANCE_DRAWS,
         default=DatasetSpec.distance_draw,
@@ -253,6 +266,8 @@ def cmd_dataset(args) -> int:
         counts={**DatasetSpec.default_counts(), "hazmat": args.hazmat},
         hazmat_on_floor=args.hazmat_on_floor,
         hazmat_on_doors=args.hazmat_on_doors,
+        hazmat_in_crates=args.hazmat_in_crates,
+        hazmat_on_boards=args.hazmat_on_boards,
         distance_draw=args.distance,
         free_roll=args.free_roll,
         **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),

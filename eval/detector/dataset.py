@@ -76,6 +76,8 @@ class DatasetSpec:
     rmrc_fraction: float = 0.25  # scenarios on the smaller RMRC lane preset
     hazmat_on_floor: float = 0.25  # placards laid on the floor (real photos show many there)
     hazmat_on_doors: int = 0  # placards moved onto door faces (at most two a door)
+    hazmat_in_crates: int = 1  # placards moved into open crates on the floor
+    hazmat_on_boards: int = 1  # boards of a placard with a QR code (and a Landolt-C card, if any)
     distance_draw: str = "uniform"  # "log": log-uniform over distance_m, more close-ups
     free_roll: float = 0.0  # share of views with any camera roll (hand-held photos), not +-5 deg
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
@@ -102,6 +104,11 @@ class DatasetSpec:
             raise DatasetError(f"--hazmat-on-floor must be in [0, 1], got {self.hazmat_on_floor}")
         if not isinstance(self.hazmat_on_doors, int) or self.hazmat_on_doors < 0:
             raise DatasetError(f"--hazmat-on-doors must be a whole number >= 0, got {self.hazmat_on_doors}")
+        for name in ("hazmat_in_crates", "hazmat_on_boards"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or v < 0:
+                flag = "--" + name.replace("_", "-")
+                raise DatasetError(f"{flag} must be a whole number >= 0, got {v}")
         if self.distance_draw not in DISTANCE_DRAWS:
             raise DatasetError(
                 f"--distance must be one of {', '.join(DISTANCE_DRAWS)}, got {self.distance_draw!r}"
@@ -156,6 +163,8 @@ def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
                 labels=sorted(set(labels)) if n else None,
                 hazmat_on_floor=spec.hazmat_on_floor,
                 hazmat_on_doors=min(spec.hazmat_on_doors, 2 * spec.counts.get("door", 0)),
+                hazmat_in_crates=spec.hazmat_in_crates,
+                hazmat_on_boards=spec.hazmat_on_boards,
             )
         ),
         lighting=lighting,
@@ -167,7 +176,8 @@ def object_class(o) -> str:
 
 
 def _free(maze, p: np.ndarray, objects, clearance_m: float) -> bool:
-    """p (world x, y) is inside the maze, clear of every wall and floor object by ``clearance_m``."""
+    """p (world x, y) is inside the maze, clear of every wall, floor object and crate (a crated
+    placard stands for its crate) by ``clearance_m``."""
     w, h = maze.size_m
     if not (clearance_m <= p[0] <= w - clearance_m and clearance_m <= p[1] <= h - clearance_m):
         return False
@@ -176,7 +186,10 @@ def _free(maze, p: np.ndarray, objects, clearance_m: float) -> bool:
         t = np.clip(np.dot(p - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
         if np.linalg.norm(p - (a + t * (b - a))) < seg.thickness / 2 + clearance_m:
             return False
-    return all(o.mount != "floor" or np.linalg.norm(p - o.position[:2]) > o.size_m + clearance_m for o in objects)
+    return all(
+        (o.mount != "floor" and o.holder != "crate") or np.linalg.norm(p - o.position[:2]) > o.size_m + clearance_m
+        for o in objects
+    )
 
 
 def _crosses(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:

@@ -119,8 +119,8 @@ def test_the_world_draws_each_page_once_and_no_object_owns_it(rmrc_objects) -> N
     assert sorted(m.geom_size[pages[0]][1:] * 2) == pytest.approx(sorted(A4_M))
     # Landolt-C: a cabinet (back, two sides, top, bottom) and two boards, owned by no object; the
     # cards are the objects
-    cabinet = [g for g, n in enumerate(names) if n and n.startswith("landolt_cabinet_")]
-    boards = [g for g, n in enumerate(names) if n and n.startswith("landolt_board_")]
+    cabinet = [g for g, n in enumerate(names) if n and n.startswith("holder_cabinet_")]
+    boards = [g for g, n in enumerate(names) if n and n.startswith("holder_board_")]
     assert len(cabinet) == 5 and len(boards) == 2
     assert all(world.geom_object_id[g] == -1 for g in cabinet + boards)
     cards = [g for g, n in enumerate(names) if n and n.startswith("poi_") and "_landolt-c_" in n]

@@ -229,3 +229,28 @@ def test_log_distance_and_free_roll_views():
     assert sc.objects.generate.hazmat_on_doors == 2  # one door: two faces
     with pytest.raises(DatasetError, match=r"--free-roll must be in \[0, 1\], got -0.5"):
         DatasetSpec(images=1, free_roll=-0.5)
+
+
+def test_crates_and_boards_reach_the_scenarios_and_views_stay_out_of_crates():
+    # views as near as 5 cm: without the crates counted as obstacles, some would stand inside one
+    spec = DatasetSpec(images=1, seed=3, hazmat_in_crates=2, hazmat_on_boards=1, distance_m=(0.05, 1.0))
+    sc = scenario_for(spec, 0)
+    assert (sc.objects.generate.hazmat_in_crates, sc.objects.generate.hazmat_on_boards) == (2, 1)
+    for flag, kw in (("crates", {"hazmat_in_crates": -1}), ("boards", {"hazmat_on_boards": 1.5})):
+        with pytest.raises(DatasetError, match=rf"--hazmat-(in|on)-{flag} must be a whole number >= 0"):
+            DatasetSpec(images=1, **kw)
+    from sim.simulator import Simulation
+
+    with Simulation(sc) as sim:
+        crated = [o for o in sim.objects if o.holder == "crate"]
+        assert len(crated) == 2
+        rng = np.random.default_rng(0)
+        for o in crated:
+            for _ in range(20):
+                view = sample_view(sim, o, spec, rng)
+                assert view is not None
+                cam = (sim.T_world_map @ view[0])[:2, 3] - o.position[:2]
+                n = np.array([np.cos(o.yaw), np.sin(o.yaw)])
+                left, right, _, _ = o.holder_m
+                inside = cam @ n < o.size_m + 0.02 and abs(cam @ np.array([-n[1], n[0]])) < right + 0.02
+                assert not inside  # the crate is as deep as the placard's side
