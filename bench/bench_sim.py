@@ -7,7 +7,9 @@ thermal resolution for the thermal camera), the whole sensor set (noisy colour
 ground-truth boxes, and the cost of each colour-camera effect alone
 (sim/sensors/d435_color.py) on top of exposure and tone. The whole-sensor-set lines read
 consecutive frames, as a trial does (the auto-exposure's lag reads the meters of the frames
-before, cached when they were rendered). Run: ``python bench/bench_sim.py``.
+before, cached when they were rendered). ``--shadows`` adds the whole sensor set with and without
+shadow-casting lamps for the ``bright`` and ``uneven`` presets, side by side, wall and CPU time.
+Run: ``python bench/bench_sim.py [--shadows]``.
 """
 
 from __future__ import annotations
@@ -37,6 +39,15 @@ def _ms(fn, n):
     for i in range(n):
         fn(i)
     return (time.perf_counter() - t) / n * 1e3
+
+
+def _wall_cpu_ms(fn, n) -> tuple[float, float]:
+    """(wall, CPU of the whole process, every thread) ms per call of ``fn(i)`` over n calls."""
+    fn()  # warm up
+    t, c = time.perf_counter(), time.process_time()
+    for i in range(n):
+        fn(i)
+    return (time.perf_counter() - t) / n * 1e3, (time.process_time() - c) / n * 1e3
 
 
 def _stream_ms(sim: Simulation, n: int) -> float:
@@ -93,6 +104,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--frames", type=int, default=100)
     ap.add_argument("--maze", default="rrl_arena")
+    ap.add_argument("--shadows", action="store_true", help="also the cost of shadows, per lighting preset")
     args = ap.parse_args()
     sc = apply_settings(load_scenario("default"), [f"maze.file={args.maze}"])
     n = args.frames
@@ -155,6 +167,21 @@ def main() -> None:
     )
     for k, v in res.items():
         print(f"{k:48s} {v:7.2f} ms/frame")
+    if args.shadows:
+        print("shadows (sim/world.py SHADOW_MAP_PX), whole sensor set, off and on side by side:")
+        for preset in ("bright", "uneven"):
+            cost = {}
+            for on in (False, True):
+                sc_l = apply_settings(sensors, [f"lighting={preset}", f"shadows={str(on).lower()}"])
+                with Simulation(sc_l) as s4:
+                    ks4 = np.arange(n) + (s4.n_frames - n) // 2
+                    cost[on] = _wall_cpu_ms(lambda i=0, s4=s4, ks4=ks4: s4.frame(int(ks4[i % n])), n)
+                    lamps = int(np.sum(s4.world.model.light_castshadow)) if on else 0
+            (w0, c0), (w1, c1) = cost[False], cost[True]
+            print(
+                f"  {preset:6s} ({lamps} shadow-casting lamps): off {w0:6.1f} ms wall {c0:6.1f} ms CPU, "
+                f"on {w1:6.1f} / {c1:6.1f}, CPU x{c1 / c0:.2f} (+{c1 - c0:.1f} ms)"
+            )
 
 
 if __name__ == "__main__":

@@ -695,6 +695,9 @@ class Scenario:
     objects: ObjectsSpec | None = None
     arena: ArenaSpec | None = None
     lighting: Literal["bright", "dim", "uneven"] = "bright"
+    # the preset's lamps cast shadows (sim/world.py _lights): off in trials for its cost (a
+    # shadow map a lamp a frame; README "Light"), on for half of poibench dataset's scenarios
+    shadows: bool = False
     # distractors (crates, buckets, pipes, cables, boxes, debris; maze_assets/clutter.py) per
     # maze cell, against the walls; never objects of interest, never reported
     clutter_per_cell: float = number(0.3, lo=0.0, hi=2.0)

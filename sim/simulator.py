@@ -219,6 +219,7 @@ class Simulation:
             obstacles=self.arena.obstacles if self.arena is not None else (),
             light_height_m=ARENA_LIGHT_HEIGHT_M if self.arena is not None else None,
             clutter_per_cell=sc.clutter_per_cell,
+            shadows=sc.shadows,
         )
 
         self.T_world_map = make_transform(rot_z(start_yaw), [float(start_xy[0]), float(start_xy[1]), 0.0])

@@ -72,6 +72,12 @@ def lux_of_decoded_one(lighting: str, lux: float, gamma: float) -> float:
     return lux / LAMP_WHITE_LEVEL[lighting] ** gamma
 
 
+# Shadow maps (``shadows``): MuJoCo renders one depth map of this size per shadow-casting light and
+# frame. 1024 keeps a wall's shadow edge within about a centimetre on a 5 m maze; MuJoCo's 4096
+# costs more and shows no more at 640x480 (README "Light": the cost measured per preset).
+SHADOW_MAP_PX = 1024
+
+
 def _lights(
     world: ET.Element,
     visual: ET.Element,
@@ -79,10 +85,21 @@ def _lights(
     maze,
     rng: np.random.Generator,
     light_height_m: float | None = None,
+    shadows: bool = False,
 ) -> None:
     """Headlight and lights of a preset; ``light_height_m`` puts the spot lamps of ``uneven``
-    at that height (default: 1.8 wall heights, under a maze's ceiling)."""
+    at that height (default: 1.8 wall heights, under a maze's ceiling). With ``shadows`` the
+    sun of ``bright`` and the spot lamps of ``uneven`` cast shadows (walls darken the floor
+    and corners beside them, a crate's inside is shaded); the robot's own lamp, MuJoCo's
+    headlight, casts none (it sits at the camera, where its shadows hide behind what casts
+    them)."""
     w, h = maze.size_m
+    cast = "true" if shadows else "false"
+    if shadows:
+        quality = visual.find("quality")
+        (quality if quality is not None else ET.SubElement(visual, "quality")).set(
+            "shadowsize", str(SHADOW_MAP_PX)
+        )
     top = maze.settings.wall_height_m * 2.5 + 1.0
     head = ET.SubElement(visual, "headlight")
     if lighting == "bright":
@@ -94,7 +111,7 @@ def _lights(
             "light",
             name="sun",
             directional="true",
-            castshadow="false",
+            castshadow=cast,
             pos=fmt([w / 2, h / 2, top]),
             dir="0.2 0.3 -1",
             diffuse="0.5 0.5 0.5",
@@ -115,7 +132,7 @@ def _lights(
                 world,
                 "light",
                 name=f"spot_{i}",
-                castshadow="false",
+                castshadow=cast,
                 pos=fmt([x, y, maze.settings.wall_height_m * 1.8 if light_height_m is None else light_height_m]),
                 dir="0 0 -1",
                 cutoff="60",
@@ -213,12 +230,13 @@ def build_world_xml(
     obstacles: Sequence[Obstacle] = (),
     light_height_m: float | None = None,
     clutter_per_cell: float = 0.0,
+    shadows: bool = False,
 ) -> tuple[str, dict[str, bytes]]:
     """The MJCF text and its in-memory assets (PNG textures).
 
     ``obstacles`` (the goal arena's cubes, not POIs) are plywood boxes named by their
-    ``name``; ``light_height_m``: see :func:`_lights`; ``clutter_per_cell``: distractors
-    (``clutter_*`` geoms) a maze cell on average.
+    ``name``; ``light_height_m`` and ``shadows``: see :func:`_lights`; ``clutter_per_cell``:
+    distractors (``clutter_*`` geoms) a maze cell on average.
     """
     root = ET.Element("mujoco", model="poibench")
     ET.SubElement(root, "compiler", angle="radian")
@@ -246,7 +264,7 @@ def build_world_xml(
         height="32",
     )
     world = ET.SubElement(root, "worldbody")
-    _lights(world, visual, lighting, maze, rng, light_height_m)
+    _lights(world, visual, lighting, maze, rng, light_height_m, shadows)
 
     w, h = maze.size_m
     s = maze.settings
@@ -351,6 +369,7 @@ def build_world(
     obstacles: Sequence[Obstacle] = (),
     light_height_m: float | None = None,
     clutter_per_cell: float = 0.0,
+    shadows: bool = False,
 ) -> World:
     xml, files = build_world_xml(
         maze,
@@ -361,6 +380,7 @@ def build_world(
         obstacles=obstacles,
         light_height_m=light_height_m,
         clutter_per_cell=clutter_per_cell,
+        shadows=shadows,
     )
     model = mujoco.MjModel.from_xml_string(xml, files)
     data = mujoco.MjData(model)

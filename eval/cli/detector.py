@@ -57,6 +57,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         f"(default {DatasetSpec.hazmat_on_boards})",
     )
     d.add_argument(
+        "--shadows",
+        type=float,
+        default=DatasetSpec.shadow_fraction,
+        help=f"share of the scenarios whose lamps cast shadows (default {DatasetSpec.shadow_fraction}; "
+        "trials have none, for their cost)",
+    )
+    d.add_argument(
         "--distance",
         choices=DISTANCE_DRAWS,
         default=DatasetSpec.distance_draw,
@@ -268,6 +275,7 @@ def cmd_dataset(args) -> int:
         hazmat_on_doors=args.hazmat_on_doors,
         hazmat_in_crates=args.hazmat_in_crates,
         hazmat_on_boards=args.hazmat_on_boards,
+        shadow_fraction=args.shadows,
         distance_draw=args.distance,
         free_roll=args.free_roll,
         **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),

@@ -1,8 +1,8 @@
 """A detection dataset in the YOLO format, rendered from randomised scenarios.
 
 ``write_dataset(spec, out_dir)`` builds ``ceil(images / images_per_scenario)``
-generated scenarios (maze size, preset, lighting and object placement from
-``SeedSequence([seed, j])``). Each scenario hangs a rotating window of the 16
+generated scenarios (maze size, preset, lighting, shadows on ``shadow_fraction`` of them, and
+object placement from ``SeedSequence([seed, j])``). Each scenario hangs a rotating window of the 16
 hazmat labels, so all labels appear equally often over the dataset, plus every
 other type. Each image looks at a target chosen to balance the classes (the
 least-labelled class present), from a viewpoint drawn in free space at a
@@ -78,6 +78,7 @@ class DatasetSpec:
     hazmat_on_doors: int = 0  # placards moved onto door faces (at most two a door)
     hazmat_in_crates: int = 1  # placards moved into open crates on the floor
     hazmat_on_boards: int = 1  # boards of a placard with a QR code (and a Landolt-C card, if any)
+    shadow_fraction: float = 0.5  # scenarios whose lamps cast shadows
     distance_draw: str = "uniform"  # "log": log-uniform over distance_m, more close-ups
     free_roll: float = 0.0  # share of views with any camera roll (hand-held photos), not +-5 deg
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
@@ -104,6 +105,8 @@ class DatasetSpec:
             raise DatasetError(f"--hazmat-on-floor must be in [0, 1], got {self.hazmat_on_floor}")
         if not isinstance(self.hazmat_on_doors, int) or self.hazmat_on_doors < 0:
             raise DatasetError(f"--hazmat-on-doors must be a whole number >= 0, got {self.hazmat_on_doors}")
+        if not 0.0 <= self.shadow_fraction <= 1.0:
+            raise DatasetError(f"--shadows must be in [0, 1], got {self.shadow_fraction}")
         for name in ("hazmat_in_crates", "hazmat_on_boards"):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 0:
@@ -168,6 +171,8 @@ def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
             )
         ),
         lighting=lighting,
+        # its own stream: the draws above are those of datasets made before shadows
+        shadows=bool(np.random.default_rng([spec.seed, j, attempt, 1]).random() < spec.shadow_fraction),
     )
 
 
@@ -453,6 +458,7 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                         "scenario": j,
                         "scenario_seed": sc.seed,
                         "lighting": sc.lighting,
+                        "shadows": int(sc.shadows),
                         "target_id": target.id,
                         "target_class": object_class(target),
                         "distance_m": round(info["distance_m"], 3),
