@@ -33,13 +33,21 @@ import numpy as np
 from eval.detector.photos import IMAGE_SUFFIXES, load_folder
 from eval.detector.quality import DetectorQualityError, LabelledImage, load_split
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
-from poi.detectors.hazmat_labels import BACKGROUND, DEFAULT_CROP_MARGIN, LABEL_CLASSES, crop_box, padded_region
+from poi.detectors.hazmat_labels import (
+    BACKGROUND,
+    DEFAULT_CROP_MARGIN,
+    LABEL_CLASSES,
+    PAD_VALUE,
+    crop_box,
+    padded_region,
+)
 
 CONTEXT = 0.5  # of the box width / height kept on each side
 MAX_BOX_PX = 96  # larger boxes are stored reduced to this
 MIN_BOX_PX = 8  # smaller labelled boxes are skipped: nothing to read
 JITTER_SHIFT = 0.05  # sd of the box centre error, as a fraction of the box size
 JITTER_SCALE = 0.08  # sd of the log box-size error
+TURN_SHARE = 0.5  # training crops turned in their plane to any angle first: placards hang at any angle
 BACKGROUND_INDEX = LABEL_CLASSES.index(BACKGROUND)
 HOLDOUT_NAME = "holdout.json"  # in a label classifier's run folder
 HOLDOUT_STREAM = 7  # second key of the holdout draw's generator, apart from the crops' streams
@@ -247,6 +255,37 @@ def read_holdout(run: str | Path) -> dict[str, set[str]]:
         raise DetectorQualityError(f"{path}: not a holdout file ('folders': folder -> image names)") from None
 
 
+def turned(patch: np.ndarray, box: np.ndarray, angle_rad: float, tight: float) -> tuple[np.ndarray, np.ndarray]:
+    """``patch`` turned by ``angle_rad`` (counter-clockwise as seen) about the box's centre, grey
+    outside, and the axis-aligned box that then holds the object.
+
+    A w x h box turned by a has corners within (|cos a| w + |sin a| h) / 2 across and
+    (|sin a| w + |cos a| h) / 2 down of its centre: the box of a full sheet that filled it.
+    A diamond that filled it (vertices at the sides' middles) reaches only max(|cos a|,
+    |sin a|) / (|cos a| + |sin a|) of that (half of it at 45 degrees); ``tight`` in [0, 1]
+    goes from the first to the second, since a placard may be either.
+
+    >>> p = np.zeros((40, 40, 3), np.uint8)
+    >>> turned(p, np.array([10.0, 10.0, 30.0, 30.0]), np.pi / 4, 1.0)[1].round(2).tolist()
+    [12.93, 12.93, 27.07, 27.07]
+    """
+    x0, y0, x1, y1 = (float(v) for v in box)
+    cx, cy, w, h = 0.5 * (x0 + x1), 0.5 * (y0 + y1), x1 - x0, y1 - y0
+    M = cv2.getRotationMatrix2D((cx, cy), math.degrees(angle_rad), 1.0)
+    out = cv2.warpAffine(
+        patch,
+        M,
+        (patch.shape[1], patch.shape[0]),
+        flags=cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=(PAD_VALUE,) * 3,
+    )
+    c, s = abs(math.cos(angle_rad)), abs(math.sin(angle_rad))
+    f = 1.0 - tight * (1.0 - max(c, s) / (c + s))
+    hw, hh = 0.5 * f * (c * w + s * h), 0.5 * f * (s * w + c * h)
+    return out, np.array([cx - hw, cy - hh, cx + hw, cy + hh])
+
+
 def sample_crop(
     patch: np.ndarray,
     box: np.ndarray,
@@ -257,7 +296,10 @@ def sample_crop(
     """A (size, size, 3) training crop of the object at ``box`` in ``patch``.
 
     With ``rng`` None the crop is the pipeline's crop of the exact box
-    (validation). Otherwise the box centre moves by N(0, JITTER_SHIFT) of its
+    (validation). Otherwise, on ``TURN_SHARE`` of the crops, the patch is first
+    turned to any angle about the box (:func:`turned`, ``tight`` uniform), since a
+    placard may hang at any angle and a photo set shows each print at few; then
+    the box centre moves by N(0, JITTER_SHIFT) of its
     size and each side scales by exp(N(0, JITTER_SCALE)); then brightness
     (x U(0.6, 1.3)), per-channel gain (x U(0.93, 1.07)), Gaussian noise
     (sd U(0, 6) grey levels) and, on a quarter of the crops, the resolution of a
@@ -265,6 +307,8 @@ def sample_crop(
     """
     if rng is None:
         return crop_box(patch, tuple(box), size, margin)
+    if rng.random() < TURN_SHARE:
+        patch, box = turned(patch, box, float(rng.uniform(-math.pi, math.pi)), float(rng.random()))
     x0, y0, x1, y1 = box
     bw, bh = x1 - x0, y1 - y0
     cx = 0.5 * (x0 + x1) + rng.normal(0.0, JITTER_SHIFT) * bw

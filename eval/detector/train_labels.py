@@ -9,7 +9,8 @@ placard (symbol on top, text across the middle, class number at the bottom)
 stays in the features. About 30 MFLOPs a crop.
 
 Training: crops from :mod:`eval.detector.label_data` (every class drawn equally often,
-with box, light, noise and resolution changes), cross-entropy with label
+half of them turned in their plane to any angle, with box, light, noise and resolution
+changes), cross-entropy with label
 smoothing 0.05, AdamW with a one-cycle learning rate, batch 128. Seeded: the
 same data and spec give the same weights on the same machine. After every
 epoch the run folder gets ``last.pt`` (model, optimiser, schedule, history) and

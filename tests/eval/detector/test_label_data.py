@@ -15,6 +15,7 @@ from eval.detector.label_data import (
     balanced_draw,
     collect_crops,
     sample_crop,
+    turned,
 )
 from eval.detector.quality import load_split
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
@@ -85,6 +86,30 @@ def test_augmented_crops_are_seeded_and_differ_from_the_exact_one(placards):
     exact = sample_crop(crops.patches[i], crops.boxes[i], 64, None)
     assert a.shape == (64, 64, 3) and a.dtype == np.uint8
     assert np.array_equal(a, b) and not np.array_equal(a, exact)
+
+
+@pytest.mark.parametrize("deg", [0.0, 17.0, 45.0, 90.0, 133.0, -60.0])
+def test_a_turned_patch_keeps_its_sheet_or_diamond_inside_the_turned_box(deg):
+    """A white 40 x 40 square (a full sheet, tight 0) and a diamond with its vertices at that
+    square's sides (tight 1), turned by ``deg``: the returned box is the white pixels' bounds,
+    within the resampling's pixel."""
+    import cv2
+
+    box = np.array([40.0, 40.0, 80.0, 80.0])
+    sheet = np.zeros((120, 120, 3), np.uint8)
+    sheet[40:80, 40:80] = 255
+    diamond = np.zeros((120, 120, 3), np.uint8)
+    cv2.fillConvexPoly(diamond, np.array([[60, 40], [80, 60], [60, 80], [40, 60]], np.int32), (255, 255, 255))
+    for img, tight in ((sheet, 0.0), (diamond, 1.0)):
+        out, got = turned(img, box, np.radians(deg), tight)
+        ys, xs = np.nonzero(out[..., 0] > 127)
+        seen = np.array([xs.min(), ys.min(), xs.max() + 1, ys.max() + 1])
+        assert got == pytest.approx(seen, abs=1.5), (tight, got, seen)
+    # turned counter-clockwise as seen: the sheet's top-right corner rises to the top, 7 px
+    # right of the centre (28.3 px from it at 45 + 30 degrees)
+    out, _ = turned(sheet, box, np.radians(30.0), 0.0)
+    ys, xs = np.nonzero(out[..., 0] > 127)
+    assert xs[ys == ys.min()].mean() == pytest.approx(60 + 28.28 * np.cos(np.radians(75)), abs=1.5)
 
 
 def test_balanced_draw_makes_every_class_equally_likely():
