@@ -125,6 +125,14 @@ BOARD_THICKNESS_M = LANDOLT_BOARD_M[2]  # every board: 18 mm plywood
 CRATE_INNER_SIDES = 1.5
 CRATE_DEPTH_SIDES = 1.0
 CRATE_WALL_M = 0.012
+# A ramp holding a placard (sim/placement.py lay_placards_on_ramps): a solid wooden wedge against a
+# wall, rising RAMP_SLOPE_DEG towards it (poibench's choice, a typical arena ramp's slope),
+# RAMP_RUN_SIDES placard sides out from the wall and RAMP_WIDTH_SIDES wide, the placard lying
+# in the middle of its slope.
+RAMP_SLOPE_DEG = 15.0
+RAMP_RUN_SIDES = 2.0
+RAMP_WIDTH_SIDES = 2.4
+RAMP_RGBA = (0.70, 0.58, 0.40, 1.0)
 CRATE_RGBA = (0.62, 0.48, 0.30, 1.0)
 CRATE_SLAT_RGBA = (0.45, 0.33, 0.20, 1.0)
 ARENA_SIZE_M: dict[str, float] = {
@@ -667,6 +675,8 @@ def build_holder(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
     n = np.array([np.cos(yaw), np.sin(yaw), 0.0])
     name = holder_name(obj)
     kw = {"contype": "0", "conaffinity": "0", "group": "0"}
+    if obj.holder == "ramp":
+        return _ramp(obj, assets, name, kw)
     origin = obj.position - n * holder_standoff_m(obj.holder)
     body = ET.Element("body", name=name, pos=fmt(origin), euler=fmt([0.0, 0.0, yaw]))
 
@@ -713,10 +723,61 @@ def build_holder(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
     return body
 
 
+def ramp_wedge(run_m: float, width_y: tuple[float, float], slope_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (6, 3) and outward triangles (8, 3) of a solid wedge: its back on the wall (x = 0)
+    ``run_m tan(slope)`` high, its slope falling to the floor at x = ``run_m``, over y in
+    ``width_y``.
+
+    >>> V, F = ramp_wedge(0.5, (-0.3, 0.3), np.radians(15))
+    >>> round(float(V[:, 2].max()), 4), V.shape, F.shape
+    (0.134, (6, 3), (8, 3))
+    """
+    h = run_m * np.tan(slope_rad)
+    y0, y1 = width_y
+    V = np.array([[0, y0, 0], [run_m, y0, 0], [0, y0, h], [0, y1, 0], [run_m, y1, 0], [0, y1, h]], dtype=float)
+    F = np.array(
+        [
+            (0, 1, 2),  # side at y0 (faces -y)
+            (3, 5, 4),  # side at y1 (faces +y)
+            (0, 4, 1),  # bottom (faces -z)
+            (0, 3, 4),
+            (0, 5, 3),  # back on the wall (faces -x)
+            (0, 2, 5),
+            (1, 5, 2),  # the slope (faces up and out)
+            (1, 4, 5),
+        ]
+    )  # counter-clockwise seen from outside: each face's normal points away from the wedge
+    return V, F
+
+
+def _ramp(obj: PlacedObject, assets: SceneAssets, name: str, kw: dict) -> ET.Element:
+    """A placard's ramp (``holder_m``: its slope's extent about the placard, before the roll):
+    a wedge whose slope holds the placard, standing on the floor against the wall behind it."""
+    slope = np.pi / 2 - obj.tilt
+    n = np.array([np.cos(obj.yaw), np.sin(obj.yaw)])
+    left, right, bottom, top = obj.holder_m  # bottom and top: down and up the slope
+    normal = np.array([*(np.cos(obj.tilt) * n), np.sin(obj.tilt)])
+    q = obj.position - normal * holder_standoff_m("ramp")  # on the slope, under the placard
+    foot = q[:2] - n * top * np.cos(slope)  # the slope's top edge meets the wall there
+    run = (top - bottom) * np.cos(slope)
+    mesh = f"holdermesh_ramp_{obj.id}"
+    assets.mesh(mesh, *ramp_wedge(float(run), (left, right), float(slope)))
+    wood = _material(assets, "ramp_wood", RAMP_RGBA, specular=0.05, shininess=0.05)
+    body = ET.Element("body", name=name, pos=fmt([foot[0], foot[1], 0.0]), euler=fmt([0.0, 0.0, obj.yaw]))
+    ET.SubElement(body, "geom", name=f"{name}_wedge", type="mesh", mesh=mesh, material=wood, **kw)
+    return body
+
+
 def holder_standoff_m(holder: str | None) -> float:
     """How far a held item's face stands out from its wall face: the board's thickness, the
     cabinet's back panel or the crate's; 0 on the wall itself."""
-    return {None: 0.0, "board": BOARD_THICKNESS_M, "cabinet": LANDOLT_CABINET_M[3], "crate": CRATE_WALL_M}[holder]
+    return {
+        None: 0.0,
+        "board": BOARD_THICKNESS_M,
+        "cabinet": LANDOLT_CABINET_M[3],
+        "crate": CRATE_WALL_M,
+        "ramp": BACKING_M + 0.001,  # lying on the slope, as a floor placard on the floor
+    }[holder]
 
 
 def build_page(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:

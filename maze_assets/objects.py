@@ -22,12 +22,14 @@ from poi.core.names import TYPES
 MOUNTS = ("wall", "floor", "opening")
 # What a flat item may be fixed to, and which types each holder takes (sim/placement.py,
 # maze_assets.models.build_holder): a wooden board on the wall (a Landolt-C card alone, or a
-# group of a placard, a QR code and a Landolt-C card), a sensor cabinet (Landolt-C) or an open
-# crate standing on the floor (a placard on the inside of its back panel).
+# group of a placard, a QR code and a Landolt-C card), a sensor cabinet (Landolt-C), an open
+# crate standing on the floor (a placard on the inside of its back panel) or a wooden ramp
+# against a wall (a placard lying on its slope).
 HOLDER_TYPES: dict[str, tuple[str, ...]] = {
     "board": ("hazmat", "qr", "landolt-c"),
     "cabinet": ("landolt-c",),
     "crate": ("hazmat",),
+    "ramp": ("hazmat",),
 }
 
 _GEOM_RE = re.compile(r"^poi_(\d+)_([a-z\-]+)(?:_.*)?$")
@@ -71,11 +73,13 @@ class PlacedObject:
     module_m: float | None = None  # a QR code's module side, metres (None: whatever its size gives)
     # What a flat item is fixed to (``HOLDER_TYPES``; sim/placement.py, maze_assets.models.
     # build_holder): None (the wall itself), "board" (a wooden board on the wall), "cabinet" (the
-    # back of a sensor cabinet, a box open to the front hung on the wall) or "crate" (the inside
-    # of an open crate's back panel); drawn apart from the object.
+    # back of a sensor cabinet, a box open to the front hung on the wall), "crate" (the inside
+    # of an open crate's back panel) or "ramp" (the slope of a ramp against a wall); drawn
+    # apart from the object.
     holder: str | None = None
-    # The board's or crate's front face (left, right, bottom, top) in the object's local (y, z),
-    # metres, for the one object that draws it; None on the other items of a shared board (and
+    # The board's or crate's front face, or the ramp's slope, (left, right, bottom, top) in the
+    # object's local (y, z) before its roll, metres (a ramp's bottom and top: down and up the
+    # slope), for the one object that draws it; None on the other items of a shared board (and
     # on a cabinet, whose size is fixed).
     holder_m: tuple[float, float, float, float] | None = None
 
@@ -92,9 +96,9 @@ class PlacedObject:
             )
         if self.holder_m is not None:
             left, right, bottom, top = self.holder_m
-            if self.holder not in ("board", "crate") or not (left < 0 < right and bottom < 0 < top):
+            if self.holder not in ("board", "crate", "ramp") or not (left < 0 < right and bottom < 0 < top):
                 raise ValueError(
-                    f"object {self.id}: holder_m {self.holder_m} must be a board's or crate's face "
+                    f"object {self.id}: holder_m {self.holder_m} must be a board's, crate's or ramp's face "
                     "(left, right, bottom, top) around the object"
                 )
         self.position = np.asarray(self.position, dtype=float).reshape(3)

@@ -40,6 +40,9 @@ from maze_assets.models import (
     FIDUCIAL_LENGTH_M,
     LANDOLT_BOARD_M,
     LANDOLT_CABINET_M,
+    RAMP_RUN_SIDES,
+    RAMP_SLOPE_DEG,
+    RAMP_WIDTH_SIDES,
     crate_inner_m,
     door_height_m,
     door_panel_face_m,
@@ -635,6 +638,56 @@ def put_placards_in_crates(objects: list[PlacedObject], count: int, seed: int, m
         o.position = np.array([*(wall_xy + n * t), z])
         o.holder = "crate"
         o.holder_m = (float(-side / 2), float(side / 2), float(-z), float(side - z))
+        moved += 1
+
+
+def lay_placards_on_ramps(objects: list[PlacedObject], count: int, seed: int, maze) -> None:
+    """Lay up to ``count`` wall placards on wooden ramps leaning against their walls.
+
+    Real arenas have placards on their ramps as well as on floors and walls. A ramp
+    (maze_assets.models, ``RAMP_*``) rises ``RAMP_SLOPE_DEG`` towards the wall where the
+    placard hung, ``RAMP_RUN_SIDES`` placard sides out from it (at most half the cell's
+    clear width) and ``RAMP_WIDTH_SIDES`` wide (at most the wall face); the placard lies face
+    up in the middle of its slope, its top edge towards the wall, and keeps its turn.
+    Placards are taken in an order drawn from a seed sequence of the scenario seed, so the
+    stream that placed the objects is untouched; one whose ramp would lie against another
+    object stays on its wall.
+    """
+    if count < 0:
+        raise PlacementError(f"hazmat_on_ramps must be >= 0, got {count}")
+    if count == 0:
+        return
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 178]))
+    candidates = _free_wall_items(objects, "hazmat")
+    faces = list(maze.wall_faces())
+    clear = maze.settings.cell_size_m - maze.settings.wall_thickness_m
+    slope = np.radians(RAMP_SLOPE_DEG)
+    moved = 0
+    for i in rng.permutation(len(candidates)):
+        if moved == count:
+            break
+        o = candidates[int(i)]
+        face = _face_of(o, faces)
+        if face is None:
+            continue
+        run = min(RAMP_RUN_SIDES * o.size_m, 0.5 * clear)
+        width = min(RAMP_WIDTH_SIDES * o.size_m, face.length_m - 0.02)
+        n, _ = _face_axes(o)
+        centre = o.position[:2] + n * run / 2
+        reach = 0.5 * np.hypot(run, width)
+        if width < o.size_m * np.sqrt(2.0) or any(
+            p is not o and np.hypot(*(p.position[:2] - centre)) < reach + 0.5 * p.size_m for p in objects
+        ):
+            continue
+        along = run / 2 / np.cos(slope)  # the slope's length either side of the placard
+        normal = np.array([*(np.sin(slope) * n), np.cos(slope)])
+        q = np.array([*centre, run / 2 * np.tan(slope)])
+        o.position = q + normal * holder_standoff_m("ramp")
+        o.tilt = float(np.pi / 2 - slope)
+        o.mount = "floor"
+        o.holder = "ramp"
+        o.holder_m = (float(-width / 2), float(width / 2), float(-along), float(along))
+        o.wall = None
         moved += 1
 
 

@@ -204,6 +204,8 @@ class ObjectsGenerate:
     hazmat_on_doors: int = number(0, lo=0, hi=100)
     # wall placards moved into open crates on the floor (sim.placement.put_placards_in_crates)
     hazmat_in_crates: int = number(0, lo=0, hi=100)
+    # wall placards laid on wooden ramps against their walls (sim.placement.lay_placards_on_ramps)
+    hazmat_on_ramps: int = number(0, lo=0, hi=100)
     # boards of a wall placard with a QR code and a Landolt-C card beside it
     # (sim.placement.hang_placard_boards)
     hazmat_on_boards: int = number(0, lo=0, hi=100)

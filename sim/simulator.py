@@ -63,6 +63,7 @@ from sim.placement import (
     hang_placard_boards,
     hang_placards_on_doors,
     lay_placards_on_floor,
+    lay_placards_on_ramps,
     place_objects,
     put_placards_in_crates,
 )
@@ -203,6 +204,7 @@ class Simulation:
                 lay_placards_on_floor(generated, gen.hazmat_on_floor, sc.seed, self.maze)
                 hang_placards_on_doors(generated, gen.hazmat_on_doors, sc.seed, self.maze)
                 put_placards_in_crates(generated, gen.hazmat_in_crates, sc.seed, self.maze)
+                lay_placards_on_ramps(generated, gen.hazmat_on_ramps, sc.seed, self.maze)
                 hang_placard_boards(generated, gen.hazmat_on_boards, sc.seed, self.maze)
             start_xy, start_yaw = self.maze.cell_center(*self.maze.start_cell), self.maze.start_heading_rad
         assign_placard_looks(self.objects, sc.seed)

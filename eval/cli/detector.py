@@ -50,6 +50,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help=f"placards per scenario moved into open crates on the floor (default {DatasetSpec.hazmat_in_crates})",
     )
     d.add_argument(
+        "--hazmat-on-ramps",
+        type=int,
+        default=DatasetSpec.hazmat_on_ramps,
+        help=f"placards per scenario laid on ramps against their walls (default {DatasetSpec.hazmat_on_ramps})",
+    )
+    d.add_argument(
         "--hazmat-on-boards",
         type=int,
         default=DatasetSpec.hazmat_on_boards,
@@ -274,6 +280,7 @@ def cmd_dataset(args) -> int:
         hazmat_on_floor=args.hazmat_on_floor,
         hazmat_on_doors=args.hazmat_on_doors,
         hazmat_in_crates=args.hazmat_in_crates,
+        hazmat_on_ramps=args.hazmat_on_ramps,
         hazmat_on_boards=args.hazmat_on_boards,
         shadow_fraction=args.shadows,
         distance_draw=args.distance,

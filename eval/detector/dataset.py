@@ -77,6 +77,7 @@ class DatasetSpec:
     hazmat_on_floor: float = 0.25  # placards laid on the floor (real photos show many there)
     hazmat_on_doors: int = 0  # placards moved onto door faces (at most two a door)
     hazmat_in_crates: int = 1  # placards moved into open crates on the floor
+    hazmat_on_ramps: int = 1  # placards laid on ramps against their walls
     hazmat_on_boards: int = 1  # boards of a placard with a QR code (and a Landolt-C card, if any)
     shadow_fraction: float = 0.5  # scenarios whose lamps cast shadows
     distance_draw: str = "uniform"  # "log": log-uniform over distance_m, more close-ups
@@ -107,7 +108,7 @@ class DatasetSpec:
             raise DatasetError(f"--hazmat-on-doors must be a whole number >= 0, got {self.hazmat_on_doors}")
         if not 0.0 <= self.shadow_fraction <= 1.0:
             raise DatasetError(f"--shadows must be in [0, 1], got {self.shadow_fraction}")
-        for name in ("hazmat_in_crates", "hazmat_on_boards"):
+        for name in ("hazmat_in_crates", "hazmat_on_ramps", "hazmat_on_boards"):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 0:
                 flag = "--" + name.replace("_", "-")
@@ -167,6 +168,7 @@ def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
                 hazmat_on_floor=spec.hazmat_on_floor,
                 hazmat_on_doors=min(spec.hazmat_on_doors, 2 * spec.counts.get("door", 0)),
                 hazmat_in_crates=spec.hazmat_in_crates,
+                hazmat_on_ramps=spec.hazmat_on_ramps,
                 hazmat_on_boards=spec.hazmat_on_boards,
             )
         ),

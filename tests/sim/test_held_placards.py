@@ -1,5 +1,5 @@
-"""Placards in crates and on boards with a QR code and a Landolt-C card (issue 17, item 2):
-moved by seed from their walls, drawn with their holders, seen whole from in front."""
+"""Placards in crates, on ramps and on boards with a QR code and a Landolt-C card (issue 17,
+item 2): moved by seed from their walls, drawn with their holders, seen whole from in front."""
 
 from __future__ import annotations
 
@@ -10,18 +10,32 @@ import mujoco
 import numpy as np
 import pytest
 
-from maze_assets.models import BOARD_THICKNESS_M, CRATE_WALL_M, crate_inner_m
+from maze_assets.models import (
+    BACKING_M,
+    BOARD_THICKNESS_M,
+    CRATE_WALL_M,
+    RAMP_RUN_SIDES,
+    RAMP_SLOPE_DEG,
+    RAMP_WIDTH_SIDES,
+    crate_inner_m,
+    reference_point,
+)
 from maze_assets.objects import PlacedObject
 from poi.core.geometry import make_transform, rot_y, rot_z
-from sim.placement import PlacementError, hang_placard_boards, put_placards_in_crates
+from sim.placement import PlacementError, hang_placard_boards, lay_placards_on_ramps, put_placards_in_crates
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 
 
-def _scenario(crates: int = 0, boards: int = 0, landolt: int = 0):
+def _scenario(crates: int = 0, boards: int = 0, landolt: int = 0, ramps: int = 0):
     sc = with_noise(load_scenario("default"), False)
     sc = apply_settings(
-        sc, [f"objects.generate.hazmat_in_crates={crates}", f"objects.generate.hazmat_on_boards={boards}"]
+        sc,
+        [
+            f"objects.generate.hazmat_in_crates={crates}",
+            f"objects.generate.hazmat_on_boards={boards}",
+            f"objects.generate.hazmat_on_ramps={ramps}",
+        ],
     )
     gen = replace(sc.objects.generate, counts={**sc.objects.generate.counts, "landolt-c": landolt})
     return replace(sc, objects=replace(sc.objects, generate=gen))
@@ -31,7 +45,7 @@ def _scenario(crates: int = 0, boards: int = 0, landolt: int = 0):
 def sims():
     with (
         Simulation(_scenario(landolt=1)) as plain,
-        Simulation(_scenario(crates=2, boards=1, landolt=1)) as held,
+        Simulation(_scenario(crates=2, boards=1, landolt=1, ramps=1)) as held,
     ):
         yield plain, held
 
@@ -72,6 +86,34 @@ def test_crated_placards_sit_on_the_back_panel_at_the_floor_where_they_hung(sims
         assert bottom == pytest.approx(-o.position[2])  # the crate stands on the floor
         assert right - left == pytest.approx(inner + 2 * CRATE_WALL_M) == pytest.approx(top - bottom)
         assert o.yaw == b.yaw and o.wall == b.wall and o.size_m == b.size_m
+
+
+def test_a_ramp_placard_lies_mid_slope_face_up_its_ramp_against_the_wall(sims):
+    plain, sim = sims
+    (o,) = [o for o in sim.objects if o.holder == "ramp"]
+    b = {p.id: p for p in plain.objects}[o.id]
+    slope = math.radians(RAMP_SLOPE_DEG)
+    run = RAMP_RUN_SIDES * o.size_m  # 0.5 m: under half the default maze's 1.15 m clear cells
+    assert o.tilt == pytest.approx(math.pi / 2 - slope) and o.mount == "floor" and o.wall is None
+    n = _normal(o)
+    # the face: the slope's middle, half the run out from where it hung, lifted by the backing
+    normal = np.array([*(math.sin(slope) * n), math.cos(slope)])
+    on_slope = o.position - normal * (BACKING_M + 0.001)
+    d = on_slope[:2] - b.position[:2]
+    assert d @ n == pytest.approx(run / 2) and d @ _right(o) == pytest.approx(0.0, abs=1e-12)
+    assert on_slope[2] == pytest.approx(run / 2 * math.tan(slope))
+    left, right, bottom, top = o.holder_m
+    assert right - left == pytest.approx(RAMP_WIDTH_SIDES * o.size_m)
+    assert top == -bottom == pytest.approx(run / 2 / math.cos(slope))
+    # the reference point is the image's centre, 3 mm out of the slope
+    assert (reference_point(o) - o.position) @ normal == pytest.approx(0.003)
+    # the wedge: its back on the wall face where the placard hung, its slope under the placard
+    m = sim.world.model
+    g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"holder_ramp_{o.id}_wedge")
+    assert g >= 0 and sim.world.geom_object_id[g] == -1
+    body = int(m.geom_bodyid[g])
+    foot = sim.world.data.xpos[body]
+    assert (foot[:2] - b.position[:2]) @ n == pytest.approx(0.0, abs=1e-9) and foot[2] == 0.0
 
 
 def test_a_board_holds_placard_qr_and_card_in_a_row_on_one_face(sims):
@@ -126,7 +168,7 @@ def test_holders_are_drawn_once_and_owned_by_no_object(sims):
 def test_held_placards_are_seen_whole_from_in_front(sims):
     _, sim = sims
     for o in sim.objects:
-        if o.holder in ("crate", "board"):
+        if o.holder in ("crate", "board", "ramp"):
             _, truth = _look_at(sim, o)
             seen = {v.id: v.visible_fraction for v in truth.visible}
             assert seen.get(o.id, 0.0) > 0.9, (o.id, o.holder)
@@ -150,6 +192,8 @@ def test_bad_counts_are_one_line_errors(sims):
         put_placards_in_crates(list(sim.objects), -1, 0, sim.maze)
     with pytest.raises(PlacementError, match="hazmat_on_boards must be >= 0, got -2"):
         hang_placard_boards(list(sim.objects), -2, 0, sim.maze)
+    with pytest.raises(PlacementError, match="hazmat_on_ramps must be >= 0, got -3"):
+        lay_placards_on_ramps(list(sim.objects), -3, 0, sim.maze)
     with pytest.raises(ValueError, match="hazmat_in_crates"):
         Simulation(_scenario(crates=-1))
     with pytest.raises(ValueError, match=r"holder 'crate' is not for this type; expected one of \['board'\]"):
@@ -159,8 +203,8 @@ def test_bad_counts_are_one_line_errors(sims):
 
 
 def test_same_seed_same_placement():
-    with Simulation(_scenario(crates=2, boards=1, landolt=1)) as again:
+    with Simulation(_scenario(crates=2, boards=1, landolt=1, ramps=1)) as again:
         a = [(o.id, o.holder, o.position.tolist(), o.holder_m) for o in again.objects]
-    with Simulation(_scenario(crates=2, boards=1, landolt=1)) as twice:
+    with Simulation(_scenario(crates=2, boards=1, landolt=1, ramps=1)) as twice:
         b = [(o.id, o.holder, o.position.tolist(), o.holder_m) for o in twice.objects]
     assert a == b

@@ -207,7 +207,8 @@ def test_log_distance_and_free_roll_views():
     = 0.43 where room allows, against 0.15 uniform); --free-roll 1 rolls anywhere, 0 keeps +-5 deg."""
     base = DatasetSpec(images=1, seed=3)
     _, sim = _build(base, 1)  # an RRL maze (1.2 m cells): room for far views
-    targets = [o for o in sim.objects if o.type == "hazmat"]
+    # placards hanging on walls by themselves (not in a crate, on a ramp or on a board)
+    targets = [o for o in sim.objects if o.type == "hazmat" and o.mount == "wall" and o.holder is None]
 
     def views(spec, n=100):
         rng = np.random.default_rng(5)
@@ -233,10 +234,17 @@ def test_log_distance_and_free_roll_views():
 
 def test_crates_and_boards_reach_the_scenarios_and_views_stay_out_of_crates():
     # views as near as 5 cm: without the crates counted as obstacles, some would stand inside one
-    spec = DatasetSpec(images=1, seed=3, hazmat_in_crates=2, hazmat_on_boards=1, distance_m=(0.05, 1.0))
+    spec = DatasetSpec(
+        images=1, seed=3, hazmat_in_crates=2, hazmat_on_ramps=1, hazmat_on_boards=1, distance_m=(0.05, 1.0)
+    )
     sc = scenario_for(spec, 0)
-    assert (sc.objects.generate.hazmat_in_crates, sc.objects.generate.hazmat_on_boards) == (2, 1)
-    for flag, kw in (("crates", {"hazmat_in_crates": -1}), ("boards", {"hazmat_on_boards": 1.5})):
+    g = sc.objects.generate
+    assert (g.hazmat_in_crates, g.hazmat_on_ramps, g.hazmat_on_boards) == (2, 1, 1)
+    for flag, kw in (
+        ("crates", {"hazmat_in_crates": -1}),
+        ("ramps", {"hazmat_on_ramps": -2}),
+        ("boards", {"hazmat_on_boards": 1.5}),
+    ):
         with pytest.raises(DatasetError, match=rf"--hazmat-(in|on)-{flag} must be a whole number >= 0"):
             DatasetSpec(images=1, **kw)
     from sim.simulator import Simulation
