@@ -604,6 +604,27 @@ def _face_axes(o: PlacedObject) -> tuple[np.ndarray, np.ndarray]:
     return n, -_along(n)
 
 
+def _placards_to_move(objects: list[PlacedObject], count: int, seed: int, stream: int, setting: str) -> list:
+    """The wall placards (:func:`_free_wall_items`) in an order drawn from a seed sequence of the
+    scenario seed and ``stream``, so that the stream that placed the objects is untouched;
+    none for ``count`` 0, a one-line error naming ``setting`` for a negative one."""
+    if count < 0:
+        raise PlacementError(f"{setting} must be >= 0, got {count}")
+    if count == 0:
+        return []
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), stream]))
+    candidates = _free_wall_items(objects, "hazmat")
+    return [candidates[int(i)] for i in rng.permutation(len(candidates))]
+
+
+def _room_for(o: PlacedObject, objects: list[PlacedObject], centre_xy: np.ndarray, reach_m: float) -> bool:
+    """A holder of ``o`` reaching ``reach_m`` (in plan) round ``centre_xy`` keeps clear of every
+    other object by half its size."""
+    return not any(
+        p is not o and np.hypot(*(p.position[:2] - centre_xy)) < reach_m + 0.5 * p.size_m for p in objects
+    )
+
+
 def put_placards_in_crates(objects: list[PlacedObject], count: int, seed: int, maze) -> None:
     """Move up to ``count`` wall placards into open crates standing on the floor against their walls.
 
@@ -614,25 +635,17 @@ def put_placards_in_crates(objects: list[PlacedObject], count: int, seed: int, m
     the scenario seed, so the stream that placed the objects is untouched; one whose crate
     would stand against another object stays on its wall.
     """
-    if count < 0:
-        raise PlacementError(f"hazmat_in_crates must be >= 0, got {count}")
-    if count == 0:
-        return
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 176]))
-    candidates = _free_wall_items(objects, "hazmat")
     moved = 0
-    for i in rng.permutation(len(candidates)):
+    for o in _placards_to_move(objects, count, seed, 176, "hazmat_in_crates"):
         if moved == count:
             break
-        o = candidates[int(i)]
         inner, depth = crate_inner_m(o.size_m)
         t = CRATE_WALL_M
         side = inner + 2 * t
         n, _ = _face_axes(o)
         wall_xy = o.position[:2]
         centre = wall_xy + n * (t + depth) / 2
-        reach = 0.5 * np.hypot(side, depth + t)
-        if any(p is not o and np.hypot(*(p.position[:2] - centre)) < reach + 0.5 * p.size_m for p in objects):
+        if not _room_for(o, objects, centre, 0.5 * np.hypot(side, depth + t)):
             continue
         z = t + inner / 2
         o.position = np.array([*(wall_xy + n * t), z])
@@ -653,20 +666,13 @@ def lay_placards_on_ramps(objects: list[PlacedObject], count: int, seed: int, ma
     stream that placed the objects is untouched; one whose ramp would lie against another
     object stays on its wall.
     """
-    if count < 0:
-        raise PlacementError(f"hazmat_on_ramps must be >= 0, got {count}")
-    if count == 0:
-        return
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 178]))
-    candidates = _free_wall_items(objects, "hazmat")
     faces = list(maze.wall_faces())
     clear = maze.settings.cell_size_m - maze.settings.wall_thickness_m
     slope = np.radians(RAMP_SLOPE_DEG)
     moved = 0
-    for i in rng.permutation(len(candidates)):
+    for o in _placards_to_move(objects, count, seed, 178, "hazmat_on_ramps"):
         if moved == count:
             break
-        o = candidates[int(i)]
         face = _face_of(o, faces)
         if face is None:
             continue
@@ -674,10 +680,7 @@ def lay_placards_on_ramps(objects: list[PlacedObject], count: int, seed: int, ma
         width = min(RAMP_WIDTH_SIDES * o.size_m, face.length_m - 0.02)
         n, _ = _face_axes(o)
         centre = o.position[:2] + n * run / 2
-        reach = 0.5 * np.hypot(run, width)
-        if width < o.size_m * np.sqrt(2.0) or any(
-            p is not o and np.hypot(*(p.position[:2] - centre)) < reach + 0.5 * p.size_m for p in objects
-        ):
+        if width < o.size_m * np.sqrt(2.0) or not _room_for(o, objects, centre, 0.5 * np.hypot(run, width)):
             continue
         along = run / 2 / np.cos(slope)  # the slope's length either side of the placard
         normal = np.array([*(np.sin(slope) * n), np.cos(slope)])
