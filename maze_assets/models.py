@@ -41,14 +41,15 @@ Reference points and extents, for a characteristic size ``s = obj.size_m``:
   Inspect tests, [RMRC2025]_; poi/core/landolt.py): a matte white card ``s`` square (the
   rings' card, 64 mm for the default rings) printed with its rings (maze_assets.landolt,
   ``LANDOLT_TEXTURE_PX``), drawn as a flat item.
-- holders (``PlacedObject.holder``): a flat item's board, cabinet or crate is a body of its
-  own (:func:`build_holder`, named ``holder_{holder}_{id}``, so only the item's pixels belong
+- holders (``PlacedObject.holder``): a flat item's board, cabinet, crate or ramp is a body of
+  its own (:func:`build_holder`, named ``holder_{holder}_{id}``, so only the item's pixels belong
   to the object): a plywood board ``BOARD_THICKNESS_M`` thick on the wall, the item on its
   face (a Landolt-C card's ``LANDOLT_BOARD_M``, or one board for a placard, a QR code and a
   card, drawn by the placard); a grey box open to the front, ``LANDOLT_CABINET_M``, hung on
   the wall, a Landolt-C card on the inside of its back panel; or a pine crate open to the
   front, standing on the floor, a placard on the inside of its back panel
-  (:func:`crate_inner_m`).
+  (:func:`crate_inner_m`); or a solid wooden wedge against the wall, a placard lying on its
+  slope (:func:`ramp_wedge`).
 
 >>> from maze_assets.mjcf import SceneAssets
 >>> from maze_assets.objects import PlacedObject
@@ -660,15 +661,15 @@ def holder_name(obj: PlacedObject) -> str:
 
 
 def build_holder(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
-    """A flat item's board, sensor cabinet or crate (``PlacedObject.holder``) as a ``<body>`` of its
-    own named by :func:`holder_name`, or None without a holder or where another item of a shared
-    board draws it (``holder_m`` None).
+    """A flat item's board, sensor cabinet, crate or ramp (``PlacedObject.holder``) as a ``<body>``
+    of its own named by :func:`holder_name`, or None without a holder or where another item of a
+    shared board draws it (``holder_m`` None).
 
     The body's origin is on the wall face behind the item (the item's reference point less its
     standoff, ``holder_standoff_m``), its +x out of the wall. A board is a plywood panel over
     ``holder_m``; a cabinet the grey box ``LANDOLT_CABINET_M`` open to the front; a crate a pine
     box over ``holder_m`` (its floor on the ground), ``crate_inner_m`` deep inside, open to the
-    front, with two darker slats across each side."""
+    front, with two darker slats across each side; a ramp the wedge of :func:`_ramp`."""
     if obj.holder is None or (obj.holder != "cabinet" and obj.holder_m is None):
         return None
     yaw = obj.yaw
@@ -699,14 +700,14 @@ def build_holder(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
     if obj.holder == "cabinet":
         w, h, d, t = LANDOLT_CABINET_M
         y0, z0 = 0.0, 0.0
-        metal = _material(assets, "cabinet_grey", LANDOLT_CABINET_RGBA, specular=0.2, shininess=0.2)
+        panel = _material(assets, "cabinet_grey", LANDOLT_CABINET_RGBA, specular=0.2, shininess=0.2)
     else:  # crate
         t = CRATE_WALL_M
         left, right, bottom, top = obj.holder_m
         w, h = right - left, top - bottom
         d = crate_inner_m(obj.size_m)[1] + t
         y0, z0 = (left + right) / 2, (bottom + top) / 2
-        metal = _material(assets, "crate_pine", CRATE_RGBA, specular=0.03, shininess=0.05)
+        panel = _material(assets, "crate_pine", CRATE_RGBA, specular=0.03, shininess=0.05)
         slat = _material(assets, "crate_slat", CRATE_SLAT_RGBA, specular=0.03, shininess=0.05)
         for side, y in (("left", y0 - w / 2 - 0.004), ("right", y0 + w / 2 + 0.004)):
             for j, z in enumerate((z0 - h / 4, z0 + h / 4)):
@@ -719,7 +720,7 @@ def build_holder(obj: PlacedObject, assets: SceneAssets) -> ET.Element | None:
         "bottom": ((d / 2, y0, z0 - h / 2 + t / 2), (d / 2, w / 2, t / 2)),
     }
     for part, (pos, size) in panels.items():
-        box(part, metal, pos, size)
+        box(part, panel, pos, size)
     return body
 
 
@@ -769,8 +770,9 @@ def _ramp(obj: PlacedObject, assets: SceneAssets, name: str, kw: dict) -> ET.Ele
 
 
 def holder_standoff_m(holder: str | None) -> float:
-    """How far a held item's face stands out from its wall face: the board's thickness, the
-    cabinet's back panel or the crate's; 0 on the wall itself."""
+    """How far a held item's face stands out from the surface behind it: the board's thickness,
+    the cabinet's back panel or the crate's, a floor placard's lift off a ramp's slope; 0 on the
+    wall itself."""
     return {
         None: 0.0,
         "board": BOARD_THICKNESS_M,

@@ -598,10 +598,9 @@ def _free_wall_items(objects: list[PlacedObject], type_: str) -> list[PlacedObje
     ]
 
 
-def _face_axes(o: PlacedObject) -> tuple[np.ndarray, np.ndarray]:
-    """(out of the wall, the viewer's right) in plan for an item facing ``o.yaw``."""
-    n = np.array([np.cos(o.yaw), np.sin(o.yaw)])
-    return n, -_along(n)
+def _facing(o: PlacedObject) -> np.ndarray:
+    """The unit vector in plan that an item faces along (out of its wall): ``o.yaw``'s."""
+    return np.array([np.cos(o.yaw), np.sin(o.yaw)])
 
 
 def _placards_to_move(objects: list[PlacedObject], count: int, seed: int, stream: int, setting: str) -> list:
@@ -642,7 +641,7 @@ def put_placards_in_crates(objects: list[PlacedObject], count: int, seed: int, m
         inner, depth = crate_inner_m(o.size_m)
         t = CRATE_WALL_M
         side = inner + 2 * t
-        n, _ = _face_axes(o)
+        n = _facing(o)
         wall_xy = o.position[:2]
         centre = wall_xy + n * (t + depth) / 2
         if not _room_for(o, objects, centre, 0.5 * np.hypot(side, depth + t)):
@@ -678,7 +677,7 @@ def lay_placards_on_ramps(objects: list[PlacedObject], count: int, seed: int, ma
             continue
         run = min(RAMP_RUN_SIDES * o.size_m, 0.5 * clear)
         width = min(RAMP_WIDTH_SIDES * o.size_m, face.length_m - 0.02)
-        n, _ = _face_axes(o)
+        n = _facing(o)
         centre = o.position[:2] + n * run / 2
         if width < o.size_m * np.sqrt(2.0) or not _room_for(o, objects, centre, 0.5 * np.hypot(run, width)):
             continue
@@ -750,9 +749,8 @@ def hang_placard_boards(objects: list[PlacedObject], count: int, seed: int, maze
             o.mount = "wall"
             o.holder = "board"
             u += span + margin
-        lr = (u_centre - width / 2, u_centre + width / 2)
-        u_p = float((placard.position[:2] - centre) @ right) + u_centre
-        placard.holder_m = (float(lr[0] - u_p), float(lr[1] - u_p), float(-height / 2), float(height / 2))
+        left = -(margin + spans[0] / 2)  # the board's left edge from the placard, first in the row
+        placard.holder_m = (float(left), float(left + width), float(-height / 2), float(height / 2))
         for t in ("qr", "landolt-c"):
             if orders[t] and orders[t][0] in group:
                 orders[t].pop(0)
@@ -761,7 +759,7 @@ def hang_placard_boards(objects: list[PlacedObject], count: int, seed: int, maze
 
 def _face_of(o: PlacedObject, faces: list) -> object | None:
     """The wall face ``o`` hangs on: the face of its wall that it faces out of (None: none)."""
-    n = np.array([np.cos(o.yaw), np.sin(o.yaw)])
+    n = _facing(o)
     return next((f for f in faces if f.wall == o.wall and float(np.asarray(f.normal_xy, float) @ n) > 0.99), None)
 
 

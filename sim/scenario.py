@@ -698,7 +698,7 @@ class Scenario:
     arena: ArenaSpec | None = None
     lighting: Literal["bright", "dim", "uneven"] = "bright"
     # the preset's lamps cast shadows (sim/world.py _lights): off in trials for its cost (a
-    # shadow map a lamp a frame; README "Light"), on for half of poibench dataset's scenarios
+    # shadow map a lamp a frame; README "Mazes"), on for half of poibench dataset's scenarios
     shadows: bool = False
     # distractors (crates, buckets, pipes, cables, boxes, debris; maze_assets/clutter.py) per
     # maze cell, against the walls; never objects of interest, never reported

@@ -73,8 +73,9 @@ def lux_of_decoded_one(lighting: str, lux: float, gamma: float) -> float:
 
 
 # Shadow maps (``shadows``): MuJoCo renders one depth map of this size per shadow-casting light and
-# frame. 1024 keeps a wall's shadow edge within about a centimetre on a 5 m maze; MuJoCo's 4096
-# costs more and shows no more at 640x480 (README "Light": the cost measured per preset).
+# frame, 4096 unless told. At 1024 a texel spans about 6 mm of a 6 m maze (a shadow's edge shows
+# steps that size); 2048 cost 7% more wall time a frame than 1024 with bright's sun (README "Mazes":
+# the cost of shadows measured per preset).
 SHADOW_MAP_PX = 1024
 
 
@@ -96,10 +97,7 @@ def _lights(
     w, h = maze.size_m
     cast = "true" if shadows else "false"
     if shadows:
-        quality = visual.find("quality")
-        (quality if quality is not None else ET.SubElement(visual, "quality")).set(
-            "shadowsize", str(SHADOW_MAP_PX)
-        )
+        visual.find("quality").set("shadowsize", str(SHADOW_MAP_PX))
     top = maze.settings.wall_height_m * 2.5 + 1.0
     head = ET.SubElement(visual, "headlight")
     if lighting == "bright":
@@ -349,7 +347,7 @@ def build_world_xml(
         page = build_page(obj, assets)  # the A4 sheet of a QR page (sim/placement.py)
         if page is not None:
             world.append(page)
-        holder = build_holder(obj, assets)  # a flat item's board, sensor cabinet or crate
+        holder = build_holder(obj, assets)  # a flat item's board, sensor cabinet, crate or ramp
         if holder is not None:
             world.append(holder)
 

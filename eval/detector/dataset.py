@@ -104,11 +104,9 @@ class DatasetSpec:
             raise DatasetError(f"max_angle_deg must be in [0, 90), got {self.max_angle_deg}")
         if not 0.0 <= self.hazmat_on_floor <= 1.0:
             raise DatasetError(f"--hazmat-on-floor must be in [0, 1], got {self.hazmat_on_floor}")
-        if not isinstance(self.hazmat_on_doors, int) or self.hazmat_on_doors < 0:
-            raise DatasetError(f"--hazmat-on-doors must be a whole number >= 0, got {self.hazmat_on_doors}")
         if not 0.0 <= self.shadow_fraction <= 1.0:
             raise DatasetError(f"--shadows must be in [0, 1], got {self.shadow_fraction}")
-        for name in ("hazmat_in_crates", "hazmat_on_ramps", "hazmat_on_boards"):
+        for name in ("hazmat_on_doors", "hazmat_in_crates", "hazmat_on_ramps", "hazmat_on_boards"):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 0:
                 flag = "--" + name.replace("_", "-")
