@@ -37,9 +37,11 @@ autocorrelation time (:func:`effective_count`, [Geyer1992]_), and the interval i
 N_eff independent samples (a chi-square of the same mean and variance). The
 autocorrelation is taken about the mean of all the quantity's series, not each series' own,
 so an error that lasts a whole run counts ([Gelman2013]_ 11.5). What the objects of one run
-share (the mount's error, the pose a SLAM map rests on) is not counted, so the ``R``
-intervals are still narrow (docs/CONSISTENCY.md). ``track Sigma`` (one sample per track)
-and ``SLAM pose end`` (one per run) count each sample once.
+share (the registration offset, the mount's error, the pose a SLAM map rests on) lies in no
+series, so N_eff is also at most what the scatter of the runs' sums allows
+(:func:`run_scatter_count`, [LiangZeger1986]_, [Cameron2015]_; docs/CONSISTENCY.md "What a
+run's samples share"). ``track Sigma`` (one sample per track) and ``SLAM pose end`` (one per
+run) count each sample once, limited the same way.
 
 References
 ----------
@@ -51,6 +53,10 @@ Full entries in docs/SOURCES.md.
    Tracking and Navigation", Wiley, 2001.
 .. [Geyer1992] C. J. Geyer, "Practical Markov chain Monte Carlo", Statistical Science 7(4),
    473-483, 1992.
+.. [LiangZeger1986] K.-Y. Liang, S. L. Zeger, "Longitudinal data analysis using generalized
+   linear models", Biometrika 73(1), 13-22, 1986.
+.. [Cameron2015] A. C. Cameron, D. L. Miller, "A practitioner's guide to cluster-robust
+   inference", Journal of Human Resources 50(2), 317-372, 2015.
 .. [Gelman2013] A. Gelman, J. B. Carlin, H. S. Stern, D. B. Dunson, A. Vehtari, D. B. Rubin,
    "Bayesian Data Analysis", 3rd ed., CRC Press, 2013.
 """
@@ -58,13 +64,15 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import json
+import math
 from collections import Counter, defaultdict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import chi2
+from scipy.stats import chi2, norm
+from scipy.stats import t as student_t
 
 from eval.extent_fit import ExtentSample
 from poi.core.geometry import invert_transform, planar_pose, transform_points, wrap_angle
@@ -187,6 +195,43 @@ def effective_count(series: list[np.ndarray]) -> float:
     return float(sum(min(len(x), max(1.0, len(x) / autocorrelation_time(x, centre))) for x in arrays))
 
 
+def run_scatter_count(values: np.ndarray, runs: np.ndarray, level: float = LEVEL) -> float:
+    """The number of independent samples that the scatter of the runs' sums allows, for
+    samples of one quantity from independent runs (``runs``: each sample's run) that may share
+    errors within a run (the depth registration, the mount, the map a run's poses rest on).
+
+    The variance of the mean is the runs' cluster-robust one ([LiangZeger1986]_),
+    V = G / (G - 1) sum_r (S_r - n_r m)^2 / N^2 over G runs with n_r samples summing to S_r;
+    N_eff = s^2 / V, s^2 the samples' variance, is the count of independent samples whose
+    mean varies as much. V rests on G - 1 degrees of freedom, so N_eff is scaled by
+    (z / t_{G-1})^2, the level's normal quantile over Student's t with G - 1 degrees of
+    freedom ([Cameron2015]_ VI.C): the interval then holds the mean as often as it says even
+    with few runs (docs/CONSISTENCY.md "What a run's samples share"). Infinite (no limit:
+    :func:`effective_count` alone decides) for fewer than two runs, runs of one sample each
+    (nothing within a run to share) or runs whose sums agree exactly.
+
+    >>> x = np.array([1.0, 3.0, 1.0, 3.0, 5.0, 7.0, 5.0, 7.0]); r = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    >>> round(run_scatter_count(x, r), 4)  # two runs apart: 1.43 samples, times (2.576 / 63.66)^2
+    0.0023
+    >>> run_scatter_count(x, np.zeros(8, int))
+    inf
+    """
+    x = np.asarray(values, dtype=float)
+    keys, idx = np.unique(np.asarray(runs), return_inverse=True)
+    g = keys.size
+    counts = np.bincount(idx, minlength=g)
+    if g < 2 or counts.max() < 2:
+        return math.inf
+    m = float(x.mean())
+    sums = np.bincount(idx, weights=x, minlength=g)
+    V = g / (g - 1) * float(np.sum((sums - counts * m) ** 2)) / x.size**2
+    if not V > 0.0:
+        return math.inf
+    q = 0.5 + 0.5 * level
+    scale = (norm.ppf(q) / student_t.ppf(q, g - 1)) ** 2
+    return float(x.var(ddof=1) / V * scale)
+
+
 @dataclass(kw_only=True)
 class Row:
     """One quantity's summary: N samples of dimension d (N_eff independent ones), their mean
@@ -228,12 +273,16 @@ class Samples:
     pose_series: list[tuple[str, list[float]]] = field(default_factory=list)
     extent: list[ExtentSample] = field(default_factory=list)  # 3-D objects' camera-frame errors
 
-    def add(self, quantity: str, d: int, value: float, series: object = None) -> None:
-        """One sample; ``series`` names the correlated series it continues, in time order
-        (None: a sample independent of the others)."""
+    run_of: dict[str, list[int]] = field(default_factory=lambda: defaultdict(list))
+
+    def add(self, quantity: str, d: int, value: float, series: object = None, run: int = 0) -> None:
+        """One sample of run ``run``; ``series`` names the correlated series it continues, in
+        time order (None: a sample correlated with the others of its run only through what the
+        run shares)."""
         self.dims[quantity] = d
         self.values[quantity].append(float(value))
         self.series[quantity].append(object() if series is None else series)
+        self.run_of[quantity].append(run)
 
     def rows(self) -> list[Row]:
         out = []
@@ -243,6 +292,7 @@ class Samples:
             for key, x in zip(self.series[q], v, strict=True):
                 groups[key].append(x)
             n_eff = effective_count([np.asarray(g) for g in groups.values()])
+            n_eff = min(n_eff, run_scatter_count(v, np.asarray(self.run_of[q])))
             lo, hi = chi2_interval(n_eff, self.dims[q])
             out.append(Row(quantity=q, n=v.size, n_eff=n_eff, d=self.dims[q], mean=float(v.mean()), lo=lo, hi=hi))
         return out
@@ -346,10 +396,10 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                             box_m=box_size_at_depth(obs, frame.intrinsics, lc.border_px),
                         )
                     )
-                samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam), run_object)
+                samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam), run_object, run)
                 for axis, q in zip(AXES, axis_nees(e_cam, Sigma_cam), strict=True):
-                    samples.add(f"R cam axis {axis}", 1, q, run_object)
-                samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R), run_object)
+                    samples.add(f"R cam axis {axis}", 1, q, run_object, run)
+                samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R), run_object, run)
             det_ids = match_detections(res.detections, truth.visible)
             for det, oid in zip(res.detections, det_ids, strict=True):
                 if det.track_id is not None and oid is not None:
@@ -361,20 +411,22 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                 e = s.pose - planar_pose(truth.T_map_tracker)
                 e[2] = wrap_angle(e[2])
                 last_pose = nees(e, s.pose_covariance)
-                samples.add("SLAM pose", POSE_DIM, last_pose, run)
+                samples.add("SLAM pose", POSE_DIM, last_pose, run, run)
                 for q, (d, value) in pose_part_nees(e, s.pose_covariance).items():
-                    samples.add(f"SLAM pose {q}", d, value, run)
+                    samples.add(f"SLAM pose {q}", d, value, run, run)
                 pose_series.append(last_pose)
         for tid, (mu, Sigma) in sorted(confirmed_at.items()):
             if votes[tid]:
                 oid = votes[tid].most_common(1)[0][0]
-                samples.add("track Sigma confirm", 3, nees(mu - truth_map[oid], Sigma))
+                samples.add("track Sigma confirm", 3, nees(mu - truth_map[oid], Sigma), run=run)
         for snap in pipe.confirmed():
             if votes[snap.track_id]:
                 oid = votes[snap.track_id].most_common(1)[0][0]
-                samples.add("track Sigma end", 3, nees(snap.position_map - truth_map[oid], snap.covariance))
+                samples.add(
+                    "track Sigma end", 3, nees(snap.position_map - truth_map[oid], snap.covariance), run=run
+                )
         if last_pose is not None:
-            samples.add("SLAM pose end", POSE_DIM, last_pose)
+            samples.add("SLAM pose end", POSE_DIM, last_pose, run=run)
             samples.pose_series.append((f"{sc.name} (seed {sc.seed})", pose_series))
         return n
     finally:

@@ -12,6 +12,8 @@ Full entries in docs/SOURCES.md.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy.stats import chi2
@@ -28,6 +30,7 @@ from eval.consistency import (
     match_detections,
     nees,
     pose_part_nees,
+    run_scatter_count,
 )
 from poi.config import apply_overrides, load_config
 from poi.core.geometry import R_BODY_OPTICAL, make_transform
@@ -131,6 +134,57 @@ def test_an_error_that_lasts_the_run_widens_the_interval_to_near_its_level():
         missed_own += not lo <= mean <= hi
     assert missed_common / reps <= 0.05
     assert missed_own / reps >= 0.10
+
+
+def _shared_error_table(rng, runs: int) -> Samples:
+    """NEES of ``runs`` runs, each of 10 objects seen in 20 frames, whose 3-D errors are consistent
+    with their covariance I by construction but share parts: 0.3 of the variance drawn once per
+    run (a registration offset, a mount), 0.3 once per object in a run (its extent), 0.4 fresh."""
+    s = Samples()
+    for r in range(runs):
+        a = rng.normal(0.0, np.sqrt(0.3), 3)
+        for k in range(10):
+            b = rng.normal(0.0, np.sqrt(0.3), 3)
+            for e in a + b + rng.normal(0.0, np.sqrt(0.4), (20, 3)):
+                s.add("R cam qr", 3, float(e @ e), (r, k), r)
+    return s
+
+
+@pytest.mark.parametrize("runs", [2, 8])
+def test_what_a_run_shares_widens_the_interval_to_its_level(runs):
+    """Over 150 tables of such runs, the 99% interval holds the mean at least 96% of the time;
+    counting by the objects' series alone (effective_count) it held it about half the time:
+    the objects of a run are not independent of each other."""
+    rng = np.random.default_rng(runs)
+    held = held_by_series = 0
+    reps = 150
+    for _ in range(reps):
+        s = _shared_error_table(rng, runs)
+        row = s.rows()[0]
+        held += row.inside
+        series = [
+            np.asarray(
+                [v for v, key in zip(s.values["R cam qr"], s.series["R cam qr"], strict=True) if key == (r, k)]
+            )
+            for r in range(runs)
+            for k in range(10)
+        ]
+        lo, hi = chi2_interval(effective_count(series), 3)
+        held_by_series += lo <= row.mean <= hi
+    assert held / reps >= 0.96
+    assert held_by_series / reps <= 0.75
+
+
+def test_run_scatter_count_leaves_independent_runs_to_the_series_count():
+    """Runs with nothing in common: the runs' scatter allows about as many samples as there
+    are (times (z / t_7)^2 = 0.54 for eight runs), and one sample per run, or one run, sets no
+    limit."""
+    rng = np.random.default_rng(4)
+    x = rng.chisquare(3, 8 * 200)
+    runs = np.repeat(np.arange(8), 200)
+    assert 0.3 * x.size < run_scatter_count(x, runs) < 0.9 * x.size
+    assert run_scatter_count(x[:8], np.arange(8)) == math.inf
+    assert run_scatter_count(x, np.zeros(x.size, int)) == math.inf
 
 
 def test_the_pose_parts_tell_a_wide_heading_from_a_thin_position():
