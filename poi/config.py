@@ -310,6 +310,9 @@ class SlamConfig:
     start_sigma_m: float = number(0.005, lo=0.0, lo_open=True)
     start_sigma_rad: float = number(0.0005, lo=0.0, lo_open=True)
     associate_m: float = number(0.5, lo=0.0, lo_open=True)
+    # Huber's weight on a landmark update whose NIS (2 dof) exceeds robust_nis: its innovation
+    # covariance is scaled by sqrt(NIS / robust_nis) (poi.estimation.slam.huber_scale); 0: off.
+    robust_nis: float = number(9.21, lo=0.0)
     n_min: int = number(4, lo=0)
     t_max_s: float = number(3.0, lo=0.0, lo_open=True)
     shared_errors: bool = True

@@ -22,6 +22,7 @@ from poi.estimation.slam import (
     LandmarkObservation,
     SlamError,
     UkfSlam,
+    huber_scale,
     odometry_increment,
     rot2,
     sigma_points,
@@ -499,3 +500,62 @@ def test_a_bias_repeated_over_a_view_leaves_the_pose_covariance_honest():
     believes 30 observations' worth and comes out over-confident."""
     assert 2.71 <= _revisit_pose_nees(True, 300, seed=4) <= 3.31
     assert _revisit_pose_nees(False, 300, seed=4) > 3.31 * 2
+
+
+def _mapped_static_slam(robust_nis: float) -> tuple[UkfSlam, dict[str, np.ndarray]]:
+    """A robot standing at the origin that has mapped three landmarks from 1 cm sightings."""
+    rng = np.random.default_rng(11)
+    slam = UkfSlam(SlamConfig(n_min=2, robust_nis=robust_nis, **DOCUMENT_STATE))
+    truth = {"valve": np.array([2.0, 1.0]), "door": np.array([3.0, -1.5]), "qr": np.array([-1.0, 2.5])}
+    for k in range(10):
+        slam.predict(np.zeros(3))
+        _observe(slam, truth, np.zeros(3), rng, 0.01, 0.1 * k)
+    assert len(slam.landmarks) == 3
+    return slam, truth
+
+
+def _update_with(slam: UkfSlam, truth: dict[str, np.ndarray], offset_m: float) -> None:
+    """One update: the qr code seen ``offset_m`` along x from where it is, the others exactly."""
+    slam.predict(np.zeros(3))
+    obs = [
+        LandmarkObservation(
+            class_name=c, xy=p + (offset_m if c == "qr" else 0.0) * np.array([1.0, 0.0]), R=1e-4 * np.eye(2)
+        )
+        for c, p in truth.items()
+    ]
+    res = slam.observe(obs, 5.0)
+    assert len(res.associated) == 3  # all within associate_m (0.5 m): eq. 18 pairs them
+
+
+def test_huber_scale_leaves_expected_innovations_and_bounds_the_rest():
+    """Below robust_nis nothing changes; above it the block is scaled by sqrt(NIS / c^2), so
+    the NIS the update sees is sqrt(NIS c^2) (Huber's weight c / r on a residual of r sigmas);
+    the other blocks and the cross terms are kept."""
+    S = np.array([[4.0, 1.0, 0.5, 0.0], [1.0, 2.0, 0.0, 0.2], [0.5, 0.0, 1.0, 0.0], [0.0, 0.2, 0.0, 1.0]])
+    nu = np.array([1.0, -1.0, 6.0, 0.0])  # NIS 0.86 and 36
+    out = huber_scale(nu, S, 9.0)
+    assert np.array_equal(out[:2, :], S[:2, :]) and np.array_equal(out[:, :2], S[:, :2])
+    assert out[2:, 2:] == pytest.approx(S[2:, 2:] * 2.0)  # sqrt(36 / 9)
+    assert float(nu[2:] @ np.linalg.solve(out[2:, 2:], nu[2:])) == pytest.approx(math.sqrt(36.0 * 9.0))
+    assert np.array_equal(huber_scale(nu, S, 0.0), S)  # off
+
+
+def test_an_unexpected_sighting_moves_the_state_by_a_bounded_amount():
+    """A qr code seen 0.3 m off where its landmark is mapped to millimetres (NIS in the
+    hundreds): the document's update takes all of it and moves the map and pose by
+    centimetres; with Huber's weight the move is a small fraction of that. A sighting within
+    its noise updates exactly as the document's."""
+    moved = {}
+    for nis in (0.0, 9.21):
+        slam, truth = _mapped_static_slam(nis)
+        before = slam.x.copy()
+        _update_with(slam, truth, 0.3)
+        moved[nis] = float(np.linalg.norm(slam.x - before))
+    assert moved[0.0] > 0.025  # 3.1 cm, mostly the qr landmark
+    assert moved[9.21] < 0.2 * moved[0.0]  # 0.3 cm
+    same = []
+    for nis in (0.0, 9.21):
+        slam, truth = _mapped_static_slam(nis)
+        _update_with(slam, truth, 0.005)
+        same.append((slam.x.copy(), slam.P.copy()))
+    assert np.array_equal(same[0][0], same[1][0]) and np.array_equal(same[0][1], same[1][1])
