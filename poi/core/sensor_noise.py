@@ -57,3 +57,21 @@ def depth_sigma_m(z_m: Depth, *, sigma_d_px: float, fx_depth_px: float, baseline
     array([0.005, 0.02 ])
     """
     return z_m * z_m * sigma_d_px / (fx_depth_px * baseline_m)
+
+
+def window_correlation(window_px: int, step_px: int = 1) -> np.ndarray:
+    """The correlation of the D435's depth noise between pixels k ``step_px`` apart along a row
+    (or a column), k = -K..K: rho = max(0, 1 - |k| step / w) for noise that is the box mean of
+    white noise over a w = ``window_px`` square (:func:`sim.sensors.d435_depth.window_noise`,
+    the stereo matching window); in two dimensions the product of a row's and a column's.
+
+    >>> window_correlation(4).tolist(), window_correlation(7, 4).round(3).tolist()
+    ([0.25, 0.5, 0.75, 1.0, 0.75, 0.5, 0.25], [0.429, 1.0, 0.429])
+    """
+    if window_px < 1 or step_px < 1:
+        raise ValueError(
+            f"window_correlation: expected window_px >= 1 and step_px >= 1, got {window_px}, {step_px}"
+        )
+    k_max = (window_px - 1) // step_px
+    k = np.arange(-k_max, k_max + 1)
+    return 1.0 - np.abs(k) * step_px / window_px

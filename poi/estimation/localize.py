@@ -27,10 +27,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from poi.config import PipelineConfig
-from poi.core.sensor_noise import depth_sigma_m
+from poi.core.depth_units import DEPTH_UNIT_M
+from poi.core.sensor_noise import depth_sigma_m, window_correlation
 from poi.core.types import Detection, Frame, Intrinsics, Observation
 from poi.estimation.covariance import (
     Calibration,
@@ -144,6 +146,9 @@ class DepthPlane:
     g_v: float
     var_g_u: float
     var_g_v: float
+    # the covariance (m^2, m^2/px, m^2/px^2) of (d0, g_u, g_v) under the depth camera's
+    # window-correlated noise (box_depth_plane with mean_variance); only depth_variance_at reads it
+    cov: np.ndarray | None = None
 
     def depth_at(self, u: float, v: float) -> float:
         """The plane's depth (m) at pixel (u, v): d0 + g_u (u - u0) + g_v (v - v0).
@@ -153,6 +158,45 @@ class DepthPlane:
         """
         return self.d0 + self.g_u * (u - self.u0) + self.g_v * (v - self.v0)
 
+    def depth_variance_at(self, u: float, v: float) -> float:
+        """The variance (m^2) of :meth:`depth_at`: x^T cov x with x = (1, u - u0, v - v0).
+
+        >>> pl = DepthPlane(d0=2.0, u0=10.0, v0=5.0, g_u=0.01, g_v=0.0, var_g_u=0.0, var_g_v=0.0,
+        ...                 cov=np.diag([1e-5, 1e-6, 0.0]))
+        >>> round(pl.depth_variance_at(12.0, 5.0), 12)
+        1.4e-05
+        """
+        if self.cov is None:
+            raise LocalizeError("DepthPlane.depth_variance_at: the plane was fitted without mean_variance")
+        x = np.array([1.0, u - self.u0, v - self.v0])
+        return float(x @ self.cov @ x)
+
+
+def correlated_fit_covariance(A: np.ndarray, cells: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """(A^T A)^-1 A^T C A (A^T A)^-1: the covariance, in units of the noise's variance, of the
+    least-squares coefficients of rows ``A`` (N, p) sampled at grid ``cells`` (N, 2: row,
+    column), whose noise correlates between cells (di, dj) apart by rho[di] rho[dj] (``rho``
+    symmetric, centred; :func:`poi.core.sensor_noise.window_correlation`). C A is a separable
+    convolution of each column laid out on the grid, so no N x N matrix is formed.
+
+    >>> A = np.ones((4, 1)); cells = np.array([[0, 0], [0, 1], [0, 2], [0, 3]])
+    >>> correlated_fit_covariance(A, cells, np.array([1.0])).tolist()  # independent: 1 / N
+    [[0.25]]
+    >>> correlated_fit_covariance(A, cells, np.ones(7)).tolist()  # one error shared by all
+    [[1.0]]
+    """
+    n_rows, n_cols = int(cells[:, 0].max()) + 1, int(cells[:, 1].max()) + 1
+    kernel = np.asarray(rho, dtype=np.float64)
+    CA = np.empty_like(A, dtype=np.float64)
+    grid = np.zeros((n_rows, n_cols), np.float64)
+    for j in range(A.shape[1]):
+        grid[:] = 0.0
+        grid[cells[:, 0], cells[:, 1]] = A[:, j]
+        conv = cv2.sepFilter2D(grid, cv2.CV_64F, kernel, kernel, borderType=cv2.BORDER_CONSTANT)
+        CA[:, j] = conv[cells[:, 0], cells[:, 1]]
+    inv = np.linalg.pinv(A.T @ A)
+    return inv @ (A.T @ CA) @ inv
+
 
 def box_depth_plane(
     depth_m: np.ndarray,
@@ -160,6 +204,7 @@ def box_depth_plane(
     inner_fraction: float,
     window_px: float = 1.0,
     noise_sigma_m: float | None = None,
+    mean_variance: bool = False,
 ) -> DepthPlane | None:
     """The least-squares plane d = a + g_u (u - c_u) + g_v (v - c_v) through the valid depths of
     the same inner box as :func:`box_depth`, refitted once without the pixels more than
@@ -181,6 +226,18 @@ def box_depth_plane(
     hold about N / window^2 independent errors. s is ``noise_sigma_m``, the depth camera's
     per-pixel noise, when given (a 3-D object's curvature leaves residuals that are no noise,
     and would count as slope error), else the residuals' standard deviation.
+
+    With ``mean_variance``, ``cov`` is the covariance of (d0, g_u, g_v) when the depths' noise
+    correlates as the stereo matcher's window makes it (C over the samples that count,
+    :func:`poi.core.sensor_noise.window_correlation`): the least-squares sandwich
+    s^2 (A^T A)^-1 A^T C A (A^T A)^-1, exact for any pattern of holes
+    (:func:`correlated_fit_covariance`), with s^2 the larger of the noise given and the
+    residuals' own (RSS / (N - tr(H C)), unbiased for that noise: a dark or textureless block
+    is noisier than the camera's nominal sigma_z, and shows it). Its d0 variance is about
+    s^2 window^2 / N for a block of N pixels, far less than one pixel's s^2: the variance of a
+    flat item's depth read on its plane (``localize.flat_depth_variance: plane``). The scaled
+    slope variances above stay as they are for J1 and the tilt checks: they are 2-10 times the
+    exact ones in blocks of 6-12 px (docs/CONSISTENCY.md).
 
     >>> v, u = np.mgrid[0:20, 0:20]
     >>> pl = box_depth_plane(2.0 + 0.01 * u + 0.002 * v, (0, 0, 20, 20), 0.5)
@@ -209,13 +266,22 @@ def box_depth_plane(
     res = d - A @ coef
     s = 1.4826 * float(np.median(np.abs(res - np.median(res))))
     keep = np.abs(res) <= PLANE_OUTLIER_SIGMAS * s if s > 0.0 else np.ones(d.size, bool)
+    kept = np.ones(d.size, bool)
     if PLANE_MIN_PIXELS <= int(keep.sum()) < d.size and np.ptp(du[keep]) > 0 and np.ptp(dv[keep]) > 0:
+        kept = keep
         A, d = A[keep], d[keep]
         coef = np.linalg.lstsq(A, d, rcond=None)[0]
     res = d - A @ coef
     s2 = float(res @ res) / max(d.size - 3, 1) if noise_sigma_m is None else noise_sigma_m**2
     # each sample of the grid stands for step^2 pixels; the window correlates window^2 of them
     cov = s2 * max(window_px / step, 1.0) ** 2 * np.linalg.pinv(A.T @ A)  # (3, 3)
+    exact = None
+    if mean_variance:
+        rho = window_correlation(max(1, round(window_px)), step)
+        M = correlated_fit_covariance(A, np.argwhere(ok)[kept], rho)
+        # the residuals' noise variance, unbiased for correlated noise: E[RSS] = s^2 (N - tr(H C))
+        s2_res = float(res @ res) / max(d.size - float(np.trace(M @ (A.T @ A))), 1.0)
+        exact = max(s2, s2_res) * M
     return DepthPlane(
         d0=float(coef[0]),
         u0=u0,
@@ -224,6 +290,7 @@ def box_depth_plane(
         g_v=float(coef[2]),
         var_g_u=float(cov[1, 1]),
         var_g_v=float(cov[2, 2]),
+        cov=exact,
     )
 
 
@@ -652,7 +719,10 @@ def localize(
         sigma_px = depth_sigma_m(
             d_med, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m
         )
-        plane = box_depth_plane(depth, detection.box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_px)
+        mean_variance = lc.flat_depth == "plane" and lc.flat_depth_variance == "plane" and t in lc.aspect
+        plane = box_depth_plane(
+            depth, detection.box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_px, mean_variance
+        )
         if plane is not None:
             J1[2, :2] = lc.depth_scale * plane.g_u, lc.depth_scale * plane.g_v
             var_g = (lc.depth_scale**2 * plane.var_g_u, lc.depth_scale**2 * plane.var_g_v)
@@ -703,9 +773,15 @@ def localize(
     # a cut box: its centre is off the item's by up to half the hidden length
     sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
     sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
-    sigma_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
+    if on_plane and lc.flat_depth_variance == "plane":
+        # the plane's depth at the box centre averages the noise of the block's windows
+        # plus the Z16 unit's rounding, which a block facing the camera shares (1 mm^2 / 12)
+        var_depth = lc.depth_scale**2 * (plane.depth_variance_at(u, v) + DEPTH_UNIT_M**2 / 12.0)
+    else:
+        sigma_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
+        var_depth = sigma_d**2
     # the slope's own error times the centre's: var(g du) = g^2 var(du) (in J1) + var(g) var(du)
-    var_d = sigma_d**2 + var_g[0] * sigma_u**2 + var_g[1] * sigma_v**2
+    var_d = var_depth + var_g[0] * sigma_u**2 + var_g[1] * sigma_v**2
     Sigma_1 = np.diag([sigma_u**2, sigma_v**2, var_d])
     J2 = deprojection_jacobian(point, u, v, d)  # with the centre offset, for a 3-D object
     Sigma_c = camera_covariance(J1, J2, Sigma_1)

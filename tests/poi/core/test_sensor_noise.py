@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 from poi.config import load_config
-from poi.core.sensor_noise import CENTER_SIGMA_A_PX, CENTER_SIGMA_B, depth_sigma_m
+from poi.core.sensor_noise import CENTER_SIGMA_A_PX, CENTER_SIGMA_B, depth_sigma_m, window_correlation
 from sim.oracle import OracleSettings
 from sim.scenario import load_scenario
+from sim.sensors.d435_depth import window_noise
 
 DEPTHS_M = (0.5, 1.0, 2.0, 4.0)
 
@@ -43,3 +44,26 @@ def test_oracle_centre_noise_defaults_are_the_pipelines():
     shipped = load_config().localize.center_sigma_px  # poi/configs/default.yaml
     assert (oracle.center_sigma_a_px, oracle.center_sigma_b) == (CENTER_SIGMA_A_PX, CENTER_SIGMA_B)
     assert (shipped.a_px, shipped.b) == (CENTER_SIGMA_A_PX, CENTER_SIGMA_B)
+
+
+@pytest.mark.parametrize("step", [1, 3])
+def test_window_correlation_is_the_simulators_depth_noise_correlation(step):
+    """The simulator's window-correlated depth noise (7 px window) correlates between pixels
+    k step apart along a row and along a column as window_correlation says, within 0.02
+    (a 400 x 400 image: 160000 pairs a lag), and not at all beyond the window."""
+    rng = np.random.default_rng(step)
+    e = window_noise(rng.standard_normal((406, 406), np.float32), 7).astype(np.float64)
+    rho = window_correlation(7, step)
+    k_max = rho.size // 2
+    for k in range(1, k_max + 2):
+        lag = k * step
+        along_row = np.mean(e[:, :-lag] * e[:, lag:]) / np.mean(e * e)
+        along_col = np.mean(e[:-lag, :] * e[lag:, :]) / np.mean(e * e)
+        expected = rho[k_max + k] if k <= k_max else 0.0
+        assert along_row == pytest.approx(expected, abs=0.02), lag
+        assert along_col == pytest.approx(expected, abs=0.02), lag
+
+
+def test_window_correlation_refuses_a_zero_window():
+    with pytest.raises(ValueError, match="window_px >= 1"):
+        window_correlation(0)

@@ -25,6 +25,7 @@ from poi.estimation.localize import (
     project_point_to_pixel,
 )
 from poi.estimation.visibility import in_view
+from sim.sensors.d435_depth import window_noise
 
 K = Intrinsics(width=640, height=480, fx=500.0, fy=500.0, ppx=319.5, ppy=239.5)
 K_BC = Intrinsics(
@@ -380,6 +381,62 @@ def test_the_depth_plane_reads_a_slope_that_central_differences_lose_in_the_nois
     # too few pixels, or all in one row: no plane
     assert box_depth_plane(depth, (300.0, 220.0, 302.0, 222.0), 0.5) is None
     assert box_depth_plane(depth, (300.0, 239.6, 340.0, 240.4), 1.0) is None
+
+
+def _window_wall(z0: float, slope_m_per_px: float, noise_m: float, rng, window_px: int = 7) -> np.ndarray:
+    """:func:`_wall` with the simulator's depth noise: white noise averaged over the stereo
+    matching window (:func:`sim.sensors.d435_depth.window_noise`), ``noise_m`` per pixel."""
+    white = rng.standard_normal((K.height + window_px - 1, K.width + window_px - 1), np.float32)
+    return _wall(z0, slope_m_per_px, 0.0, rng) + np.float32(noise_m) * window_noise(white, window_px)
+
+
+@pytest.mark.parametrize("holes", [False, True])
+def test_the_depth_planes_depth_at_the_box_centre_has_the_variance_it_reports(holes):
+    """A 40 px box on a wall at 1 m sloping 2 mm a pixel (45 degrees), the D435's noise
+    correlated over its 7 px window: over 400 draws the plane's depth at the box centre errs
+    with the variance :meth:`DepthPlane.depth_variance_at` reports, within 20% (the estimate's
+    own spread is 7%), also with the block's left 40% in holes (the valid pixels then centre
+    off the box, and the slopes' error carries to it). It is a small part of one pixel's
+    variance: about (7 / 20)^2 / fill of it."""
+    rng = np.random.default_rng(21 if holes else 20)
+    slope, noise = 0.002, 0.004
+    box = (299.5, 219.5, 339.5, 259.5)  # centre (319, 239) in pixel coordinates
+    u, v = 319.0, 239.0
+    truth = 1.0 + slope * (u - K.ppx)
+    errors, variances = [], []
+    for _ in range(400):
+        depth = _window_wall(1.0, slope, noise, rng)
+        if holes:
+            depth[:, :317] = 0.0  # 8 of the inner block's 20 columns read nothing
+        pl = box_depth_plane(depth, box, 0.5, 7.0, noise, mean_variance=True)
+        errors.append(pl.depth_at(u, v) - truth)
+        variances.append(pl.depth_variance_at(u, v))
+    assert np.mean(np.square(errors)) == pytest.approx(np.mean(variances), rel=0.2)
+    assert np.mean(variances) < (0.3 if holes else 0.15) * noise**2
+    with pytest.raises(LocalizeError, match="mean_variance"):
+        box_depth_plane(depth, box, 0.5, 7.0, noise).depth_variance_at(u, v)
+
+
+def test_flat_depth_variance_plane_gives_a_signs_depth_its_planes_variance():
+    """A qr code on a wall facing the camera 2 m away, a 60 px box: with
+    ``localize.flat_depth_variance: plane`` Sigma_c's variance along the ray is the plane mean's
+    (about (7 / 30)^2 of one pixel's sigma_z^2 for the 30 x 30 px inner block, plus the Z16
+    rounding), where the default gives one pixel's."""
+    rng = np.random.default_rng(2)
+    lc = load_config().localize
+    s_z = depth_sigma_m(2.0, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
+    depth = _window_wall(2.0, 0.0, s_z, rng)
+    f = Frame(index=0, timestamp_s=0.0, rgb=None, intrinsics=K, depth_m=depth, pose=np.eye(4))
+    box = (289.5, 209.5, 349.5, 269.5)
+    ray = {}
+    for var in ("pixel", "plane"):
+        cfg = apply_overrides(
+            load_config(), [f"localize.flat_depth_variance={var}", "localize.registration_sigma_px=0"]
+        )
+        obs = localize(det(box, class_name="qr"), f, cfg, np.eye(4))
+        ray[var] = float(obs.Sigma_c[2, 2])
+    assert ray["pixel"] == pytest.approx(s_z**2, rel=0.02)
+    assert 0.03 * s_z**2 < ray["plane"] < 0.1 * s_z**2
 
 
 def _sign_nees(cfg, rng, n: int) -> list[float]:
