@@ -259,6 +259,7 @@ def box_depth_plane(
     u0, v0 = 0.5 * (c0 + c1), 0.5 * (r0 + r1)
     du = cols[ok] - u0
     dv = rows[ok] - v0
+    cells = np.argwhere(ok)  # each sample's (row, column) on the grid, in the order of d
     if np.ptp(du) == 0 or np.ptp(dv) == 0:
         return None
     A = np.stack([np.ones_like(d), du, dv], axis=1)  # (N, 3)
@@ -266,10 +267,8 @@ def box_depth_plane(
     res = d - A @ coef
     s = 1.4826 * float(np.median(np.abs(res - np.median(res))))
     keep = np.abs(res) <= PLANE_OUTLIER_SIGMAS * s if s > 0.0 else np.ones(d.size, bool)
-    kept = np.ones(d.size, bool)
     if PLANE_MIN_PIXELS <= int(keep.sum()) < d.size and np.ptp(du[keep]) > 0 and np.ptp(dv[keep]) > 0:
-        kept = keep
-        A, d = A[keep], d[keep]
+        A, d, cells = A[keep], d[keep], cells[keep]
         coef = np.linalg.lstsq(A, d, rcond=None)[0]
     res = d - A @ coef
     s2 = float(res @ res) / max(d.size - 3, 1) if noise_sigma_m is None else noise_sigma_m**2
@@ -278,7 +277,7 @@ def box_depth_plane(
     exact = None
     if mean_variance:
         rho = window_correlation(max(1, round(window_px)), step)
-        M = correlated_fit_covariance(A, np.argwhere(ok)[kept], rho)
+        M = correlated_fit_covariance(A, cells, rho)
         # the residuals' noise variance, unbiased for correlated noise: E[RSS] = s^2 (N - tr(H C))
         s2_res = float(res @ res) / max(d.size - float(np.trace(M @ (A.T @ A))), 1.0)
         exact = max(s2, s2_res) * M
@@ -714,12 +713,13 @@ def localize(
     # J1: the depth gradient of the box, from its depth plane or central differences
     var_g = (0.0, 0.0)
     plane = None
+    # a flat item read on its plane takes the plane's own depth variance (flat_depth_variance)
+    mean_variance = lc.flat_depth == "plane" and lc.flat_depth_variance == "plane" and t in lc.aspect
     if lc.depth_gradient == "plane":
         J1 = np.eye(3)
         sigma_px = depth_sigma_m(
             d_med, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m
         )
-        mean_variance = lc.flat_depth == "plane" and lc.flat_depth_variance == "plane" and t in lc.aspect
         plane = box_depth_plane(
             depth, detection.box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_px, mean_variance
         )
@@ -773,7 +773,7 @@ def localize(
     # a cut box: its centre is off the item's by up to half the hidden length
     sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
     sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
-    if on_plane and lc.flat_depth_variance == "plane":
+    if on_plane and mean_variance:
         # the plane's depth at the box centre averages the noise of the block's windows
         # plus the Z16 unit's rounding, which a block facing the camera shares (1 mm^2 / 12)
         var_depth = lc.depth_scale**2 * (plane.depth_variance_at(u, v) + DEPTH_UNIT_M**2 / 12.0)
