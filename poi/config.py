@@ -170,11 +170,11 @@ class LocalizeConfig:
     # ray (a 3-D object's silhouette centre is not its centroid's projection).
     extent_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.042,
-            "valve": 0.018,
-            "fire-extinguisher": 0.012,
-            "baby-doll": 0.013,
-            "heat-source": 0.015,
+            "door": 0.033,
+            "valve": 0.012,
+            "fire-extinguisher": 0.011,
+            "baby-doll": 0.008,
+            "heat-source": 0.011,
         }
     )
     # Per type, the spread (m) along the camera ray: how far behind the surface the depth hits
@@ -182,10 +182,10 @@ class LocalizeConfig:
     # spreads as much along the ray as across it.
     extent_ray_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.04,
-            "valve": 0.043,
+            "door": 0.038,
+            "valve": 0.047,
             "fire-extinguisher": 0.0,
-            "baby-doll": 0.0,
+            "baby-doll": 0.031,
             "heat-source": 0.033,
         }
     )
@@ -198,8 +198,8 @@ class LocalizeConfig:
             "pillar-green": 0.025,
             "ball": 0.105,
             "fire-extinguisher": 0.065,
-            "baby-doll": 0.06,
-            "heat-source": 0.103,
+            "baby-doll": 0.059,
+            "heat-source": 0.102,
             "door": 0.064,
             "valve": -0.056,
         }
@@ -213,7 +213,7 @@ class LocalizeConfig:
             "door": 0.771,
             "valve": 0.253,
             "fire-extinguisher": 0.163,
-            "baby-doll": 0.366,
+            "baby-doll": 0.367,
             "heat-source": 0.327,
         }
     )
@@ -223,7 +223,7 @@ class LocalizeConfig:
             "valve": 0.255,
             "fire-extinguisher": 0.523,
             "baby-doll": 0.163,
-            "heat-source": 0.356,
+            "heat-source": 0.357,
         }
     )
     # Per flat type, its width over its height (a square QR code, hazmat placard or
@@ -254,6 +254,13 @@ class LocalizeConfig:
     # A flat item's box touches the border also when its side lies within this many of its
     # centre sigmas beyond border_px (a cut box's edge jitters inward with the box).
     flat_border_sigmas: float = number(2.5, lo=0.0)
+    # A 3-D item's box is cut on an axis also where a surface more than this much (m) nearer
+    # borders it there (poi.estimation.localize.occluded_sides); 0 turns the check off.
+    occluder_margin_m: float = number(0.15, lo=0.0)
+    # The 3-D types whose part a cut box leaves out goes on along the box's depth plane (a
+    # door's leaf, a doll lying along the floor). Any other 3-D type's hidden part keeps its
+    # visible part's depth (poi.estimation.localize.localize).
+    hidden_on_plane: list[str] = field(default_factory=lambda: ["door", "baby-doll"])
     # A flat item whose box touches the image border on both axes gives no observation.
     flat_reject_corner: bool = True
     # The flat types of ``aspect`` that are diamonds (a box touches them at its sides' middles).
@@ -279,6 +286,14 @@ class LocalizeConfig:
             if t not in self.aspect:
                 raise FieldError(
                     f"diamond_types[{i}]", f"{t!r} has no aspect; expected one of {', '.join(self.aspect)}"
+                )
+        sized = {**self.box_width_m, **self.box_height_m}
+        for i, t in enumerate(self.hidden_on_plane):
+            if t not in sized:
+                raise FieldError(
+                    f"hidden_on_plane[{i}]",
+                    f"{t!r} is no 3-D type with a box size (box_width_m / box_height_m); expected one of "
+                    f"{', '.join(sized) or 'none'}",
                 )
         if self.max_depth_m <= self.min_depth_m:
             raise FieldError(

@@ -56,6 +56,9 @@ PLANE_OUTLIER_SIGMAS = 3.0
 # flat_item: a ray within this cosine of the depth plane (87 degrees off its normal) sees
 # it edge-on, and the plane says nothing of the item's size
 EDGE_ON_COS = 0.05
+# where occluded_sides reads beside a box: from 2 px outside its edge (a box's edge jitters by a
+# pixel or two) to 10 px (past an occluder's edge pixels, which the depth camera blurs)
+OCCLUDER_STRIP_PX = (2, 10)
 
 
 class LocalizeError(ValueError):
@@ -471,6 +474,65 @@ def box_at_border(box_xyxy, width: int, height: int, border_px: float | tuple[fl
     return x1 <= bu or x2 >= width - bu, y1 <= bv or y2 >= height - bv
 
 
+def occluded_sides(
+    depth_m: np.ndarray,
+    box_xyxy,
+    surface: float | DepthPlane,
+    margin_m: float,
+    strip_px: tuple[int, int] = OCCLUDER_STRIP_PX,
+) -> tuple[bool, bool]:
+    """Whether a nearer surface borders a box on its left or right side, and on its top: the
+    box then holds the part of the item that the occluder leaves visible. Not on its bottom:
+    below an item on the floor lies the floor before it, which is nearer by its slope (0.2 m
+    10 px below a heater 2 m from a camera 0.3 m up) and occludes nothing.
+
+    On each side a strip ``strip_px`` = (from, to) pixels outside the box edge, along the
+    middle half of the edge, is read; the side is occluded when at least half of the strip's
+    valid depths lie more than ``margin_m`` nearer than the item's ``surface`` carried on to
+    them: its depth plane (:func:`box_depth_plane`), or one depth for the whole box. A door
+    seen past a corridor's corner is; a door seen at 70 degrees is not, though its near edge
+    and the wall beside it are 0.3 m nearer than its centre. A strip outside the image or
+    without valid depth says nothing. The strip starts a few pixels out so that a box a few
+    pixels too small still reads past the item's own edge.
+
+    >>> d = np.full((100, 100), 3.0, np.float32); d[:, :40] = 1.0  # a wall 2 m nearer on the left
+    >>> occluded_sides(d, (40, 30, 70, 70), 3.0, 0.15)
+    (True, False)
+    >>> occluded_sides(d, (60, 30, 90, 70), 3.0, 0.15), occluded_sides(d, (40, 30, 70, 70), 1.1, 0.15)
+    ((False, False), (False, False))
+    >>> d = 1.0 + 0.02 * np.arange(100.0)[None, :].repeat(100, 0)  # a wall seen at a slant
+    >>> slant = DepthPlane(d0=2.1, u0=55.0, v0=50.0, g_u=0.02, g_v=0.0, var_g_u=0.0, var_g_v=0.0)
+    >>> occluded_sides(d, (40, 30, 70, 70), slant, 0.15), occluded_sides(d, (40, 30, 70, 70), 2.1, 0.15)
+    ((False, False), (True, False))
+    """
+    h, w = depth_m.shape
+    x1, y1, x2, y2 = (float(c) for c in box_xyxy)
+    a, b = strip_px
+    r0, r1 = max(int(y1 + 0.25 * (y2 - y1)), 0), min(int(math.ceil(y2 - 0.25 * (y2 - y1))), h)
+    c0, c1 = max(int(x1 + 0.25 * (x2 - x1)), 0), min(int(math.ceil(x2 - 0.25 * (x2 - x1))), w)
+    u_end = int(math.ceil(x2))
+    strips = (  # (rows, columns) of each strip: left, right, top
+        ((r0, r1), (max(int(x1) - b, 0), max(int(x1) - a, 0))),
+        ((r0, r1), (min(u_end + a, w), min(u_end + b, w))),
+        ((max(int(y1) - b, 0), max(int(y1) - a, 0)), (c0, c1)),
+    )
+
+    def nearer(rows: tuple[int, int], cols: tuple[int, int]) -> bool:
+        if rows[1] <= rows[0] or cols[1] <= cols[0]:
+            return False
+        z = np.asarray(depth_m[rows[0] : rows[1], cols[0] : cols[1]], dtype=float)
+        if isinstance(surface, DepthPlane):
+            vv, uu = np.mgrid[rows[0] : rows[1], cols[0] : cols[1]]
+            item = surface.depth_at(uu, vv)
+        else:
+            item = np.full(z.shape, float(surface))
+        ok = np.isfinite(z) & (z > 0.0)
+        return bool(ok.any() and np.count_nonzero(z[ok] < item[ok] - margin_m) >= 0.5 * np.count_nonzero(ok))
+
+    left, right, top = (nearer(rows, cols) for rows, cols in strips)
+    return left or right, top
+
+
 def least_tilted_gradient(
     grad: tuple[float, float], var_g: tuple[float, float], n_sigmas: float
 ) -> tuple[float, float]:
@@ -660,7 +722,9 @@ def localize(
       Sigma_1's centre variances grow by (hidden / 2)^2 on an axis along which a flat item of
       known ``localize.aspect`` is cut (:func:`hidden_lengths_px`), or along which the box of
       a 3-D item of known ``localize.box_width_m`` / ``box_height_m`` is cut by the image
-      border (:func:`hidden_solid_px`);
+      border or a nearer surface (:func:`hidden_solid_px`, :func:`occluded_sides`); for a
+      3-D type not in ``localize.hidden_on_plane`` that growth skips J1 (the hidden part's
+      depth does not follow the visible part's slope);
     * Sigma_ext (:func:`extent_covariance`, ``Observation.Sigma_extent_c``) is the spread of
       a 3-D object's reference point about the observation, ``extent_ray_sigma_m`` along the
       camera ray and ``extent_sigma_m`` across it;
@@ -767,12 +831,25 @@ def localize(
         if centre is not None and lc.flat_center:
             p_c = centre
     elif t in lc.box_width_m or t in lc.box_height_m:
-        # a 3-D item cut by the image border: its hidden length from its known size
+        # a 3-D item cut by the image border or by a nearer surface: its hidden length from its
+        # known size
         size_m = (lc.box_width_m.get(t, 0.0), lc.box_height_m.get(t, 0.0))
+        if lc.occluder_margin_m > 0.0:
+            surface = d_med if plane is None else plane
+            occluded = occluded_sides(depth, detection.box_xyxy, surface, lc.occluder_margin_m / lc.depth_scale)
+            at = (at[0] or occluded[0], at[1] or occluded[1])
         hid_w, hid_h = hidden_solid_px((w, h), size_m, float(p_c[2]), (intr.fx, intr.fy), at)
-    # a cut box: its centre is off the item's by up to half the hidden length
-    sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
-    sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
+    # a cut box: its centre is off the item's by up to half the hidden length. Where the hidden
+    # part goes on along the box's depth plane (a flat sign, a door's leaf, a lying doll:
+    # localize.hidden_on_plane) its depth follows the centre through J1; a body whose visible
+    # part's slope says nothing of the hidden part's (an extinguisher cut at its foot) keeps
+    # its visible part's depth (hidden_var, through J2 only)
+    hidden_var = (0.0, 0.0)
+    if t in lc.aspect or t in lc.hidden_on_plane:
+        sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
+        sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
+    else:
+        hidden_var = ((0.5 * hid_w) ** 2, (0.5 * hid_h) ** 2)
     if on_plane and mean_variance:
         # the plane's depth at the box centre averages the noise of the block's windows
         # plus the Z16 unit's rounding, which a block facing the camera shares (1 mm^2 / 12)
@@ -785,6 +862,8 @@ def localize(
     Sigma_1 = np.diag([sigma_u**2, sigma_v**2, var_d])
     J2 = deprojection_jacobian(point, u, v, d)  # with the centre offset, for a 3-D object
     Sigma_c = camera_covariance(J1, J2, Sigma_1)
+    if hidden_var != (0.0, 0.0):
+        Sigma_c = Sigma_c + camera_covariance(np.eye(3), J2, np.diag([*hidden_var, 0.0]))
     # the depth image's registration error: its depth is read (du, dv) off the colour box,
     # the same offset all run long (a shared error), so the box's depth is off by g . (du, dv)
     var_reg = registration_depth_variance((J1[2, 0], J1[2, 1]), var_g, lc.registration_sigma_px)
