@@ -239,10 +239,10 @@ class LocalizeConfig:
     # A flat item's depth at its box centre: plane (its depth plane's there,
     # poi.estimation.localize.DepthPlane.depth_at) or median (the median of its inner box).
     flat_depth: Literal["plane", "median"] = "plane"
-    # The variance of a flat item's plane depth: pixel (one pixel's sigma_z^2, as for a median)
-    # or plane (the plane fit's own under the window-correlated noise,
-    # poi.estimation.localize.DepthPlane.depth_variance_at).
-    flat_depth_variance: Literal["plane", "pixel"] = "pixel"
+    # The variance of a flat item's plane depth: plane (the plane fit's own under the
+    # window-correlated noise, poi.estimation.localize.DepthPlane.depth_variance_at) or pixel
+    # (one pixel's sigma_z^2, as for a median).
+    flat_depth_variance: Literal["plane", "pixel"] = "plane"
     # A flat item is measured on the depth plane (centre, truncation) only when the plane's
     # tilt is known to this standard deviation (of its tangent) or better.
     flat_max_slope_sigma: float = number(0.2, lo=0.0)

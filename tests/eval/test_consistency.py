@@ -220,7 +220,11 @@ def test_detections_match_the_truth_box_of_their_type():
 
 def _observation_samples(rng, n: int, noise_scale: float = 1.0) -> list[float]:
     """NEES of localize's camera-frame covariance over n boxes drawn with the oracle's centre
-    noise and the D435's depth noise (times ``noise_scale``), on a flat target."""
+    noise and the D435's depth noise (times ``noise_scale``), on a flat target: the simulator's
+    per-pixel noise, correlated over the stereo matching window, which a sign's depth plane
+    averages (``localize.flat_depth_variance: plane``)."""
+    from sim.sensors.d435_depth import window_noise
+
     cfg = apply_overrides(load_config(), ["localize.extent_sigma_m={}"])
     lc = cfg.localize
     T_tc = make_transform(R_BODY_OPTICAL, [0.0, 0.0, 0.045])
@@ -232,8 +236,9 @@ def _observation_samples(rng, n: int, noise_scale: float = 1.0) -> list[float]:
         s_u = center_sigma_px(w, a_px=CENTER_SIGMA_A_PX, b=CENTER_SIGMA_B)
         s_z = depth_sigma_m(z, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
         cu, cv = np.array([u, v]) + 0.5 + noise_scale * s_u * rng.standard_normal(2)
-        d = z + noise_scale * s_z * rng.standard_normal()
-        depth = np.full((K.height, K.width), d, np.float32)
+        win = round(lc.depth_window_px)
+        white = rng.standard_normal((K.height + win - 1, K.width + win - 1), np.float32)
+        depth = np.float32(z) + np.float32(noise_scale * s_z) * window_noise(white, win)
         frame = Frame(index=0, timestamp_s=0.0, rgb=None, intrinsics=K, depth_m=depth, pose=np.eye(4))
         box = (cu - w / 2, cv - w / 2, cu + w / 2, cv + w / 2)
         det = make_detection("qr", box, 0.9, source="t", class_probs=None)

@@ -422,7 +422,7 @@ def test_flat_depth_variance_plane_gives_a_signs_depth_its_planes_variance():
     """A qr code on a wall facing the camera 2 m away, a 60 px box: with
     ``localize.flat_depth_variance: plane`` Sigma_c's variance along the ray is the plane mean's
     (about (7 / 30)^2 of one pixel's sigma_z^2 for the 30 x 30 px inner block, plus the Z16
-    rounding), where the default gives one pixel's."""
+    rounding), where ``pixel`` gives one pixel's."""
     rng = np.random.default_rng(2)
     lc = load_config().localize
     s_z = depth_sigma_m(2.0, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
