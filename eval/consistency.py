@@ -321,12 +321,11 @@ def match_detections(detections, visible) -> list[int | None]:
     return out
 
 
-def box_size_at_depth(obs, intr, border_px: float) -> tuple[float, float] | None:
-    """An observation's box as metres at its depth z, (w z / fx, h z / fy); None when the box
-    touches the image border (``border_px``): it may hold part of the item only."""
-    from poi.estimation.localize import box_at_border
-
-    if any(box_at_border(obs.detection.box_xyxy, intr.width, intr.height, border_px)):
+def box_size_at_depth(obs, intr) -> tuple[float, float] | None:
+    """An observation's box as metres at its depth z, (w z / fx, h z / fy); None when
+    :func:`poi.estimation.localize.localize` called the box cut (``Observation.box_cut``: by the
+    image border, or by a nearer surface): it holds part of the item only."""
+    if any(obs.box_cut):
         return None
     w, h = obs.detection.size_wh
     z = float(obs.position_cam[2])
@@ -393,7 +392,7 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
                             e_cam=e_cam,
                             Sigma_c=obs.Sigma_c,
                             ray=ray,
-                            box_m=box_size_at_depth(obs, frame.intrinsics, lc.border_px),
+                            box_m=box_size_at_depth(obs, frame.intrinsics),
                         )
                     )
                 samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam), run_object, run)

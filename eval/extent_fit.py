@@ -42,8 +42,8 @@ class ExtentSample:
     e_cam: np.ndarray
     Sigma_c: np.ndarray
     ray: np.ndarray  # unit vector from the camera to the observation
-    # the box's (w z / fx, h z / fy) in metres at the observation's depth z; None when it touches
-    # the image border (cut: not the item's full size)
+    # the box's (w z / fx, h z / fy) in metres at the observation's depth z; None when it is cut
+    # (Observation.box_cut: by the image border or a nearer surface; not the item's full size)
     box_m: tuple[float, float] | None = None
 
 

@@ -241,8 +241,12 @@ class LocalizeConfig:
     flat_depth: Literal["plane", "median"] = "plane"
     # The variance of a flat item's plane depth: plane (the plane fit's own under the
     # window-correlated noise, poi.estimation.localize.DepthPlane.depth_variance_at) or pixel
-    # (one pixel's sigma_z^2, as for a median).
+    # (one pixel's sigma_z^2).
     flat_depth_variance: Literal["plane", "pixel"] = "plane"
+    # The variance of a median depth (a 3-D item's, or a flat item's not read on its plane):
+    # window (one pixel's sigma_z^2 times the share the block's windows leave,
+    # poi.estimation.localize.median_variance_fraction) or pixel (one pixel's sigma_z^2).
+    median_depth_variance: Literal["window", "pixel"] = "window"
     # A flat item is measured on the depth plane (centre, truncation) only when the plane's
     # tilt is known to this standard deviation (of its tangent) or better.
     flat_max_slope_sigma: float = number(0.2, lo=0.0)

@@ -162,6 +162,9 @@ class Observation:
     # (3, 3) spread of a 3-D object's reference point about position_cam (camera frame; R holds
     # Sigma_c + this, rotated); None: none (poi.estimation.localize.extent_covariance)
     Sigma_extent_c: np.ndarray | None = None
+    # its box cut across its width / height (by the image border, or for a 3-D item by a
+    # nearer surface): the box frames part of the item only (poi.estimation.localize)
+    box_cut: tuple[bool, bool] = (False, False)
 
 
 @dataclass(kw_only=True)

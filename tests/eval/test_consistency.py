@@ -24,6 +24,7 @@ from eval.consistency import (
     Samples,
     autocorrelation_time,
     axis_nees,
+    box_size_at_depth,
     chi2_interval,
     effective_count,
     format_table,
@@ -202,6 +203,20 @@ def test_the_pose_parts_tell_a_wide_heading_from_a_thin_position():
     assert chi2_interval(n, 3)[0] <= whole <= chi2_interval(n, 3)[1]
     assert position > chi2_interval(n, 2)[1]
     assert heading < chi2_interval(n, 1)[0]
+
+
+def test_the_extent_fit_takes_a_box_in_metres_only_when_localize_left_it_whole():
+    """A 100 x 50 px box at z = 2 m with fx = fy = 500 px spans 0.4 x 0.2 m; a box localize
+    called cut (by the image border or a nearer surface) gives no size."""
+    from poi.core.types import Detection, Observation
+
+    intr = Intrinsics(width=640, height=480, fx=500.0, fy=500.0, ppx=320.0, ppy=240.0)
+    d = Detection(class_name="door", type="door", text="", box_xyxy=(100.0, 100.0, 200.0, 150.0), confidence=1.0)
+    kw = dict(detection=d, timestamp_s=0.0, position_map=np.zeros(3), R=np.eye(3), Sigma_c=np.eye(3))
+    kw.update(position_cam=np.array([0.0, 0.0, 2.0]), depth_m=2.0)
+    assert box_size_at_depth(Observation(**kw), intr) == pytest.approx((0.4, 0.2))
+    for cut in ((True, False), (False, True)):
+        assert box_size_at_depth(Observation(**kw, box_cut=cut), intr) is None
 
 
 def test_detections_match_the_truth_box_of_their_type():

@@ -22,6 +22,7 @@ from poi.estimation.localize import (
     hidden_lengths_px,
     hidden_solid_px,
     localize,
+    median_variance_fraction,
     occluded_sides,
     project_point_to_pixel,
 )
@@ -165,14 +166,19 @@ def test_localize_places_the_box_centre_in_the_map():
     assert obs.position_cam.tolist() == pytest.approx([0.2, 0.0, 2.0], abs=1e-12)
     assert obs.position_map.tolist() == pytest.approx([1.2, 4.0, 0.045], abs=1e-12)
     assert obs.depth_m == 2.0
-    # flat depth: the depth plane has no slope, so J1 adds nothing; z_c's variance is the depth
-    # noise plus the plane's slope error times the centre's, var(g) sigma_u^2 + var(g_v) sigma_v^2,
-    # var(g) = sigma_z^2 window^2 / sum(du^2): the inner box is 10 x 10 pixels, du = +-0.5 .. +-4.5,
+    # flat depth: the depth plane has no slope, so J1 adds nothing; z_c's variance is the
+    # median's (localize.median_depth_variance: window), g^2 of one pixel's sigma_z^2 for the
+    # 10 x 10 px inner box (every pixel lies within sigma_z of the median) with
+    # g = sum_k (10 - |k|) (1 - |k| / 7) / 100 = 0.54 (the mean of a
+    # row of 10 pixels whose noise correlates over the 7 px window), plus the Z16 unit's
+    # rounding (1 mm)^2 / 12; the plane's slope error times the centre's, var(g) sigma_u^2 +
+    # var(g_v) sigma_v^2, var(g) = sigma_z^2 window^2 / sum(du^2): du = +-0.5 .. +-4.5,
     # sum(du^2) = 10 * 82.5 = 825, window 7 px; sigma_u = sigma_v = 1 + 0.03 * 20 px; and the
     # depth registration's offset (1 px RMS, N(0, 1/2) per axis) times the slopes' error,
     # (var(g_u) + var(g_v)) / 2 = var(g)
     sigma_z = 4.0 * 0.08 / (384.2 * 0.05)
-    var_d = sigma_z**2 * (1.0 + 2 * 49.0 * 1.6**2 / 825.0 + 49.0 / 825.0)
+    var_median = 0.54**2 * sigma_z**2 + 1e-6 / 12.0
+    var_d = var_median + sigma_z**2 * (2 * 49.0 * 1.6**2 / 825.0 + 49.0 / 825.0)
     assert obs.Sigma_c[2, 2] == pytest.approx(var_d, rel=1e-9)
     # x_c variance: (d/fx)^2 sigma_u^2 + (u - ppx)^2/fx^2 var_d
     expect_xx = (2 / 500) ** 2 * 1.6**2 + (50 / 500) ** 2 * var_d
@@ -182,7 +188,7 @@ def test_localize_places_the_box_centre_in_the_map():
     assert obs.R[1, 1] == pytest.approx(var_d + 0.002**2, rel=1e-9)
     # central differences of the flat image: no slope and no slope error
     central = localize(d, frame(pose=pose), apply_overrides(cfg, ["localize.depth_gradient=central"]), T_tc)
-    assert central.Sigma_c[2, 2] == pytest.approx(sigma_z**2, rel=1e-9)
+    assert central.Sigma_c[2, 2] == pytest.approx(var_median, rel=1e-9)
     assert np.allclose(obs.R, obs.R.T)
     t265 = localize(d, frame(pose=pose), apply_overrides(cfg, ["localize.mode=t265"]), T_tc)
     assert t265.R[1, 1] == pytest.approx(var_d + 0.05**2, rel=1e-9)
@@ -418,17 +424,25 @@ def test_the_depth_planes_depth_at_the_box_centre_has_the_variance_it_reports(ho
         box_depth_plane(depth, box, 0.5, 7.0, noise).depth_variance_at(u, v)
 
 
+FACING_BOX = (289.5, 209.5, 349.5, 269.5)  # 60 x 60 px about the image centre
+
+
+def _facing_wall_frame(z: float, rng) -> tuple[Frame, float]:
+    """A frame of a wall facing the camera ``z`` metres away with the simulator's depth noise
+    (:func:`_window_wall`), and that noise's sigma_z per pixel."""
+    lc = load_config().localize
+    s_z = depth_sigma_m(z, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
+    depth = _window_wall(z, 0.0, s_z, rng)
+    return Frame(index=0, timestamp_s=0.0, rgb=None, intrinsics=K, depth_m=depth, pose=np.eye(4)), s_z
+
+
 def test_flat_depth_variance_plane_gives_a_signs_depth_its_planes_variance():
     """A qr code on a wall facing the camera 2 m away, a 60 px box: with
     ``localize.flat_depth_variance: plane`` Sigma_c's variance along the ray is the plane mean's
     (about (7 / 30)^2 of one pixel's sigma_z^2 for the 30 x 30 px inner block, plus the Z16
     rounding), where ``pixel`` gives one pixel's."""
-    rng = np.random.default_rng(2)
-    lc = load_config().localize
-    s_z = depth_sigma_m(2.0, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
-    depth = _window_wall(2.0, 0.0, s_z, rng)
-    f = Frame(index=0, timestamp_s=0.0, rgb=None, intrinsics=K, depth_m=depth, pose=np.eye(4))
-    box = (289.5, 209.5, 349.5, 269.5)
+    f, s_z = _facing_wall_frame(2.0, np.random.default_rng(2))
+    box = FACING_BOX
     ray = {}
     for var in ("pixel", "plane"):
         cfg = apply_overrides(
@@ -440,10 +454,74 @@ def test_flat_depth_variance_plane_gives_a_signs_depth_its_planes_variance():
     assert 0.03 * s_z**2 < ray["plane"] < 0.1 * s_z**2
 
 
+@pytest.mark.parametrize("surface", ["flat", "holes", "slope"])
+def test_a_box_medians_variance_is_the_share_its_windows_leave(surface):
+    """The median of a 20 x 20 px inner block of window-correlated noise (the simulator's, 7 px,
+    unit variance) varies as :func:`median_variance_fraction` says: on a flat block, one with a
+    third of its columns reading nothing, and one sloping by a twentieth of a sigma a pixel,
+    where the pixels within a sigma of the median are fewer. Far less than one pixel's variance,
+    and more than 400 independent pixels' would give. A block that slopes by half a sigma a
+    pixel has a fifth of its pixels there: which of them the median reads is the surface's
+    doing, not the noise's, and one pixel's variance stays. Small images keep the draws cheap."""
+    rng = np.random.default_rng({"flat": 30, "holes": 31, "slope": 32}[surface])
+    box = (10.0, 10.0, 50.0, 50.0)
+    ramp = 0.05 * np.arange(60.0)[None, :] if surface == "slope" else 0.0
+    medians, fractions = [], []
+    for _ in range(1500):
+        depth = 30.0 + ramp + window_noise(rng.standard_normal((66, 66), np.float32), 7).astype(float)
+        if surface == "holes":
+            depth[:, 20:27] = 0.0
+        medians.append(
+            box_depth(depth, box, 0.5) - float(np.median(30.0 + np.broadcast_to(ramp, (60, 60))[20:40, 20:40]))
+        )
+        fractions.append(median_variance_fraction(depth, box, 0.5, 7.0, 1.0))
+    assert np.var(medians) == pytest.approx(np.mean(fractions), rel=0.15)
+    assert 1.0 / 400 < np.mean(fractions) < {"flat": 0.12, "holes": 0.2, "slope": 0.15}[surface]
+    steep = 30.0 + 0.5 * np.arange(60.0)[None, :] + window_noise(rng.standard_normal((66, 66), np.float32), 7)
+    assert median_variance_fraction(steep, box, 0.5, 7.0, 1.0) == 1.0
+    # one pixel's own: a single valid pixel; a noiseless flat block, noise that does not correlate
+    one = np.zeros((60, 60))
+    one[30, 30] = 2.0
+    assert median_variance_fraction(one, box, 0.5, 7.0, 1.0) == pytest.approx(1.0)
+    assert median_variance_fraction(np.full((60, 60), 2.0), box, 0.5, 1.0, 1.0) == pytest.approx(1 / 400)
+
+
+def test_median_depth_variance_window_gives_a_3d_items_depth_its_medians_variance():
+    """A valve 3 m away, a 60 px box, its depth the median of its 30 x 30 px inner block: with
+    ``localize.median_depth_variance: window`` the depth's part of Sigma_c's variance along the
+    ray is one pixel's sigma_z^2 times the window's share plus the Z16 rounding; ``pixel``
+    gives one pixel's. A flat sign read on its plane is not touched."""
+    f, _ = _facing_wall_frame(3.0, np.random.default_rng(3))
+    depth, lc = f.depth_m, load_config().localize
+    box = FACING_BOX
+    base = [
+        "localize.registration_sigma_px=0",
+        "localize.surface_to_center_m={}",
+        "localize.extent_sigma_m={}",
+        "localize.extent_ray_sigma_m={}",
+    ]
+    ray = {}
+    for var in ("pixel", "window"):
+        cfg = apply_overrides(load_config(), [*base, f"localize.median_depth_variance={var}"])
+        ray[var, "valve"] = float(localize(det(box, class_name="valve"), f, cfg, np.eye(4)).Sigma_c[2, 2])
+        ray[var, "qr"] = float(localize(det(box, class_name="qr"), f, cfg, np.eye(4)).Sigma_c[2, 2])
+    d = float(np.median(depth[225:255, 305:335]))
+    s_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
+    share = median_variance_fraction(depth, box, 0.5, 7.0, s_d)
+    # the rest of Sigma_c[2, 2] (the plane slope's error times the centre's) is the same in both
+    assert ray["pixel", "valve"] - ray["window", "valve"] == pytest.approx(
+        (1.0 - share) * s_d**2 - 1e-6 / 12.0, rel=1e-3
+    )
+    assert ray["window", "valve"] < 0.3 * ray["pixel", "valve"]
+    assert 0.03 < share < 0.1
+    assert ray["window", "qr"] == ray["pixel", "qr"]
+
+
 def _sign_nees(cfg, rng, n: int) -> list[float]:
     """Camera-frame NEES of n observations of a qr code on the 45-degree wall at 1 m (depth
     z = 1 + 0.002 (u - ppx)), boxed with the oracle's centre noise; the depth carries the
-    D435's noise as a common offset (what the box's median keeps) plus per-pixel white noise
+    D435's noise as a common offset (what the box's median keeps: on a slope of half a sigma a
+    pixel, one pixel's variance, :func:`median_variance_fraction`) plus per-pixel white noise
     of the same size (what a slope estimate sees)."""
     lc = cfg.localize
     slope, w = 0.002, 40.0
@@ -602,10 +680,12 @@ def test_a_solid_item_cut_by_the_border_widens_its_centre_sigma_by_half_the_hidd
     added = cut.Sigma_c[1, 1] - uncut.Sigma_c[1, 1]
     assert added == pytest.approx((0.5 * hid[1] * z / 500.0) ** 2, rel=0.05)
     assert cut.Sigma_c[0, 0] == pytest.approx(uncut.Sigma_c[0, 0], rel=1e-9)  # u: not at the border
+    assert cut.box_cut == (False, True)
     inside = (270.0, 200.0, 370.0, 380.0)
     a = localize(det(inside, class_name="fire-extinguisher"), f, cfg, T)
     b = localize(det(inside, class_name="fire-extinguisher"), f, no_size, T)
     assert a.Sigma_c[1, 1] == pytest.approx(b.Sigma_c[1, 1], rel=1e-9)
+    assert a.box_cut == (False, False)
     tall = (270.0, 200.0, 370.0, 480.0)  # 280 px: no shorter than the item
     a = localize(det(tall, class_name="fire-extinguisher"), f, cfg, T)
     b = localize(det(tall, class_name="fire-extinguisher"), f, no_size, T)
@@ -636,9 +716,11 @@ def test_a_solid_item_beside_a_nearer_surface_counts_as_cut_on_that_side():
     added = cut.Sigma_c[0, 0] - off.Sigma_c[0, 0]
     assert added == pytest.approx((0.5 * hid * z / 500.0) ** 2, rel=0.05)  # dX / du about z / fx
     assert cut.Sigma_c[1, 1] == pytest.approx(off.Sigma_c[1, 1], rel=1e-3)  # v: not cut
+    assert cut.box_cut == (True, False) and off.box_cut == (False, False)
     f.depth_m[:, :300] = 2.45  # a recess, not an occluder
     recess = localize(det(box, class_name="door"), f, cfg, T)
     assert recess.Sigma_c[0, 0] == pytest.approx(off.Sigma_c[0, 0], rel=1e-9)
+    assert recess.box_cut == (False, False)
     f.depth_m[:, :300] = 1.5
     full = (300.0, 100.0, 460.0, 390.0)  # 160 px: the whole leaf
     a = localize(det(full, class_name="door"), f, cfg, T)
