@@ -170,7 +170,7 @@ class LocalizeConfig:
     # ray (a 3-D object's silhouette centre is not its centroid's projection).
     extent_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.033,
+            "door": 0.032,
             "valve": 0.012,
             "fire-extinguisher": 0.011,
             "baby-doll": 0.008,
@@ -184,9 +184,9 @@ class LocalizeConfig:
         default_factory=lambda: {
             "door": 0.038,
             "valve": 0.047,
-            "fire-extinguisher": 0.0,
+            "fire-extinguisher": 0.001,
             "baby-doll": 0.031,
-            "heat-source": 0.033,
+            "heat-source": 0.037,
         }
     )
     # Per type, how far behind the surface the depth hits its reference point lies (m), on
@@ -210,20 +210,20 @@ class LocalizeConfig:
     # (poi.estimation.localize.hidden_solid_px). A flat type is judged by its ``aspect``.
     box_width_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 0.771,
-            "valve": 0.253,
+            "door": 0.793,
+            "valve": 0.256,
             "fire-extinguisher": 0.163,
-            "baby-doll": 0.367,
-            "heat-source": 0.327,
+            "baby-doll": 0.37,
+            "heat-source": 0.328,
         }
     )
     box_height_m: dict[str, float] = field(
         default_factory=lambda: {
-            "door": 1.352,
-            "valve": 0.255,
-            "fire-extinguisher": 0.523,
-            "baby-doll": 0.163,
-            "heat-source": 0.357,
+            "door": 1.362,
+            "valve": 0.256,
+            "fire-extinguisher": 0.524,
+            "baby-doll": 0.165,
+            "heat-source": 0.359,
         }
     )
     # Per flat type, its width over its height (a square QR code, hazmat placard or

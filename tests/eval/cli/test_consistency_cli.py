@@ -77,7 +77,10 @@ def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
     ]
     cfg = apply_overrides(load_config(), sets)  # the printed settings load as they are
     assert cfg.localize.extent_sigma_m["valve"] == round(fits["valve"]["sigma_lat_m"], 3)
-    assert cfg.localize.box_height_m["valve"] == round(fits["valve"]["box_height_m"], 3)  # seen in full
+    # its three boxes here are all cut (localize's box_cut: the image border or a nearer
+    # surface), so no full-view size is fitted and the printed one is the pipeline's
+    assert fits["valve"]["box_height_m"] is None
+    assert cfg.localize.box_height_m["valve"] == load_config().localize.box_height_m["valve"]
     before = load_config().localize.surface_to_center_m.get("valve", 0.0)
     assert cfg.localize.surface_to_center_m["valve"] == round(before + fits["valve"]["offset_change_m"], 3)
     # no 3-D type in the pipeline's settings: nothing to fit, said in one line
