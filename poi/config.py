@@ -244,8 +244,9 @@ class LocalizeConfig:
     # (one pixel's sigma_z^2).
     flat_depth_variance: Literal["plane", "pixel"] = "plane"
     # The variance of a median depth (a 3-D item's, or a flat item's not read on its plane):
-    # window (one pixel's sigma_z^2 times the share the block's windows leave,
-    # poi.estimation.localize.median_variance_fraction) or pixel (one pixel's sigma_z^2).
+    # window (one pixel's sigma_z^2 times the share that the block's pixels within sigma_z of
+    # the median leave, poi.estimation.localize.median_variance_fraction) or pixel (one pixel's
+    # sigma_z^2).
     median_depth_variance: Literal["window", "pixel"] = "window"
     # A flat item is measured on the depth plane (centre, truncation) only when the plane's
     # tilt is known to this standard deviation (of its tangent) or better.

@@ -103,12 +103,13 @@ def _inner_block(depth_m: np.ndarray, box_xyxy, inner_fraction: float) -> tuple[
 
 
 def median_variance_fraction(
-    depth_m: np.ndarray, box_xyxy, inner_fraction: float, window_px: float, sigma: float
+    depth_m: np.ndarray, box_xyxy, inner_fraction: float, window_px: float, sigma: float, median: float
 ) -> float:
-    """The variance of :func:`box_depth`'s median over one pixel's (``sigma``^2, in the depth
-    image's units): 1^T C 1 / n^2 over the n valid pixels of the inner block whose depth lies
-    within ``sigma`` of the median, C their noise's correlation over the stereo matcher's window
-    (:func:`correlated_fit_covariance` with A = 1, exact for any pattern of holes).
+    """The variance of :func:`box_depth`'s median (``median``, as it returned it for this box)
+    over one pixel's (``sigma``^2, in the depth image's units): 1^T C 1 / n^2 over the n valid
+    pixels of the inner block whose depth lies within ``sigma`` of the median, C their noise's
+    correlation over the stereo matcher's window (:func:`correlated_fit_covariance` with A = 1,
+    exact for any pattern of holes).
 
     Those pixels are the ones that decide the median. On a flat block they are most of it and
     the median averages its windows' noise (about window^2 / N of one pixel's variance for N
@@ -126,16 +127,16 @@ def median_variance_fraction(
     door tracks ended 0.3-0.7 m off at NEES 50-100 (docs/CONSISTENCY.md).
 
     >>> d = np.full((40, 40), 2.0)
-    >>> round(median_variance_fraction(d, (0, 0, 40, 40), 0.5, 7.0, 0.01), 4)  # 20 x 20 px
+    >>> round(median_variance_fraction(d, (0, 0, 40, 40), 0.5, 7.0, 0.01, 2.0), 4)  # 20 x 20 px
     0.0961
-    >>> median_variance_fraction(d, (0, 0, 40, 40), 0.5, 1.0, 0.01) == 1 / 400
+    >>> median_variance_fraction(d, (0, 0, 40, 40), 0.5, 1.0, 0.01, 2.0) == 1 / 400
     True
     """
     block = _inner_block(depth_m, box_xyxy, inner_fraction)
     if block is None or not block[1].any():
         return 1.0
     patch, ok = block
-    band = ok & (np.abs(patch - np.median(patch[ok])) <= sigma)
+    band = ok & (np.abs(patch - median) <= sigma)
     if np.count_nonzero(band) < MEDIAN_MIN_BAND * np.count_nonzero(ok):
         # the block's surfaces spread by more than its noise: which of them the median reads
         # changes from view to view, and one pixel's variance stays
@@ -797,7 +798,9 @@ def localize(
     from frame to frame: they are the observation's shared part (``Observation.R_shared``,
     :mod:`poi.estimation.tracker`).
 
-    The depth is the median of the box's inner block (:func:`box_depth`), or for a flat item
+    The depth is the median of the box's inner block (:func:`box_depth`; its variance the share
+    of one pixel's that the pixels deciding it leave, ``localize.median_depth_variance``:
+    :func:`median_variance_fraction`), or for a flat item
     (``localize.flat_depth``: plane) its depth plane's at the box centre
     (:meth:`DepthPlane.depth_at`): on a sloping sign the median is the depth where the block's
     valid pixels centre, off the box centre's where holes lie to one side.
@@ -922,7 +925,7 @@ def localize(
             # unit's rounding (1 mm^2 / 12)
             sigma_raw = sigma_d / lc.depth_scale  # in the depth image's units, as its pixels
             fraction = median_variance_fraction(
-                depth, detection.box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_raw
+                depth, detection.box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_raw, d_med
             )
             var_depth = fraction * var_depth + (lc.depth_scale * DEPTH_UNIT_M) ** 2 / 12.0
     # the slope's own error times the centre's: var(g du) = g^2 var(du) (in J1) + var(g) var(du)

@@ -471,19 +471,18 @@ def test_a_box_medians_variance_is_the_share_its_windows_leave(surface):
         depth = 30.0 + ramp + window_noise(rng.standard_normal((66, 66), np.float32), 7).astype(float)
         if surface == "holes":
             depth[:, 20:27] = 0.0
-        medians.append(
-            box_depth(depth, box, 0.5) - float(np.median(30.0 + np.broadcast_to(ramp, (60, 60))[20:40, 20:40]))
-        )
-        fractions.append(median_variance_fraction(depth, box, 0.5, 7.0, 1.0))
+        median = box_depth(depth, box, 0.5)
+        medians.append(median - float(np.median(30.0 + np.broadcast_to(ramp, (60, 60))[20:40, 20:40])))
+        fractions.append(median_variance_fraction(depth, box, 0.5, 7.0, 1.0, median))
     assert np.var(medians) == pytest.approx(np.mean(fractions), rel=0.15)
     assert 1.0 / 400 < np.mean(fractions) < {"flat": 0.12, "holes": 0.2, "slope": 0.15}[surface]
     steep = 30.0 + 0.5 * np.arange(60.0)[None, :] + window_noise(rng.standard_normal((66, 66), np.float32), 7)
-    assert median_variance_fraction(steep, box, 0.5, 7.0, 1.0) == 1.0
+    assert median_variance_fraction(steep, box, 0.5, 7.0, 1.0, box_depth(steep, box, 0.5)) == 1.0
     # one pixel's own: a single valid pixel; a noiseless flat block, noise that does not correlate
     one = np.zeros((60, 60))
     one[30, 30] = 2.0
-    assert median_variance_fraction(one, box, 0.5, 7.0, 1.0) == pytest.approx(1.0)
-    assert median_variance_fraction(np.full((60, 60), 2.0), box, 0.5, 1.0, 1.0) == pytest.approx(1 / 400)
+    assert median_variance_fraction(one, box, 0.5, 7.0, 1.0, 2.0) == pytest.approx(1.0)
+    assert median_variance_fraction(np.full((60, 60), 2.0), box, 0.5, 1.0, 1.0, 2.0) == pytest.approx(1 / 400)
 
 
 def test_median_depth_variance_window_gives_a_3d_items_depth_its_medians_variance():
@@ -507,7 +506,7 @@ def test_median_depth_variance_window_gives_a_3d_items_depth_its_medians_varianc
         ray[var, "qr"] = float(localize(det(box, class_name="qr"), f, cfg, np.eye(4)).Sigma_c[2, 2])
     d = float(np.median(depth[225:255, 305:335]))
     s_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
-    share = median_variance_fraction(depth, box, 0.5, 7.0, s_d)
+    share = median_variance_fraction(depth, box, 0.5, 7.0, s_d, d)
     # the rest of Sigma_c[2, 2] (the plane slope's error times the centre's) is the same in both
     assert ray["pixel", "valve"] - ray["window", "valve"] == pytest.approx(
         (1.0 - share) * s_d**2 - 1e-6 / 12.0, rel=1e-3
