@@ -259,13 +259,19 @@ class LocalizeConfig:
     # A flat item's box touches the border also when its side lies within this many of its
     # centre sigmas beyond border_px (a cut box's edge jitters inward with the box).
     flat_border_sigmas: float = number(2.5, lo=0.0)
+    # The same for a 3-D body (a type with a box size, not in hidden_on_plane).
+    body_border_sigmas: float = number(2.5, lo=0.0)
     # A 3-D item's box is cut on an axis also where a surface more than this much (m) nearer
-    # borders it there (poi.estimation.localize.occluded_sides); 0 turns the check off.
+    # borders it there (poi.estimation.localize.occluded_sides), and a flat item's may be
+    # (flat_cut_needs_cause); 0 turns the check off.
     occluder_margin_m: float = number(0.15, lo=0.0)
     # The 3-D types whose part a cut box leaves out goes on along the box's depth plane (a
     # door's leaf, a doll lying along the floor). Any other 3-D type's hidden part keeps its
     # visible part's depth (poi.estimation.localize.localize).
     hidden_on_plane: list[str] = field(default_factory=lambda: ["door", "baby-doll"])
+    # A flat item's box counts as cut on an axis only where the image border or a nearer
+    # surface (occluder_margin_m) borders it; false: wherever its shape falls short.
+    flat_cut_needs_cause: bool = True
     # A flat item whose box touches the image border on both axes gives no observation.
     flat_reject_corner: bool = True
     # The flat types of ``aspect`` that are diamonds (a box touches them at its sides' middles).

@@ -615,20 +615,28 @@ def test_a_flat_item_seen_at_an_angle_is_measured_and_centred_on_its_plane(heigh
 
 
 def test_a_cut_sign_widens_its_centre_sigma_and_a_corner_gives_none():
-    """A 100 x 100 px qr code face-on at 1 m and its right half alone (the left cut by an
-    occluder): the cut box's sigma_u grows by half the hidden 50 px; on the border (within
-    border_px) no tolerance is given; a box in a corner of the image gives no observation, a
-    door's does."""
+    """A 100 x 100 px qr code face-on at 1 m and its right half alone, the left cut by an
+    occluder 0.3 m nearer: the cut box's sigma_u grows by half the hidden 50 px. The same half
+    box with nothing beside it is not cut (flat_cut_needs_cause: a sign on a wall is hidden only
+    by something; by its shape alone it is). On the border (within border_px) no tolerance is
+    given; a box in a corner of the image gives no observation, a door's does."""
     cfg = load_config()
     T = np.eye(4)
     f = frame(depth=1.0)
+    occluded = frame(depth=1.0)
+    occluded.depth_m[:, :318] = 0.7  # a wall edge left of the half box
     full = localize(det((270.0, 190.0, 370.0, 290.0), class_name="qr"), f, cfg, T)
-    half = localize(det((320.0, 190.0, 370.0, 290.0), class_name="qr"), f, cfg, T)
+    half_box = det((320.0, 190.0, 370.0, 290.0), class_name="qr")
+    half = localize(half_box, occluded, cfg, T)
     s_u = 1.0 + 0.03 * 50  # the centre model for a 50 px wide box
     var_x = (1.0 / 500) ** 2 * (s_u**2 + 25.0**2)  # plus (u - ppx) / fx sigma_d: u is 25 px off the axis
     assert half.Sigma_c[0, 0] == pytest.approx(var_x, rel=0.05)
     assert half.Sigma_c[1, 1] == pytest.approx(full.Sigma_c[1, 1], rel=0.05)  # v: not cut
     assert full.Sigma_c[0, 0] == pytest.approx((1.0 / 500) ** 2 * 4.0**2, rel=0.05)  # not cut either
+    alone = localize(half_box, f, cfg, T)  # nothing beside it: whole
+    assert alone.Sigma_c[0, 0] == pytest.approx((1.0 / 500) ** 2 * s_u**2, rel=0.05)
+    by_shape = localize(half_box, f, apply_overrides(cfg, ["localize.flat_cut_needs_cause=false"]), T)
+    assert by_shape.Sigma_c[0, 0] == pytest.approx(var_x, rel=0.05)
     # 97 px of 100 at the image's left edge: cut there (a border box gets no tolerance), in the
     # middle of the image: the 3% is within truncation_tolerance
     edge = localize(det((1.0, 190.0, 98.0, 290.0), class_name="qr"), f, cfg, T)
@@ -689,6 +697,41 @@ def test_a_solid_item_cut_by_the_border_widens_its_centre_sigma_by_half_the_hidd
     a = localize(det(tall, class_name="fire-extinguisher"), f, cfg, T)
     b = localize(det(tall, class_name="fire-extinguisher"), f, no_size, T)
     assert a.Sigma_c[1, 1] == pytest.approx(b.Sigma_c[1, 1], rel=1e-9)
+
+
+def test_a_bodys_box_a_few_sigmas_inside_the_border_counts_as_touching_it():
+    """An extinguisher cut at its foot 1 m away, its 180 px box's bottom 12 px inside the image
+    (a detector's box edge jitters inward with its size): within border_px (8) plus 2.5 of its
+    centre sigmas (1 + 0.03 * 180 = 6.4 px), so it counts as cut at the bottom and sigma_v
+    grows by half the hidden length; with body_border_sigmas = 0 it is whole. A door's box
+    keeps border_px (its hidden length moves its depth along its plane)."""
+    cfg = load_config()
+    T, f = np.eye(4), frame(depth=1.0)
+    box = (270.0, 288.0, 370.0, 468.0)
+    cut = localize(det(box, class_name="fire-extinguisher"), f, cfg, T)
+    off_cfg = apply_overrides(cfg, ["localize.body_border_sigmas=0"])
+    off = localize(det(box, class_name="fire-extinguisher"), f, off_cfg, T)
+    assert cut.box_cut == (False, True) and off.box_cut == (False, False)
+    z = float(cut.position_cam[2])
+    hid = 500.0 * cfg.localize.box_height_m["fire-extinguisher"] / z - 180.0
+    added = cut.Sigma_c[1, 1] - off.Sigma_c[1, 1]
+    assert added == pytest.approx((0.5 * hid * z / 500.0) ** 2, rel=0.05)
+    assert localize(det(box, class_name="door"), f, cfg, T).box_cut == (False, False)
+    with pytest.raises(ConfigError, match="localize.body_border_sigmas"):
+        apply_overrides(cfg, ["localize.body_border_sigmas=-1"])
+
+
+def test_a_depth_plane_leaves_out_a_nearer_surface_in_its_block():
+    """A qr code on a wall 4.2 m away whose 30 px box's left 4 columns lie on a wall edge at
+    3.0 m: fitted through both surfaces, the plane slopes by centimetres a pixel; fitted to the
+    depths within depth_split_m of the block's median, it is the wall's, flat."""
+    depth = np.full((480, 640), 4.2, np.float32)
+    depth[:, :414] = 3.0
+    box = (410.0, 216.0, 440.0, 246.0)
+    both = box_depth_plane(depth, box, 1.0)
+    item = box_depth_plane(depth, box, 1.0, split_m=0.3)
+    assert abs(both.g_u) > 0.01
+    assert item.g_u == pytest.approx(0.0, abs=1e-9) and item.d0 == pytest.approx(4.2, abs=1e-6)
 
 
 def test_a_solid_item_beside_a_nearer_surface_counts_as_cut_on_that_side():
@@ -817,11 +860,16 @@ def test_a_sign_seen_steeply_is_foreshortened_not_cut():
         det(box, class_name="qr"), f, apply_overrides(cfg, ["localize.flat_tilt_sigmas=1000000"]), T
     )
     widest = lambda o: float(np.sqrt(np.linalg.eigvalsh(o.Sigma_c)[-1]))  # noqa: E731
-    assert widest(face_on_rule) > 0.2
+    assert widest(face_on_rule) < 0.05  # nothing beside it hides it (flat_cut_needs_cause)
+    by_shape = apply_overrides(cfg, ["localize.flat_tilt_sigmas=1000000", "localize.flat_cut_needs_cause=false"])
+    assert widest(localize(det(box, class_name="qr"), f, by_shape, T)) > 0.2
     assert widest(steep) < 0.05
     assert np.linalg.norm(steep.position_cam - c) < 0.03
-    # a face-on wall: the narrow box is the visible quarter of a cut sign, sigma_u grows by half the rest
-    cut = localize(det(box, class_name="qr"), frame(depth=2.0), cfg, T)
+    # a face-on wall with a nearer wall beside the box: the narrow box is the visible quarter of
+    # a cut sign, sigma_u grows by half the rest
+    wall = frame(depth=2.0)
+    wall.depth_m[:, : int(box[0]) - 1] = 1.5
+    cut = localize(det(box, class_name="qr"), wall, cfg, T)
     w, h = box[2] - box[0], box[3] - box[1]
     assert np.sqrt(cut.Sigma_c[0, 0]) * K.fx / 2.0 > 0.4 * (h - w)
 
