@@ -907,29 +907,30 @@ def localize(
     # be cut there (an extinguisher cut at its foot at 0.7-1 m, its box's bottom 11-17 px up);
     # a door's or a doll's may not: its hidden length moves its depth along its plane, and a
     # whole door called cut got a needle-thin R
+    sized = t in lc.box_width_m or t in lc.box_height_m  # a 3-D type of known full-view size
     n_sigmas = 0.0
     if t in lc.aspect:
         n_sigmas = lc.flat_border_sigmas
-    elif (t in lc.box_width_m or t in lc.box_height_m) and t not in lc.hidden_on_plane:
+    elif sized and t not in lc.hidden_on_plane:
         n_sigmas = lc.body_border_sigmas
     margin = (lc.border_px + n_sigmas * sigma_u, lc.border_px + n_sigmas * sigma_v)
     at = box_at_border(detection.box_xyxy, intr.width, intr.height, margin)
+    if t in lc.aspect and lc.flat_reject_corner and all(at):
+        # a flat item cut by two borders: its shape cannot say how much of it is hidden
+        return None
     occluded = (False, False)  # a nearer surface borders the box across u, across v
     flat_cause = t in lc.aspect and lc.flat_cut_needs_cause
-    if lc.occluder_margin_m > 0.0 and (flat_cause or t in lc.box_width_m or t in lc.box_height_m):
+    if lc.occluder_margin_m > 0.0 and (flat_cause or sized):
         surface = d_med if plane is None else plane
         occluded = occluded_sides(depth, detection.box_xyxy, surface, lc.occluder_margin_m / lc.depth_scale)
     if t in lc.aspect:
-        if lc.flat_reject_corner and all(at):
-            # cut by two borders: its shape cannot say how much of it is hidden
-            return None
         cause = (at[0] or occluded[0], at[1] or occluded[1]) if flat_cause else (True, True)
         centre, hid_w, hid_h = measure_flat_item(
             detection, intr, u, v, d, (J1[2, 0], J1[2, 1]), var_g, lc, depth, at_border=at, cause=cause
         )
         if centre is not None and lc.flat_center:
             p_c = centre
-    elif t in lc.box_width_m or t in lc.box_height_m:
+    elif sized:
         # a 3-D item cut by the image border or by a nearer surface: its hidden length from its
         # known size
         size_m = (lc.box_width_m.get(t, 0.0), lc.box_height_m.get(t, 0.0))
