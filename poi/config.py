@@ -274,6 +274,13 @@ class LocalizeConfig:
     flat_cut_needs_cause: bool = True
     # A flat item whose box touches the image border on both axes gives no observation.
     flat_reject_corner: bool = True
+    # A flat item cut by the image border on one side: its centre is the whole item's (the box
+    # gone on past the border by the hidden length); false: the visible part's, widened by half
+    # the hidden length both ways.
+    flat_border_shift: bool = True
+    # The hidden length's own error, as a fraction of it, beyond what the box's shape error
+    # gives (the plane's tilt, a slanted sign's perspective); half of it adds to the centre's.
+    hidden_length_sigma: float = number(0.25, lo=0.0)
     # The flat types of ``aspect`` that are diamonds (a box touches them at its sides' middles).
     diamond_types: list[str] = field(default_factory=lambda: ["hazmat"])
     # A box counts as cut on an axis when it is shorter than the aspect says by more than this

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy.stats import chi2
@@ -649,6 +651,48 @@ def test_a_cut_sign_widens_its_centre_sigma_and_a_corner_gives_none():
     assert localize(
         det(corner, class_name="qr"), f, apply_overrides(cfg, ["localize.flat_reject_corner=false"]), T
     )
+
+
+def test_a_sign_cut_by_the_border_is_centred_on_the_whole_sign():
+    """A 100 x 100 px qr code face-on at 1 m, its top 40 px above the image: its box is (270, 0,
+    370, 60), its shape says 40 px are hidden, and the border says where. The centre is the
+    whole code's, pixel row 9.5 (y = (9.5 - 239.5) / 500 m), not the visible part's 29.5; its
+    sigma_v is the box model's 1 + 0.03 * 60 px plus half the full 100 px times the shape's
+    error, hypot(2 * 4 / 100, 2 * 2.8 / 60), plus half of hidden_length_sigma (0.25) of the
+    hidden 40 px. With flat_border_shift off the centre stays at
+    the visible part's, sigma_v widened by half the hidden 40 px. A diamond (hazmat) face-on
+    is centred alike. Where the depth leaves the tilt open the hidden length is a bound only
+    and the centre stays."""
+    cfg = load_config()
+    T, f = np.eye(4), frame(depth=1.0)
+    box = (270.0, 0.0, 370.0, 60.0)
+    whole = localize(det(box, class_name="qr"), f, cfg, T)
+    assert whole.position_cam == pytest.approx([0.0, (9.5 - 239.5) / 500, 1.0], abs=1e-3)
+    sigma_v = math.hypot(2.8, 0.5 * 100 * math.hypot(2 * 4.0 / 100, 2 * 2.8 / 60), 0.5 * 0.25 * 40)
+    # Sigma_c's y variance: sigma_v^2 (z / fy)^2, plus the depth's share (y / z)^2 var_d
+    dy = whole.Sigma_c[1, 1] - (whole.position_cam[1] / 1.0) ** 2 * whole.Sigma_c[2, 2]
+    assert dy == pytest.approx((sigma_v / 500) ** 2, rel=0.05)
+    assert whole.Sigma_c[0, 0] == pytest.approx((4.0 / 500) ** 2, rel=0.05)  # u: not cut
+    placard = localize(det(box, class_name="oxidizer"), f, cfg, T)
+    assert placard.position_cam == pytest.approx(whole.position_cam, abs=1e-3)
+    off = localize(det(box, class_name="qr"), f, apply_overrides(cfg, ["localize.flat_border_shift=false"]), T)
+    assert off.position_cam == pytest.approx([0.0, (29.5 - 239.5) / 500, 1.0], abs=1e-3)
+    dy_off = off.Sigma_c[1, 1] - (off.position_cam[1] / 1.0) ** 2 * off.Sigma_c[2, 2]
+    assert dy_off == pytest.approx((np.hypot(2.8, 20.0) / 500) ** 2, rel=0.05)
+    # the same box at the bottom of the image moves down
+    low = localize(det((270.0, 420.0, 370.0, 480.0), class_name="qr"), f, cfg, T)
+    assert low.position_cam[1] == pytest.approx((469.5 - 239.5) / 500, abs=1e-3)
+    # a 20 x 12 px box at 5 m: the inner block's few pixels leave its tilt open (slope sigma
+    # above flat_max_slope_sigma), so the 8 px the face-on bound hides are an upper bound only
+    # and the centre stays at the visible part's, row 5.5, widened by half of them
+    far = localize(det((300.0, 0.0, 320.0, 12.0), class_name="qr"), frame(depth=5.0), cfg, T)
+    assert far.position_cam[1] == pytest.approx((5.5 - 239.5) / 500 * 5.0, abs=1e-3)
+    dy_far = far.Sigma_c[1, 1] - (far.position_cam[1] / 5.0) ** 2 * far.Sigma_c[2, 2]
+    assert dy_far == pytest.approx((np.hypot(1.0 + 0.03 * 12, 4.0) * 5.0 / 500) ** 2, rel=0.05)
+    with pytest.raises(ConfigError, match="localize.flat_border_shift"):
+        apply_overrides(cfg, ["localize.flat_border_shift=maybe"])
+    with pytest.raises(ConfigError, match="localize.hidden_length_sigma"):
+        apply_overrides(cfg, ["localize.hidden_length_sigma=-0.1"])
 
 
 def test_a_flat_items_box_a_few_sigmas_inside_the_border_counts_as_touching_it():
