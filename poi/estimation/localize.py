@@ -554,9 +554,18 @@ def box_at_border(box_xyxy, width: int, height: int, border_px: float | tuple[fl
     >>> box_at_border((3, 3, 637, 477), 640, 480, (2.0, 4.0))
     (False, True)
     """
+    (left, right), (top, bottom) = _border_contacts(box_xyxy, width, height, border_px)
+    return left or right, top or bottom
+
+
+def _border_contacts(
+    box_xyxy, width: int, height: int, border_px: float | tuple[float, float]
+) -> tuple[tuple[bool, bool], tuple[bool, bool]]:
+    """Whether a box (corner convention) comes within ``border_px`` (one margin, or one per
+    axis) of the image's (left, right) and (top, bottom) edges."""
     x1, y1, x2, y2 = (float(c) for c in box_xyxy)
     bu, bv = border_px if isinstance(border_px, tuple) else (border_px, border_px)
-    return x1 <= bu or x2 >= width - bu, y1 <= bv or y2 >= height - bv
+    return (x1 <= bu, x2 >= width - bu), (y1 <= bv, y2 >= height - bv)
 
 
 def border_sides(box_xyxy, width: int, height: int, border_px: float | tuple[float, float]) -> tuple[int, int]:
@@ -567,9 +576,8 @@ def border_sides(box_xyxy, width: int, height: int, border_px: float | tuple[flo
     >>> border_sides((0.0, 100.0, 50.0, 478.0), 640, 480, 4.0), border_sides((1, 3, 639, 477), 640, 480, 2.0)
     ((-1, 1), (0, 0))
     """
-    x1, y1, x2, y2 = (float(c) for c in box_xyxy)
-    bu, bv = border_px if isinstance(border_px, tuple) else (border_px, border_px)
-    return int(x2 >= width - bu) - int(x1 <= bu), int(y2 >= height - bv) - int(y1 <= bv)
+    (left, right), (top, bottom) = _border_contacts(box_xyxy, width, height, border_px)
+    return int(right) - int(left), int(bottom) - int(top)
 
 
 def occluded_sides(
@@ -732,8 +740,8 @@ def measure_flat_item(
     # the hidden part's side is known at the border, and its length where the tilt is (else the
     # face-on bound above is an upper bound only)
     shift = lc.flat_border_shift and fitted
-    shift_u = 0.5 * hid_w * toward[0] if shift and at_border[0] else 0.0
-    shift_v = 0.5 * hid_h * toward[1] if shift and at_border[1] else 0.0
+    shift_u = 0.5 * hid_w * toward[0] if shift else 0.0
+    shift_v = 0.5 * hid_h * toward[1] if shift else 0.0
     if shift_u or shift_v:
         # the whole item's box: the cut one gone on past the border by the hidden length
         x1, y1, x2, y2 = (float(c) for c in detection.box_xyxy)
