@@ -171,10 +171,10 @@ class LocalizeConfig:
     extent_sigma_m: dict[str, float] = field(
         default_factory=lambda: {
             "door": 0.032,
-            "valve": 0.012,
+            "valve": 0.011,
             "fire-extinguisher": 0.011,
             "baby-doll": 0.008,
-            "heat-source": 0.011,
+            "heat-source": 0.008,
         }
     )
     # Per type, the spread (m) along the camera ray: how far behind the surface the depth hits
@@ -190,7 +190,8 @@ class LocalizeConfig:
         }
     )
     # Per type, how far behind the surface the depth hits its reference point lies (m), on
-    # average over the sides seen: the radius of a round object, half the depth of a box.
+    # average over the sides seen: the radius of a round object, half the depth of a box;
+    # along the camera ray, or across the face for a type in planar_center.
     surface_to_center_m: dict[str, float] = field(
         default_factory=lambda: {
             "pillar-blue": 0.025,
@@ -212,7 +213,7 @@ class LocalizeConfig:
         default_factory=lambda: {
             "door": 0.793,
             "valve": 0.256,
-            "fire-extinguisher": 0.163,
+            "fire-extinguisher": 0.164,
             "baby-doll": 0.37,
             "heat-source": 0.328,
         }
@@ -223,7 +224,7 @@ class LocalizeConfig:
             "valve": 0.256,
             "fire-extinguisher": 0.524,
             "baby-doll": 0.165,
-            "heat-source": 0.359,
+            "heat-source": 0.357,
         }
     )
     # Per flat type, its width over its height (a square QR code, hazmat placard or
@@ -269,6 +270,11 @@ class LocalizeConfig:
     # door's leaf, a doll lying along the floor). Any other 3-D type's hidden part keeps its
     # visible part's depth (poi.estimation.localize.localize).
     hidden_on_plane: list[str] = field(default_factory=lambda: ["door", "baby-doll"])
+    # The 3-D types whose reference point lies behind the middle of a flat face (a door's
+    # leaf): placed as a flat item's centre is, on the plane of that face (flat_center), then
+    # surface_to_center_m behind it across the face; any other 3-D type sits on the ray
+    # through its box's centre.
+    planar_center: list[str] = field(default_factory=list)
     # A flat item's box counts as cut on an axis only where the image border or a nearer
     # surface (occluder_margin_m) borders it; false: wherever its shape falls short.
     flat_cut_needs_cause: bool = True
@@ -283,6 +289,9 @@ class LocalizeConfig:
     hidden_length_sigma: float = number(0.25, lo=0.0)
     # The flat types of ``aspect`` that are diamonds (a box touches them at its sides' middles).
     diamond_types: list[str] = field(default_factory=lambda: ["hazmat"])
+    # The diamond types hung at an unknown in-plane turn: centred as the mean over the turns of a
+    # square, and that centre's spread added to its sigma (poi.estimation.localize.flat_item).
+    turned_types: list[str] = field(default_factory=lambda: ["hazmat"])
     # A box counts as cut on an axis when it is shorter than the aspect says by more than this
     # fraction (the detector's box sizes jitter: the oracle's by 5% a side, 7% in the ratio).
     truncation_tolerance: float = number(0.05, lo=0.0, hi=1.0, hi_open=True)
@@ -305,14 +314,21 @@ class LocalizeConfig:
                 raise FieldError(
                     f"diamond_types[{i}]", f"{t!r} has no aspect; expected one of {', '.join(self.aspect)}"
                 )
-        sized = {**self.box_width_m, **self.box_height_m}
-        for i, t in enumerate(self.hidden_on_plane):
-            if t not in sized:
+        for i, t in enumerate(self.turned_types):
+            if t not in self.diamond_types:
                 raise FieldError(
-                    f"hidden_on_plane[{i}]",
-                    f"{t!r} is no 3-D type with a box size (box_width_m / box_height_m); expected one of "
-                    f"{', '.join(sized) or 'none'}",
+                    f"turned_types[{i}]",
+                    f"{t!r} is no diamond type; expected one of {', '.join(self.diamond_types) or 'none'}",
                 )
+        sized = {**self.box_width_m, **self.box_height_m}
+        for key in ("hidden_on_plane", "planar_center"):
+            for i, t in enumerate(getattr(self, key)):
+                if t not in sized:
+                    raise FieldError(
+                        f"{key}[{i}]",
+                        f"{t!r} is no 3-D type with a box size (box_width_m / box_height_m); expected one of "
+                        f"{', '.join(sized) or 'none'}",
+                    )
         if self.max_depth_m <= self.min_depth_m:
             raise FieldError(
                 "max_depth_m", f"expected a value > min_depth_m ({self.min_depth_m:g}), got {self.max_depth_m!r}"

@@ -59,6 +59,10 @@ MEDIAN_MIN_BAND = 0.5
 # flat_item: a ray within this cosine of the depth plane (87 degrees off its normal) sees
 # it edge-on, and the plane says nothing of the item's size
 EDGE_ON_COS = 0.05
+# in-plane turns of a square sampled over its quarter turn (flat_item with turned=True), and
+# the Newton steps that fit each one's centre to its box
+TURN_SAMPLES = 9
+TURN_NEWTON_STEPS = 3
 # where occluded_sides reads beside a box: from 2 px outside its edge (a box's edge jitters by a
 # pixel or two) to 10 px (past an occluder's edge pixels, which the depth camera blurs)
 OCCLUDER_STRIP_PX = (2, 10)
@@ -270,6 +274,7 @@ def box_depth_plane(
     noise_sigma_m: float | None = None,
     mean_variance: bool = False,
     split_m: float = math.inf,
+    inverse: bool = False,
 ) -> DepthPlane | None:
     """The least-squares plane d = a + g_u (u - c_u) + g_v (v - c_v) through the valid depths of
     the same inner box as :func:`box_depth`, refitted once without the pixels more than
@@ -311,10 +316,22 @@ def box_depth_plane(
     slope variances above stay as they are for J1 and the tilt checks: they are 2-10 times the
     exact ones in blocks of 6-12 px (docs/CONSISTENCY.md).
 
+    With ``inverse``, the fit is of 1 / d instead, a + b_u (u - c_u) + b_v (v - c_v), and the
+    plane returned is its tangent at the block's centre: d0 = 1 / a, g = -b d0^2, the
+    covariances carried through that map's Jacobian. A surface that is flat in space has an
+    inverse depth linear in the pixel (n . (z r) = c with r = K^-1 (u, v, 1) gives
+    1 / z = n . r / c), and a depth that is not: across a door's leaf seen 75 degrees off
+    face-on its depth runs from 2.0 to 2.8 m over 64 px, where the straight fit's slope is the
+    chord's, not the tangent's at the centre. The stereo noise is also even in 1 / z (a
+    disparity's), so ``noise_sigma_m`` is taken at the block's median depth, over its square.
+
     >>> v, u = np.mgrid[0:20, 0:20]
     >>> pl = box_depth_plane(2.0 + 0.01 * u + 0.002 * v, (0, 0, 20, 20), 0.5)
     >>> round(pl.g_u, 6), round(pl.g_v, 6), pl.var_g_u < 1e-20
     (0.01, 0.002, True)
+    >>> pl = box_depth_plane(1.0 / (0.5 - 0.002 * (u - 9.5)), (0, 0, 20, 20), 0.5, inverse=True)
+    >>> round(pl.d0, 6), round(pl.g_u, 6), round(pl.g_v, 6)  # the tangent at u = 9.5: 0.002 / 0.5^2
+    (2.0, 0.008, 0.0)
     """
     r0, r1, c0, c1 = _inner_span(depth_m.shape, box_xyxy, inner_fraction)
     if c1 <= c0 or r1 <= r0:
@@ -330,6 +347,10 @@ def box_depth_plane(
     if int(ok.sum()) < PLANE_MIN_PIXELS:
         return None
     d = patch[ok]
+    if inverse:
+        if noise_sigma_m is not None:
+            noise_sigma_m = noise_sigma_m / float(np.median(d)) ** 2
+        d = 1.0 / d
     u0, v0 = 0.5 * (c0 + c1), 0.5 * (r0 + r1)
     du = cols[ok] - u0
     dv = rows[ok] - v0
@@ -355,6 +376,16 @@ def box_depth_plane(
         # the residuals' noise variance, unbiased for correlated noise: E[RSS] = s^2 (N - tr(H C))
         s2_res = float(res @ res) / max(d.size - float(np.trace(M @ (A.T @ A))), 1.0)
         exact = max(s2, s2_res) * M
+    if inverse:
+        # (1 / a, -b_u / a^2, -b_v / a^2) and its Jacobian in (a, b_u, b_v)
+        a, b_u, b_v = (float(c) for c in coef)
+        d0 = 1.0 / a
+        J = np.array(
+            [[-(d0**2), 0.0, 0.0], [2.0 * b_u * d0**3, -(d0**2), 0.0], [2.0 * b_v * d0**3, 0.0, -(d0**2)]]
+        )
+        coef = np.array([d0, -b_u * d0**2, -b_v * d0**2])
+        cov = J @ cov @ J.T
+        exact = None if exact is None else J @ exact @ J.T
     return DepthPlane(
         d0=float(coef[0]),
         u0=u0,
@@ -370,11 +401,15 @@ def box_depth_plane(
 @dataclass(kw_only=True)
 class FlatItem:
     """A flat item framed by a box, measured on its depth plane (:func:`flat_item`): its
-    width and height (m) and the camera-frame point of its centre."""
+    width and height (m), the camera-frame point of its centre, and its plane's unit normal,
+    pointing away from the camera."""
 
     width_m: float
     height_m: float
     center: np.ndarray
+    normal: np.ndarray
+    # the centre's spread over an unknown in-plane turn (px, along u and v; 0 unless turned)
+    turn_sigma_px: tuple[float, float] = (0.0, 0.0)
 
 
 def flat_item(
@@ -385,6 +420,7 @@ def flat_item(
     grad: tuple[float, float],
     box_xyxy,
     diamond: bool = False,
+    turned: bool = False,
 ) -> FlatItem | None:
     """The size and centre of the flat item (a sign) a box frames, on the depth plane; None
     when the plane is seen edge-on.
@@ -401,7 +437,16 @@ def flat_item(
     edge alike; the centre is halfway between the two on the centre line. A diamond (a hazmat
     placard) touches its box's top and bottom rows at its own centre column. A floor sign: the
     same with rows and columns swapped. Corner convention: column x1 is pixel coordinate
-    x1 - 0.5. The model ignores an in-plane turn (a placard hung at an angle).
+    x1 - 0.5.
+
+    A diamond hung at an unknown in-plane turn (``turned``: a placard hung at any angle) is a
+    square whose corners may touch the box's ends anywhere: seen at an angle and off the
+    camera's height, the diamond rule's centre was 5-12 px off (a placard 1 m away, 70 degrees
+    off face-on, turned 15-45 degrees), against a centre sigma of 6-7 px. For each of
+    ``TURN_SAMPLES`` turns over a quarter turn, the square whose across extent is the box
+    sides' distance on the plane has its centre height fitted (Newton) so that its corners'
+    images span the box's ends about their middle; the centre is the mean over the turns, and
+    ``turn_sigma_px`` their spread imaged at the centre (the turn taken as uniform).
 
     >>> k = Intrinsics(width=640, height=480, fx=500.0, fy=500.0, ppx=320.0, ppy=240.0)
     >>> f = flat_item(k, 319.5, 239.5, 2.0, (0.0, 0.0), (270, 215, 370, 265))
@@ -418,6 +463,7 @@ def flat_item(
     if not np.any(n):
         return None
     n = n / np.linalg.norm(n)
+    n = -n if float(n @ P0) < 0.0 else n  # away from the camera
 
     def on_plane(a: float, b: float) -> np.ndarray | None:
         r = deproject_pixel_to_point(intr, a, b, 1.0)
@@ -464,23 +510,81 @@ def flat_item(
         lo = float(n0 @ e) if float(n0 @ e) <= 0.0 else float(f0 @ e)
         hi = float(n1 @ e) if float(n1 @ e) >= 0.0 else float(f1 @ e)
     along = max(hi - lo, 0.0)
-    center = mid + (0.5 * (lo + hi) - float(mid @ e)) * e
+    height = 0.5 * (lo + hi)  # the centre's, along e
+    turn_sigma_px = (0.0, 0.0)
+    if diamond and turned:
+        g = gap / across if across > 0.0 else gap
+        heights = _turned_square_heights(intr, mid, e, g, 0.5 * across, (e0, e1), height, wall)
+        height = float(heights.mean())
+        spread = float(heights.std())
+        span = [
+            project_point_to_pixel(intr, mid + (height + k * spread - float(mid @ e)) * e) for k in (-1.0, 1.0)
+        ]
+        d_px = 0.5 * np.abs(span[1] - span[0])
+        turn_sigma_px = (float(d_px[0]), float(d_px[1]))
+    center = mid + (height - float(mid @ e)) * e
     w_m, h_m = (across, along) if wall else (along, across)
-    return FlatItem(width_m=w_m, height_m=h_m, center=center)
+    return FlatItem(width_m=w_m, height_m=h_m, center=center, normal=n, turn_sigma_px=turn_sigma_px)
+
+
+def _turned_square_heights(
+    intr: Intrinsics,
+    mid: np.ndarray,
+    e: np.ndarray,
+    g: np.ndarray,
+    half_across: float,
+    ends: tuple[float, float],
+    start: float,
+    wall: bool,
+) -> np.ndarray:
+    """The centre heights (along ``e``) of squares turned by each of ``TURN_SAMPLES`` angles
+    over a quarter turn whose images fit a box (:func:`flat_item`).
+
+    The squares lie on the plane with their centre on the centre line (through ``mid``, along
+    the unit ``e``), ``g`` the unit direction across it. A square turned by theta has corners
+    at angles phi = theta + k pi / 2 about its centre, r (cos phi g + sin phi e) away, and its
+    across extent r max(|cos theta|, |sin theta|) is ``half_across`` (the box sides' lines).
+    Each centre height h solves F(h) = (min + max) / 2 - (e0 + e1) / 2 = 0 over the corners'
+    image coordinates along the box's ends (rows for a wall sign, columns for a floor one),
+    by Newton's method from ``start`` with a 1 mm difference quotient.
+    """
+    theta = (np.arange(TURN_SAMPLES) + 0.5) * (0.5 * np.pi / TURN_SAMPLES)
+    r = half_across / np.maximum(np.abs(np.cos(theta)), np.abs(np.sin(theta)))
+    phi = theta[:, None] + 0.5 * np.pi * np.arange(4)[None, :]  # (turns, corners)
+    across = r[:, None] * np.cos(phi)
+    rise = r[:, None] * np.sin(phi)
+    base = mid - float(mid @ e) * e  # the centre line's point at height 0
+    axis = 1 if wall else 0
+    target = 0.5 * (ends[0] + ends[1])
+
+    def middle(h: np.ndarray) -> np.ndarray:
+        pts = base + across[..., None] * g + (h[:, None] + rise)[..., None] * e  # (turns, 4, 3)
+        coord = project_point_to_pixel(intr, pts.reshape(-1, 3).T)[axis].reshape(pts.shape[:2])
+        return 0.5 * (coord.min(axis=1) + coord.max(axis=1)) - target
+
+    h = np.full(TURN_SAMPLES, float(start))
+    step = 1e-3
+    for _ in range(TURN_NEWTON_STEPS):
+        f = middle(h)
+        slope = (middle(h + step) - f) / step
+        h = h - np.where(np.abs(slope) > 0.0, f / np.where(slope == 0.0, 1.0, slope), 0.0)
+    return h
 
 
 @dataclass(kw_only=True)
 class FlatMeasure:
     """A flat item measured from its box (:func:`measure_flat_item`): its centre on the depth
     plane (camera frame; None where the plane's tilt is not known well enough), the pixels its
-    box leaves out across u and v, and the move of the box centre (px) that puts it at the
-    centre of the whole item where the image border cut it (0 elsewhere)."""
+    box leaves out across u and v, the move of the box centre (px) that puts it at the
+    centre of the whole item where the image border cut it (0 elsewhere), and the centre's
+    spread over an unknown in-plane turn (px along u and v: :func:`flat_item`)."""
 
     centre: np.ndarray | None
     hidden_w: float
     hidden_h: float
     shift_u: float = 0.0
     shift_v: float = 0.0
+    turn_sigma_px: tuple[float, float] = (0.0, 0.0)
 
 
 def hidden_lengths_px(
@@ -639,6 +743,18 @@ def occluded_sides(
     return left or right, top
 
 
+def plane_slope_sigma(var_g: tuple[float, float], intr: Intrinsics, d: float) -> float:
+    """The standard error of a depth plane's tilt, as the larger of its two slopes' tangents:
+    sqrt(var(g)) f / d for the gradient g (m / px) at depth d (m); ``localize.
+    flat_max_slope_sigma`` bounds it where a measure needs the tilt.
+
+    >>> k = Intrinsics(width=640, height=480, fx=500.0, fy=500.0, ppx=320.0, ppy=240.0)
+    >>> plane_slope_sigma((1e-6, 4e-6), k, 2.0)
+    0.5
+    """
+    return max(math.sqrt(var_g[0]) * intr.fx, math.sqrt(var_g[1]) * intr.fy) / d
+
+
 def least_tilted_gradient(
     grad: tuple[float, float], var_g: tuple[float, float], n_sigmas: float
 ) -> tuple[float, float]:
@@ -707,9 +823,10 @@ def measure_flat_item(
     """
     t = detection.type
     diamond = t in lc.diamond_types
-    slope_sigma = max(math.sqrt(var_g[0]) * intr.fx, math.sqrt(var_g[1]) * intr.fy) / d
+    turned = t in lc.turned_types
+    slope_sigma = plane_slope_sigma(var_g, intr, d)
     fitted = slope_sigma <= lc.flat_max_slope_sigma
-    item = flat_item(intr, u, v, d, grad, detection.box_xyxy, diamond)
+    item = flat_item(intr, u, v, d, grad, detection.box_xyxy, diamond, turned)
     if fitted:
         shape = item
     else:
@@ -751,9 +868,36 @@ def measure_flat_item(
             x2 + max(2.0 * shift_u, 0.0),
             y2 + max(2.0 * shift_v, 0.0),
         )
-        item = flat_item(intr, u, v, d, grad, whole, diamond)
+        item = flat_item(intr, u, v, d, grad, whole, diamond, turned)
     centre = item.center if item is not None and fitted else None
-    return FlatMeasure(centre=centre, hidden_w=hid_w, hidden_h=hid_h, shift_u=shift_u, shift_v=shift_v)
+    turn = item.turn_sigma_px if centre is not None else (0.0, 0.0)
+    return FlatMeasure(
+        centre=centre, hidden_w=hid_w, hidden_h=hid_h, shift_u=shift_u, shift_v=shift_v, turn_sigma_px=turn
+    )
+
+
+def planar_face_center(
+    depth_m: np.ndarray, box_xyxy, intr: Intrinsics, u: float, v: float, lc, sigma_px: float
+) -> FlatItem | None:
+    """The flat face (a door's leaf) a box frames, measured as a flat item (:func:`flat_item`)
+    on the face's plane, fitted in inverse depth (:func:`box_depth_plane`); None where that
+    plane cannot be fitted, its tilt is not known to ``lc.flat_max_slope_sigma`` or it is seen
+    edge-on. Seen at an angle, the face's near half fills more of the box, and the ray through
+    the box's centre meets the face nearer than its middle: doors 1.2 m away and 70-80
+    degrees off face-on came out 10-15 cm near. ``surface_to_center_m`` then lies behind the
+    face across it (``FlatItem.normal``), not along the ray, which for a face seen edge-on runs
+    along the face (docs/CONSISTENCY.md "A door seen at an angle: centred on its leaf").
+    """
+    plane = box_depth_plane(
+        depth_m, box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_px, split_m=lc.depth_split_m, inverse=True
+    )
+    if plane is None:
+        return None
+    s = lc.depth_scale
+    d = plane.depth_at(u, v) * s
+    if plane_slope_sigma((s**2 * plane.var_g_u, s**2 * plane.var_g_v), intr, d) > lc.flat_max_slope_sigma:
+        return None
+    return flat_item(intr, u, v, d, (s * plane.g_u, s * plane.g_v), box_xyxy)
 
 
 def registration_depth_variance(grad: tuple[float, float], var_g: tuple[float, float], sigma_px: float) -> float:
@@ -870,7 +1014,11 @@ def localize(
       centre variance there grows by the square of half that length's error: the full length
       times the shape's relative error, hypot(2 sigma_u / w, 2 sigma_v / h) (a box side's
       length errs by both its edges' errors, each sqrt(2) times the centre's sigma), and half
-      the rest of that length's error, ``localize.hidden_length_sigma`` of it;
+      the rest of that length's error, ``localize.hidden_length_sigma`` of it. A diamond hung at
+      an unknown in-plane turn (``localize.turned_types``) is centred as the mean over the
+      turns of a square, and its centre variances grow by that centre's spread over them
+      (:func:`flat_item`). A type in ``localize.planar_center`` (a door) is centred on the
+      middle of its face (:func:`planar_face_center`);
     * Sigma_ext (:func:`extent_covariance`, ``Observation.Sigma_extent_c``) is the spread of
       a 3-D object's reference point about the observation, ``extent_ray_sigma_m`` along the
       camera ray and ``extent_sigma_m`` across it;
@@ -990,6 +1138,7 @@ def localize(
         surface = d_med if plane is None else plane
         occluded = occluded_sides(depth, detection.box_xyxy, surface, lc.occluder_margin_m / lc.depth_scale)
     shifted = (False, False)  # the centre moved toward the border that cut it, across u, v
+    turn_px = (0.0, 0.0)  # a square's centre spread over its unknown in-plane turn, across u, v
     if t in lc.aspect:
         cause = (at[0] or occluded[0], at[1] or occluded[1]) if flat_cause else (True, True)
         toward = border_sides(detection.box_xyxy, intr.width, intr.height, margin)
@@ -1017,7 +1166,11 @@ def localize(
             p_c = point(u, v, d)
         if flat.centre is not None and lc.flat_center:
             p_c = flat.centre
+            turn_px = flat.turn_sigma_px
     elif sized:
+        if t in lc.planar_center and plane is not None:
+            face = planar_face_center(depth, detection.box_xyxy, intr, u, v, lc, sigma_px)
+            p_c = p_c if face is None else face.center + to_center * face.normal
         # a 3-D item cut by the image border or by a nearer surface: its hidden length from its
         # known size
         size_m = (lc.box_width_m.get(t, 0.0), lc.box_height_m.get(t, 0.0))
@@ -1042,6 +1195,7 @@ def localize(
         if shifted[1]:
             sigma_v = math.hypot(sigma_v, 0.5 * (h + hid_h) * shape_sigma, k * hid_h)
         hid_w, hid_h = (0.0 if shifted[0] else hid_w), (0.0 if shifted[1] else hid_h)
+    sigma_u, sigma_v = math.hypot(sigma_u, turn_px[0]), math.hypot(sigma_v, turn_px[1])
     if t in lc.aspect or t in lc.hidden_on_plane:
         sigma_u = math.hypot(sigma_u, 0.5 * hid_w)
         sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
