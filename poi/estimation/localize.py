@@ -823,9 +823,10 @@ def measure_flat_item(
     """
     t = detection.type
     diamond = t in lc.diamond_types
-    turned = t in lc.turned_types
     slope_sigma = plane_slope_sigma(var_g, intr, d)
     fitted = slope_sigma <= lc.flat_max_slope_sigma
+    # the turn model only where the centre is kept (a tilt not known gives no centre)
+    turned = fitted and t in lc.turned_types
     item = flat_item(intr, u, v, d, grad, detection.box_xyxy, diamond, turned)
     if fitted:
         shape = item
