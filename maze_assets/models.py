@@ -87,6 +87,8 @@ CARD_RGBA = (0.95, 0.95, 0.94, 1.0)  # the white card behind a flat item, and a 
 TEXTURE_PX = 256
 QUAD_OFFSET_M = 0.003  # the image floats this far in front of the wall face
 BACKING_M = 0.002  # thickness of the card / plate behind the image
+# The part name of a flat item's backing (:func:`_flat`): see :func:`frames_item`.
+BACKING_PART = "backing"
 VALVE_STANDOFF = 0.48  # wall face to wheel centre, in wheel diameters
 DOOR_FRAME_M = 0.05  # width of the jambs and the lintel
 DOOR_MAX_HEIGHT_M = 2.0
@@ -234,6 +236,22 @@ def body_rotation(obj: PlacedObject) -> Rotation:
     """An object body's orientation in the world: its yaw about z, the tilt lifting its face
     normal (+x) up, the roll about that normal."""
     return Rotation.from_euler("ZYX", [obj.yaw, -obj.tilt, obj.roll])
+
+
+def frames_item(geom_name: str) -> bool:
+    """Whether a box around the item framed this geom of an object's body: every geom but a
+    flat item's backing. The backing fills the 3 mm between the wall and the image floating in
+    front of it (``QUAD_OFFSET_M``, which keeps the two from fighting in the depth buffer); a
+    real placard is paper on the wall. Seen at an angle, the backing's edge at the wall lies
+    up to 3 mm sin(angle) beside the image's: 2 px at 0.7 m and 60 degrees, as much as the
+    box centre's whole error there. A detector's label frames the printed sign, and so do the
+    simulator's truth boxes (docs/CONSISTENCY.md "A sign's box frames its image, not its
+    backing").
+
+    >>> frames_item("poi_3_qr_face"), frames_item("poi_3_qr_backing")
+    (True, False)
+    """
+    return not geom_name.endswith("_" + BACKING_PART)
 
 
 def reference_point(obj: PlacedObject) -> np.ndarray:
@@ -393,10 +411,10 @@ def _flat(b: _Body) -> None:
         # cut out along the diamond: a square plate turned 45 degrees about the normal
         side = w / np.sqrt(2.0)
         q45 = [np.cos(np.pi / 8), np.sin(np.pi / 8), 0.0, 0.0]
-        b.box("backing", backing, (0.0, -side / 2, -side / 2), (BACKING_M, side / 2, side / 2), quat=q45)
+        b.box(BACKING_PART, backing, (0.0, -side / 2, -side / 2), (BACKING_M, side / 2, side / 2), quat=q45)
         b.geom("face", mat, type="mesh", mesh=_diamond_mesh(b.assets, w))
         return
-    b.box("backing", backing, (0.0, -w / 2, -h / 2), (BACKING_M, w / 2, h / 2))
+    b.box(BACKING_PART, backing, (0.0, -w / 2, -h / 2), (BACKING_M, w / 2, h / 2))
     b.geom("face", mat, type="mesh", mesh=_quad_mesh(b.assets, w, h))
 
 

@@ -490,7 +490,7 @@ class Simulation:
         r = self._renderer_ready()
         self._set_camera(k)
         r.update(self.world.data)
-        objects = r.geom_segmentation(relabel=self.world.geom_object_id) if self.truth_boxes else None
+        objects = r.geom_segmentation(relabel=self.world.geom_box_object_id) if self.truth_boxes else None
         thermal = None
         if sens.thermal.enabled:
             w = min(sens.thermal.width * THERMAL_SUPERSAMPLE, self.intrinsics.width)
@@ -775,7 +775,7 @@ class Simulation:
         mujoco.mj_kinematics(m, d)
         signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
         out: dict[int, list[np.ndarray]] = {}
-        for g, oid in enumerate(self.world.geom_object_id):
+        for g, oid in enumerate(self.world.geom_box_object_id):
             if oid < 0:
                 continue
             if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:

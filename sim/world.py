@@ -21,7 +21,7 @@ import numpy as np
 import sim.gl  # noqa: F401  (must precede the mujoco import)
 from maze_assets.clutter import build_clutter, place_clutter  # noqa: E402
 from maze_assets.mjcf import SceneAssets, fmt  # noqa: E402
-from maze_assets.models import build_holder, build_object, build_page, door_frame_extent_m  # noqa: E402
+from maze_assets.models import build_holder, build_object, build_page, door_frame_extent_m, frames_item  # noqa: E402
 from maze_assets.objects import PlacedObject  # noqa: E402
 from maze_assets.surfaces import (  # noqa: E402
     FLOOR_KINDS,
@@ -50,6 +50,9 @@ class World:
     assets: dict[str, bytes]
     rig_mocap_id: int
     geom_object_id: np.ndarray  # (ngeom,) object id of each geom, -1 for walls/floor
+    # (ngeom,) the object id a box around the object takes each geom in with (truth boxes,
+    # segmentation): geom_object_id but -1 for a flat item's backing (maze_assets.models.frames_item)
+    geom_box_object_id: np.ndarray
 
 
 # Illuminance of each lighting preset where its lamps light a surface fully, for the colour
@@ -395,6 +398,7 @@ def build_world(
                 owner[g] = by_body[name]
                 break
             b = int(model.body_parentid[b])
+    framed = [frames_item(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "") for g in range(model.ngeom)]
     return World(
         model=model,
         data=data,
@@ -402,4 +406,5 @@ def build_world(
         assets=files,
         rig_mocap_id=int(model.body_mocapid[rig_body]),
         geom_object_id=owner,
+        geom_box_object_id=np.where(framed, owner, -1),
     )

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from maze_assets.hazmat import placard_style
+from maze_assets.models import BACKING_M, QUAD_OFFSET_M, body_rotation, flat_extent_m, reference_point
 from maze_assets.models import FLAT_TYPES as FLAT_MODEL_TYPES
-from maze_assets.models import QUAD_OFFSET_M, reference_point
-from poi.core.geometry import transform_points
+from poi.core.geometry import invert_transform, transform_points
 from poi.core.names import RESCUE_TYPES
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
@@ -68,6 +68,49 @@ def test_deprojected_box_centres_land_on_true_map_positions(clean_default):
             checked.add(v.id)
     flat_ids = {o.id for o in sim.objects if o.type in FLAT_TYPES}
     assert checked == flat_ids, f"never fully seen: {flat_ids - checked}"
+
+
+def _image_box(sim, ft, o, xs: tuple[float, ...]) -> np.ndarray:
+    """The box (corner convention) of a rectangular flat item's outline at depths ``xs`` along
+    its normal (its image at QUAD_OFFSET_M, its backing's back at 0), projected exactly."""
+    w, h = flat_extent_m(o.type, o.size_m)
+    R, origin = body_rotation(o), np.asarray(o.position, dtype=float)
+    pts = [origin + R.apply([x, a * w / 2, b * h / 2]) for x in xs for a in (-1, 1) for b in (-1, 1)]
+    p_c = transform_points(invert_transform(ft.T_map_camera), transform_points(sim.T_map_world, np.array(pts)))
+    K = sim.intrinsics
+    u, v = K.fx * p_c[:, 0] / p_c[:, 2] + K.ppx + 0.5, K.fy * p_c[:, 1] / p_c[:, 2] + K.ppy + 0.5
+    return np.array([u.min(), v.min(), u.max(), v.max()])
+
+
+def test_a_signs_truth_box_frames_its_image_not_its_backing(clean_default):
+    """A detector's label frames the printed sign; so does the truth box. Every side of an
+    upright rectangular sign's box (QR codes, signs, placards not cut along their diamond), in
+    view but for 5% at most, lies within 0.75 px (the pixel grid's half pixel and the
+    rasteriser's slack) of its image's projected outline; where the backing's edge at the wall,
+    3 mm behind the image, would have moved a side by over 1 px, the box is nearer the image's
+    outline than the backing's. (A diamond's or a turned square's pointed ends rasterise up to
+    1.5 px short.)"""
+    sim, frames = clean_default
+    placed = {o.id: o for o in sim.objects}
+    K = sim.intrinsics
+    off, far, off_backing = [], [], []
+    for _, ft in frames:
+        for v in ft.visible:
+            o = placed[v.id]
+            x1, y1, x2, y2 = v.box_xyxy
+            if o.type not in FLAT_TYPES or o.roll != 0.0 or (o.type == "hazmat" and _cut(o)):
+                continue
+            if v.visible_fraction < 0.95 or x1 <= 0 or y1 <= 0 or x2 >= K.width or y2 >= K.height:
+                continue
+            image = _image_box(sim, ft, o, (QUAD_OFFSET_M,))
+            with_backing = _image_box(sim, ft, o, (0.0, BACKING_M, QUAD_OFFSET_M))
+            off.append(float(np.abs(np.array(v.box_xyxy) - image).max()))
+            if float(np.abs(with_backing - image).max()) > 1.0:
+                off_backing.append(float(np.abs(np.array(v.box_xyxy) - with_backing).max()))
+                far.append(off[-1])
+    assert len(off) >= 30 and len(far) >= 5, (len(off), len(far))
+    assert max(off) < 0.75, max(off)
+    assert all(f < b for f, b in zip(far, off_backing, strict=True)), list(zip(far, off_backing, strict=True))
 
 
 def test_a_placard_cut_along_its_diamond_reads_fully_visible(clean_default):
