@@ -63,6 +63,9 @@ EDGE_ON_COS = 0.05
 # the Newton steps that fit each one's centre to its box
 TURN_SAMPLES = 9
 TURN_NEWTON_STEPS = 3
+# planar_face_center: an upright face's unit normal has at most this component along the
+# camera's vertical (the sine of 30 degrees: the camera's own pitch and a ramp's, with margin)
+PLANAR_MAX_NORMAL_UP = 0.5
 # where occluded_sides reads beside a box: from 2 px outside its edge (a box's edge jitters by a
 # pixel or two) to 10 px (past an occluder's edge pixels, which the depth camera blurs)
 OCCLUDER_STRIP_PX = (2, 10)
@@ -888,6 +891,13 @@ def planar_face_center(
     degrees off face-on came out 10-15 cm near. ``surface_to_center_m`` then lies behind the
     face across it (``FlatItem.normal``), not along the ray, which for a face seen edge-on runs
     along the face (docs/CONSISTENCY.md "A door seen at an angle: centred on its leaf").
+
+    A door's face is upright: a plane whose normal leans more than ``PLANAR_MAX_NORMAL_UP``
+    (the sine of 30 degrees) toward the camera's vertical is the floor, a ceiling or a box that
+    frames no door (a false detection), and gives None. Without that check a box on the floor
+    was measured as a sign lying there and its point moved 2.5 cm along the floor's normal, and
+    the face's middle, off the box, went 1.2 m below the floor (docs/CONSISTENCY.md "A door
+    seen at an angle: centred on its leaf").
     """
     plane = box_depth_plane(
         depth_m, box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_px, split_m=lc.depth_split_m, inverse=True
@@ -898,7 +908,10 @@ def planar_face_center(
     d = plane.depth_at(u, v) * s
     if plane_slope_sigma((s**2 * plane.var_g_u, s**2 * plane.var_g_v), intr, d) > lc.flat_max_slope_sigma:
         return None
-    return flat_item(intr, u, v, d, (s * plane.g_u, s * plane.g_v), box_xyxy)
+    face = flat_item(intr, u, v, d, (s * plane.g_u, s * plane.g_v), box_xyxy)
+    if face is None or abs(float(face.normal[1])) > PLANAR_MAX_NORMAL_UP:
+        return None
+    return face
 
 
 def registration_depth_variance(grad: tuple[float, float], var_g: tuple[float, float], sigma_px: float) -> float:

@@ -916,6 +916,25 @@ def test_a_door_seen_at_an_angle_is_centred_on_its_leaf(height_m):
     assert np.linalg.norm(old.position_cam - c) > 0.03
 
 
+def test_a_door_box_on_the_floor_is_not_measured_as_a_face():
+    """A door's face is upright. A box that frames the floor (0.3 m below the camera: a false
+    detection, or a door's box whose inner part is floor) has a plane whose normal is the
+    camera's vertical; ``planar_center`` leaves such a box to the ray, as without it. Measured
+    on that plane (no check), its point went 20 cm further, and 2.5 cm into the floor."""
+    cfg = apply_overrides(
+        load_config(), ["localize.planar_center=[door]", "localize.surface_to_center_m.door=0.025"]
+    )
+    f = frame()
+    floor, up = np.array([0.0, 0.3, 0.0]), np.array([0.0, -1.0, 0.0])
+    for y in range(260, K.height):
+        for x in range(K.width):
+            f.depth_m[y, x] = _plane_at(floor, up, x, y)
+    box = (250.0, 330.0, 390.0, 470.0)
+    obs = localize(det(box, class_name="door"), f, cfg, np.eye(4))
+    ray = localize(det(box, class_name="door"), f, apply_overrides(cfg, ["localize.planar_center=[]"]), np.eye(4))
+    np.testing.assert_allclose(obs.position_cam, ray.position_cam)
+
+
 def test_box_sizes_are_checked_at_load():
     cfg = load_config()
     with pytest.raises(ConfigError, match=r"localize.box_width_m.qr: a flat type"):
