@@ -895,9 +895,8 @@ def planar_face_center(
     A door's face is upright: a plane whose normal leans more than ``PLANAR_MAX_NORMAL_UP``
     (the sine of 30 degrees) toward the camera's vertical is the floor, a ceiling or a box that
     frames no door (a false detection), and gives None. Without that check a box on the floor
-    was measured as a sign lying there and its point moved 2.5 cm along the floor's normal, and
-    the face's middle, off the box, went 1.2 m below the floor (docs/CONSISTENCY.md "A door
-    seen at an angle: centred on its leaf").
+    was measured as a sign lying there, and its point moved 2.5 cm along the floor's normal,
+    into the floor (docs/CONSISTENCY.md "A door seen at an angle: centred on its leaf").
     """
     plane = box_depth_plane(
         depth_m, box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_px, split_m=lc.depth_split_m, inverse=True
