@@ -570,7 +570,7 @@ def _turned_square_heights(
     for _ in range(TURN_NEWTON_STEPS):
         f = middle(h)
         slope = (middle(h + step) - f) / step
-        h = h - np.where(np.abs(slope) > 0.0, f / np.where(slope == 0.0, 1.0, slope), 0.0)
+        h = h - np.divide(f, slope, out=np.zeros_like(f), where=np.abs(slope) > 0.0)
     return h
 
 

@@ -11,6 +11,7 @@ from maze_assets.models import BACKING_M, QUAD_OFFSET_M, body_rotation, flat_ext
 from maze_assets.models import FLAT_TYPES as FLAT_MODEL_TYPES
 from poi.core.geometry import invert_transform, transform_points
 from poi.core.names import RESCUE_TYPES
+from poi.estimation.localize import BOX_CORNER_TO_CENTER_PX, project_point_to_pixel
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 
@@ -77,8 +78,7 @@ def _image_box(sim, ft, o, xs: tuple[float, ...]) -> np.ndarray:
     R, origin = body_rotation(o), np.asarray(o.position, dtype=float)
     pts = [origin + R.apply([x, a * w / 2, b * h / 2]) for x in xs for a in (-1, 1) for b in (-1, 1)]
     p_c = transform_points(invert_transform(ft.T_map_camera), transform_points(sim.T_map_world, np.array(pts)))
-    K = sim.intrinsics
-    u, v = K.fx * p_c[:, 0] / p_c[:, 2] + K.ppx + 0.5, K.fy * p_c[:, 1] / p_c[:, 2] + K.ppy + 0.5
+    u, v = project_point_to_pixel(sim.intrinsics, p_c.T) + BOX_CORNER_TO_CENTER_PX
     return np.array([u.min(), v.min(), u.max(), v.max()])
 
 
