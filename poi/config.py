@@ -87,6 +87,7 @@ class TrackerConfig:
     fusion: Literal["mean", "confusion"] = "mean"
     sigma_eps_m: float = number(0.05, lo=0.0)
     shared_errors: bool = True
+    shared_change: float = number(0.02, lo=0.0)
     init: Literal["observation", "prior"] = "observation"
     mu0: tuple[float, float, float] = (0.0, 0.0, 1.0)
     Sigma0_diag: tuple[float, float, float] = number((100.0, 100.0, 4.0), lo=0.0, lo_open=True)

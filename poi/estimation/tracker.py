@@ -34,10 +34,20 @@ consistency"). Each observation's R is split into a fresh part ``R_w`` and a sha
 square root), modelled as one common error ``L_o z``, z ~ N(0, I) for all of a track's
 observations (the "consider" idea of the Schmidt-Kalman filter in its simplest form: the
 shared error is carried, not estimated). The track keeps ``Sigma_w`` and ``L``: the gain
-``K = Sigma_w (Sigma_w + R_w)^-1`` weighs the fresh errors only, ``Sigma_w`` gets Joseph's
-form with ``R_w``, and ``L`` goes where the mean goes, ``L+ = (I - K) L + K L_o``; the track
-reports ``Sigma = Sigma_w + L L^T``, which never falls below the shared part
+``K`` weighs the fresh errors, ``Sigma_w`` gets Joseph's form with ``R_w``, and ``L`` goes
+where the mean goes, ``L+ = (I - K) L + K L_o``; the track reports
+``Sigma = Sigma_w + L L^T``, which never falls below the shared part
 (:func:`shared_error_update`). The gate uses that ``Sigma`` plus the observation's whole R.
+
+The shared error is not always one error: the pose error moves at each SLAM update, with its
+covariance about the same. The fresh parts are thin (a few tenths of a millimetre along the
+ray, where a sign's depth plane averages many pixels) and their thin axes turn from view to
+view, so the gain ``Sigma_w (Sigma_w + R_w)^-1``, the best one while the shared error stays,
+had entries near 2 off its diagonal and swung tracks along those axes on a shared error that
+moved: a rrl-hard placard's track ended 0.5 m off with a NEES of 230. The gain's innovation
+covariance therefore also holds what no fresh error explains: the change of the shared
+factor, ``D = L_o - L``, and ``tracker.shared_change`` times the shared covariance
+(docs/CONSISTENCY.md "A track's gain and a shared error that moves").
 
 Gate allowance (``tracker.gate_allowance_m``, per type). A 3-D object seen from another side,
 or boxed differently by the detector (a door cut by the image border, a heater by the
@@ -113,25 +123,39 @@ def symmetric_sqrt(S: np.ndarray) -> np.ndarray:
 
 
 def shared_error_update(
-    mu: np.ndarray, Sigma_w: np.ndarray, L: np.ndarray, o: np.ndarray, R_w: np.ndarray, L_o: np.ndarray
+    mu: np.ndarray,
+    Sigma_w: np.ndarray,
+    L: np.ndarray,
+    o: np.ndarray,
+    R_w: np.ndarray,
+    L_o: np.ndarray,
+    change: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One update with the errors that repeat kept apart (module docstring): the Kalman
-    update of (mu, Sigma_w) with the fresh part R_w (:func:`kalman_update`), and the shared
-    error's factor carried as the mean is, ``L+ = (I - K) L + K L_o`` with
-    ``K = Sigma_w (Sigma_w + R_w)^-1``. The track's covariance is ``Sigma_w+ + L+ L+^T``.
+    """One update with the errors that repeat kept apart (module docstring).
 
-    With equal shared parts the shared covariance stays as it is, however many
-    observations are fused; the fresh part shrinks as 1/n:
+    The gain weighs the fresh errors, ``K = Sigma_w (Sigma_w + R_w + D D^T + c L_o L_o^T)^-1``:
+    ``D = L_o - L`` is how far the observation's shared factor is from the track's, and ``c``
+    (``change``, ``tracker.shared_change``) the share of the shared covariance that may have
+    moved since the track's earlier views; both parts of the innovation are what no fresh error
+    explains. mu+ = mu + K (o - mu). Each part of the error then goes where K takes it: the
+    fresh part in Joseph's form, ``Sigma_w+ = (I - K) Sigma_w (I - K)^T + K R_w K^T``, which
+    holds for any gain ([BarShalom2001]_ 5.2), and the shared error's factor as the mean goes,
+    ``L+ = (I - K) L + K L_o``. The track's covariance is ``Sigma_w+ + L+ L+^T``.
+
+    With equal shared parts and ``change`` 0 it is the Kalman update of the fresh parts, and
+    the shared covariance stays as it is, however many observations are fused:
 
     >>> L = np.eye(3)
     >>> mu, Sw, L = shared_error_update(np.zeros(3), np.eye(3), L, np.ones(3), np.eye(3), np.eye(3))
-    >>> np.diag(Sw).tolist(), np.diag(L @ L.T).tolist()
-    ([0.5, 0.5, 0.5], [1.0, 1.0, 1.0])
+    >>> mu.tolist(), np.diag(Sw).tolist(), np.diag(L @ L.T).tolist()
+    ([0.5, 0.5, 0.5], [0.5, 0.5, 0.5], [1.0, 1.0, 1.0])
     """
-    K = np.linalg.solve(Sigma_w + R_w, Sigma_w).T  # Sigma_w (Sigma_w + R_w)^-1, both symmetric
-    mu_new, Sigma_w_new = kalman_update(mu, Sigma_w, o, R_w)
-    L_new = (IDENTITY3 - K) @ L + K @ L_o
-    return mu_new, Sigma_w_new, L_new
+    D = L_o - L
+    S = Sigma_w + R_w + D @ D.T + change * (L_o @ L_o.T)
+    K = np.linalg.solve(S, Sigma_w).T  # Sigma_w S^-1, both symmetric
+    A = IDENTITY3 - K
+    Sigma_w_new = A @ Sigma_w @ A.T + K @ R_w @ K.T
+    return mu + K @ (o - mu), 0.5 * (Sigma_w_new + Sigma_w_new.T), A @ L + K @ L_o
 
 
 def mahalanobis2(o: np.ndarray, mu: np.ndarray, Sigma: np.ndarray, R: np.ndarray) -> float:
@@ -333,7 +357,7 @@ class Tracker:
         o, R_w, L_o = self._split(obs)
         if c.init == "prior":
             mu, Sigma_w, L = shared_error_update(
-                np.array(c.mu0), np.diag(c.Sigma0_diag), np.zeros((3, 3)), o, R_w, L_o
+                np.array(c.mu0), np.diag(c.Sigma0_diag), np.zeros((3, 3)), o, R_w, L_o, c.shared_change
             )
         else:
             # the Kalman update from an uninformative prior: mu = o, Sigma = R
@@ -357,7 +381,9 @@ class Tracker:
 
     def _update(self, tr: Track, obs: Observation, t: float) -> None:
         o, R_w, L_o = self._split(obs)
-        tr.mu, tr.Sigma_w, tr.L_shared = shared_error_update(tr.mu, tr.Sigma_w, tr.L_shared, o, R_w, L_o)
+        tr.mu, tr.Sigma_w, tr.L_shared = shared_error_update(
+            tr.mu, tr.Sigma_w, tr.L_shared, o, R_w, L_o, self.cfg.shared_change
+        )
         # mean of the distributions ([Avevor2022] 2.4.5): running mean over paired detections
         q = observation_probs(obs, self.cfg.fusion, self.confusion)
         tr.probs = (tr.n_prob * tr.probs + q) / (tr.n_prob + 1)

@@ -344,3 +344,67 @@ def test_track_sigma_is_consistent_when_errors_repeat():
     lo, hi = chi2_interval(n, 3)
     assert lo <= np.mean(_shared_error_track_samples(np.random.default_rng(13), n, True)) <= hi
     assert np.mean(_shared_error_track_samples(np.random.default_rng(13), n, False)) > 2 * hi
+
+
+def _turning_thin_fresh_part(rng, axes: np.ndarray) -> np.ndarray:
+    """A fresh covariance as the pipeline's R_w is once the repeated parts are taken out: 3-20 mm
+    and 10 mm on two axes and 0.5 mm on the third, its axes ``axes`` turned by a few degrees."""
+    Q, _ = np.linalg.qr(axes + 0.1 * rng.standard_normal((3, 3)))
+    return Q @ np.diag([rng.uniform(0.003, 0.02), 0.01, 0.0005]) ** 2 @ Q.T
+
+
+def _redrawn_shared_error_track_samples(rng, n_objects: int, rho: float) -> list[float]:
+    """End-of-track NEES of objects seen 5-20 times whose shared error is redrawn once, part way,
+    with correlation ``rho`` to the one before (a SLAM update that moves the pose error: 1 keeps
+    it, 0 draws it afresh) and the same covariance L_s L_s^T, so each observation's R_shared
+    says nothing of the change; the fresh parts are thin (:func:`_turning_thin_fresh_part`)."""
+    from poi.config import TrackerConfig
+    from poi.core.types import Observation
+    from poi.estimation.tracker import Tracker, symmetric_sqrt
+
+    out = []
+    for _ in range(n_objects):
+        tracker = Tracker(TrackerConfig(shared_errors=True, gate=1e6))
+        p = rng.uniform(-5, 5, 3)
+        Q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+        R_s = Q @ np.diag([rng.uniform(0.01, 0.08), rng.uniform(0.003, 0.08), 0.01]) ** 2 @ Q.T
+        L_s = symmetric_sqrt(R_s)
+        z = rng.standard_normal(3)
+        z_after = rho * z + math.sqrt(1.0 - rho**2) * rng.standard_normal(3)
+        axes = rng.standard_normal((3, 3))
+        n = int(rng.integers(5, 21))
+        change = int(rng.integers(1, n))
+        for k in range(n):
+            R_w = _turning_thin_fresh_part(rng, axes)
+            o = p + L_s @ (z if k < change else z_after) + rng.multivariate_normal(np.zeros(3), R_w)
+            det = make_detection("valve", (100.0, 100.0, 140.0, 140.0), 0.9, source="t", class_probs=None)
+            obs = Observation(
+                detection=det,
+                timestamp_s=0.1 * k,
+                position_map=o,
+                R=R_w + R_s,
+                position_cam=np.array([0.0, 0.0, 1.0]),
+                Sigma_c=R_w,
+                depth_m=1.0,
+                R_shared=R_s,
+            )
+            tracker.step([obs], 0.1 * k)
+        (track,) = tracker.tracks.values()
+        out.append(nees(track.mu - p, track.Sigma))
+    return out
+
+
+@pytest.mark.parametrize("rho", [1.0, 0.5, 0.0])
+def test_track_sigma_stays_honest_when_the_shared_error_changes_part_way(rho):
+    """The pose error a track's views share changes when the SLAM corrects the pose; with thin
+    fresh parts a gain that weighs the fresh parts alone swings the track's mean along their
+    thin axes (mean NEES 13-49 for rho 0.8-0 over 1000 tracks; a rrl-hard placard's track ended
+    0.5 m off, docs/CONSISTENCY.md "A track's gain and a shared error that moves"). The mean NEES stays
+    inside its interval, or under it (conservative) where the change breaks what the shared model
+    assumes."""
+    n = 400
+    lo, hi = chi2_interval(n, 3)
+    mean = float(np.mean(_redrawn_shared_error_track_samples(np.random.default_rng(21), n, rho)))
+    assert mean <= hi
+    if rho == 1.0:  # the shared model holds: honest, not only safe
+        assert lo <= mean
