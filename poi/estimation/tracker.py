@@ -97,17 +97,24 @@ class TrackerError(ValueError):
 
 
 def kalman_update(
-    mu: np.ndarray, Sigma: np.ndarray, o: np.ndarray, R: np.ndarray
+    mu: np.ndarray, Sigma: np.ndarray, o: np.ndarray, R: np.ndarray, K: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """One Kalman update with H = I ([Avevor2022]_ 2.4.4): filterpy's ``update(mu, Sigma, o, R, H=I)``.
+    """One Kalman update with H = I ([Avevor2022]_ 2.4.4).
 
-    mu+ = mu + K (o - mu) with K = Sigma (Sigma + R)^-1, and the covariance in Joseph's form
-    ([BarShalom2001]_ 5.2), Sigma+ = (I - K) Sigma (I - K)^T + K R K^T. For this optimal K it
-    equals the document's Sigma - K Sigma, but it is a sum of positive semidefinite terms, so
-    it stays positive definite when R << Sigma (a track started from the prior diag(100, 100, 4)
-    and a centimetre R), where Sigma - K Sigma is a difference of nearly equal numbers.
+    mu+ = mu + K (o - mu), and the covariance in Joseph's form ([BarShalom2001]_ 5.2),
+    Sigma+ = (I - K) Sigma (I - K)^T + K R K^T. Without ``K`` the gain is the optimal
+    K = Sigma (Sigma + R)^-1 and the update is filterpy's ``update(mu, Sigma, o, R, H=I)``;
+    for it Joseph's form equals the document's Sigma - K Sigma, but it is a sum of positive
+    semidefinite terms, so it stays positive definite when R << Sigma (a track started from the
+    prior diag(100, 100, 4) and a centimetre R), where Sigma - K Sigma is a difference of nearly
+    equal numbers. Joseph's form holds for any gain, so a given ``K`` (filterpy takes none:
+    :func:`shared_error_update` needs one) is applied by hand.
     """
-    mu_new, Sigma_new = filterpy_update(mu, Sigma, o, R, H=IDENTITY3)
+    if K is None:
+        mu_new, Sigma_new = filterpy_update(mu, Sigma, o, R, H=IDENTITY3)
+    else:
+        A = IDENTITY3 - K
+        mu_new, Sigma_new = mu + K @ (o - mu), A @ Sigma @ A.T + K @ R @ K.T
     return mu_new, 0.5 * (Sigma_new + Sigma_new.T)
 
 
@@ -153,9 +160,8 @@ def shared_error_update(
     D = L_o - L
     S = Sigma_w + R_w + D @ D.T + change * (L_o @ L_o.T)
     K = np.linalg.solve(S, Sigma_w).T  # Sigma_w S^-1, both symmetric
-    A = IDENTITY3 - K
-    Sigma_w_new = A @ Sigma_w @ A.T + K @ R_w @ K.T
-    return mu + K @ (o - mu), 0.5 * (Sigma_w_new + Sigma_w_new.T), A @ L + K @ L_o
+    mu_new, Sigma_w_new = kalman_update(mu, Sigma_w, o, R_w, K)
+    return mu_new, Sigma_w_new, (IDENTITY3 - K) @ L + K @ L_o
 
 
 def mahalanobis2(o: np.ndarray, mu: np.ndarray, Sigma: np.ndarray, R: np.ndarray) -> float:

@@ -325,3 +325,19 @@ def test_duplicate_detections_in_one_frame_start_no_track():
     # outside the gate (m^2 = 16) it is another object
     res = tr.step([obs([0, 0, 0]), obs([4.0, 0, 0])], 0.2)
     assert res.new_tracks == [(1, 1)] and res.duplicates == []
+
+
+def test_kalman_update_with_the_optimal_gain_given_is_filterpys():
+    """Joseph's form with a gain passed in (the shared-error update's) is the same update as
+    filterpy's when that gain is the optimal one, and with another gain its covariance is the
+    error's: a gain of 0 leaves (mu, Sigma), a gain of I gives (o, R)."""
+    rng = np.random.default_rng(3)
+    mu, o = rng.standard_normal(3), rng.standard_normal(3)
+    Sigma, R = random_spd(rng), random_spd(rng)
+    K = Sigma @ np.linalg.inv(Sigma + R)
+    for a, b in zip(kalman_update(mu, Sigma, o, R, K), kalman_update(mu, Sigma, o, R), strict=True):
+        assert np.allclose(a, b, atol=1e-10)
+    mu0, Sigma0 = kalman_update(mu, Sigma, o, R, np.zeros((3, 3)))
+    assert np.allclose(mu0, mu) and np.allclose(Sigma0, Sigma)
+    mu1, Sigma1 = kalman_update(mu, Sigma, o, R, np.eye(3))
+    assert np.allclose(mu1, o) and np.allclose(Sigma1, R)
