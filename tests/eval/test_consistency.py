@@ -300,13 +300,31 @@ def test_track_sigma_is_consistent_with_its_error():
     assert np.mean(_track_samples(np.random.default_rng(12), n, r_scale=4.0)) < lo
 
 
+def _step_with_a_shared_error(tracker, k: int, o: np.ndarray, R_w: np.ndarray, R_s: np.ndarray) -> None:
+    """Frame k (0.1 s apart) of a one-object track: a valve observed at ``o`` with the fresh
+    part ``R_w`` and the shared part ``R_s`` of its R."""
+    from poi.core.types import Observation
+
+    det = make_detection("valve", (100.0, 100.0, 140.0, 140.0), 0.9, source="t", class_probs=None)
+    obs = Observation(
+        detection=det,
+        timestamp_s=0.1 * k,
+        position_map=o,
+        R=R_w + R_s,
+        position_cam=np.array([0.0, 0.0, 1.0]),
+        Sigma_c=R_w,
+        depth_m=1.0,
+        R_shared=R_s,
+    )
+    tracker.step([obs], 0.1 * k)
+
+
 def _shared_error_track_samples(rng, n_objects: int, shared_errors: bool) -> list[float]:
     """End-of-track NEES of the tracker's Sigma for objects seen 5-20 times, each observation
     o = p + L_s z + w: z ~ N(0, I) drawn once per object (an error that repeats, as a pose
     error does), w ~ N(0, R_w) fresh each time; observations carry R = R_w + L_s L_s^T and
     R_shared = L_s L_s^T."""
     from poi.config import TrackerConfig
-    from poi.core.types import Observation
     from poi.estimation.tracker import Tracker
 
     out = []
@@ -320,18 +338,7 @@ def _shared_error_track_samples(rng, n_objects: int, shared_errors: bool) -> lis
             B = rng.standard_normal((3, 3)) * rng.uniform(0.01, 0.05)
             R_w = B @ B.T + 1e-4 * np.eye(3)
             o = p + common + rng.multivariate_normal(np.zeros(3), R_w)
-            det = make_detection("valve", (100.0, 100.0, 140.0, 140.0), 0.9, source="t", class_probs=None)
-            obs = Observation(
-                detection=det,
-                timestamp_s=0.1 * k,
-                position_map=o,
-                R=R_w + R_s,
-                position_cam=np.array([0.0, 0.0, 1.0]),
-                Sigma_c=R_w,
-                depth_m=1.0,
-                R_shared=R_s,
-            )
-            tracker.step([obs], 0.1 * k)
+            _step_with_a_shared_error(tracker, k, o, R_w, R_s)
         (track,) = tracker.tracks.values()
         out.append(nees(track.mu - p, track.Sigma))
     return out
@@ -359,7 +366,6 @@ def _redrawn_shared_error_track_samples(rng, n_objects: int, rho: float) -> list
     it, 0 draws it afresh) and the same covariance L_s L_s^T, so each observation's R_shared
     says nothing of the change; the fresh parts are thin (:func:`_turning_thin_fresh_part`)."""
     from poi.config import TrackerConfig
-    from poi.core.types import Observation
     from poi.estimation.tracker import Tracker, symmetric_sqrt
 
     out = []
@@ -377,18 +383,7 @@ def _redrawn_shared_error_track_samples(rng, n_objects: int, rho: float) -> list
         for k in range(n):
             R_w = _turning_thin_fresh_part(rng, axes)
             o = p + L_s @ (z if k < change else z_after) + rng.multivariate_normal(np.zeros(3), R_w)
-            det = make_detection("valve", (100.0, 100.0, 140.0, 140.0), 0.9, source="t", class_probs=None)
-            obs = Observation(
-                detection=det,
-                timestamp_s=0.1 * k,
-                position_map=o,
-                R=R_w + R_s,
-                position_cam=np.array([0.0, 0.0, 1.0]),
-                Sigma_c=R_w,
-                depth_m=1.0,
-                R_shared=R_s,
-            )
-            tracker.step([obs], 0.1 * k)
+            _step_with_a_shared_error(tracker, k, o, R_w, R_s)
         (track,) = tracker.tracks.values()
         out.append(nees(track.mu - p, track.Sigma))
     return out
