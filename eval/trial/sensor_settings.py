@@ -13,7 +13,8 @@ gives the pipeline the same figures, taken from the scenario's sensor settings:
   (:func:`depth_registration_settings`);
 * the odometry's latency (:func:`odometry_latency_settings`);
 * the sizes of the T265's systematic errors, the priors of the SLAM's scale, drift and heading
-  drift states and the height drift it adds to R (:func:`odometry_prior_settings`), from the
+  drift states and the height drift it adds to R, and the white odometry noise it lacks
+  (:func:`odometry_prior_settings`), from the
   drift model of :mod:`sim.sensors.t265` and the arena's light and texture (its mean drift
   multiplier).
 
@@ -79,9 +80,9 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
     """The SLAM's priors on its odometry's systematic errors (``slam.scale_sigma``,
     ``drift_sigma``, ``drift_sigma_per_sqrt_m``, ``heading_drift_sigma``,
     ``heading_drift_sigma_per_sqrt_m``, ``height_drift_sigma_per_m``, ``tilt_sigma_deg``) and
-    its white heading noise (``sigma_theta_rad``, ``sigma_theta_per_rad``) for
-    the scenario's T265, whose drift is ``drift_multiplier`` times its good-light figures on average in the
-    arena.
+    its white heading and position noise (``sigma_theta_rad``, ``sigma_theta_per_rad``,
+    ``sigma_xy_m``) for the scenario's T265, whose drift is ``drift_multiplier`` times its
+    good-light figures on average in the arena.
 
     :mod:`sim.sensors.t265` drifts in x and y at ``drift_fraction`` m per metre in a horizontal
     direction drawn uniformly that turns by 0.2 rad per sqrt(m): each axis of the drift rate
@@ -89,16 +90,23 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
     drifts at ``yaw_drift_deg_per_m`` times the multiplier with a sign drawn once (no random
     walk), its height at a rate drawn once with sigma ``z_drift_fraction`` times the
     multiplier, its roll and pitch within ``tilt_sigma_deg``; distances are ``1 + scale_error``
-    times the truth. Its heading does not walk as the robot turns, and its jitter does not add
-    up from frame to frame, so the white heading noise of the SLAM's Q_c is 0
-    (``slam.sigma_theta_rad``, ``sigma_theta_per_rad``; the defaults are for a tracker whose
-    gyro may walk). With the noise off the T265 is
+    times the truth. Its heading does not walk as the robot turns, and its jitter (0.5 mm and
+    a few hundredths of a degree per sample) does not add up from frame to frame, so the white
+    heading noise of the SLAM's Q_c is 0 (``slam.sigma_theta_rad``, ``sigma_theta_per_rad``;
+    the defaults are for a tracker whose gyro may walk) and so is its floor of white position
+    noise per frame (``slam.sigma_xy_m``; the default's 0.5 mm a frame walks 1 cm over 400
+    frames standing still, which made the default maze's SLAM position conservative, NEES
+    1.02 against [1.19, 3.06]; docs/CONSISTENCY.md). The part that grows with distance
+    (``sigma_xy_per_m``) stays: it holds what of the drift multiplier's changes along the
+    route the prior, which takes its mean, lacks. With the noise off the T265 is
     exact and every prior is 0 (the SLAM leaves those states out). Wheel odometry keeps the
     pipeline's defaults (a wheel's errors are not this model's).
 
     >>> from sim.scenario import Scenario
     >>> odometry_prior_settings(Scenario(), 1.0)[1:3]
     ['slam.drift_sigma=0.00494975', 'slam.drift_sigma_per_sqrt_m=0.000989949']
+    >>> odometry_prior_settings(Scenario(), 1.0)[-3:]
+    ['slam.sigma_theta_rad=0', 'slam.sigma_theta_per_rad=0', 'slam.sigma_xy_m=0']
     """
     if sc.sensors.pose_source != "t265":
         return []
@@ -115,6 +123,7 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
         f"slam.tilt_sigma_deg={on * t.tilt_sigma_deg:.6g}",
         "slam.sigma_theta_rad=0",
         "slam.sigma_theta_per_rad=0",
+        "slam.sigma_xy_m=0",
     ]
 
 

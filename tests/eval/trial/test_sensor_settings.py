@@ -53,6 +53,8 @@ def test_the_odometry_priors_follow_the_t265_settings_and_the_arena():
     assert v["slam.tilt_sigma_deg"] == pytest.approx(0.3)  # bounded: light does not grow it
     # the simulated T265's heading does not walk as it turns, and its jitter does not add up
     assert v["slam.sigma_theta_rad"] == 0.0 and v["slam.sigma_theta_per_rad"] == 0.0
+    # nor does its position jitter (test_the_t265s_position_jitter_does_not_add_up)
+    assert v["slam.sigma_xy_m"] == 0.0
     # an exact sensor: no systematic error, so the SLAM leaves those states out
     clean = _values(odometry_prior_settings(apply_settings(Scenario(), ["sensors.noise=false"]), 1.0))
     assert set(clean.values()) == {0.0}
@@ -65,6 +67,34 @@ def test_the_odometry_priors_follow_the_t265_settings_and_the_arena():
     )
     # every setting is one the pipeline knows
     apply_overrides(load_config(), odometry_prior_settings(hard, 2.0) + mount_prior_settings(hard))
+
+
+def test_the_t265s_position_jitter_does_not_add_up():
+    """With its drift off, the simulated T265 standing still for 400 frames is off by its
+    jitter at the end as at the start: a white error per sample, not a random walk, so the
+    SLAM's white position noise per frame (``slam.sigma_xy_m``) is 0 in a trial. A walk of the
+    pipeline's default 0.5 mm a frame would be 10 mm off after 400 frames."""
+    jitter_m = 0.0005
+    spec = replace(
+        T265Spec(), drift_fraction=0.0, jitter_m=jitter_m, jitter_deg=0.0, latency_s=0.0, tilt_sigma_deg=0.0,
+        z_drift_fraction=0.0, yaw_drift_deg_per_m=0.0, scale_error=0.0, relocalise=RelocaliseSpec(enabled=False),
+    )  # fmt: skip
+
+    def still(t):
+        T = np.tile(np.eye(4), (len(np.atleast_1d(t)), 1, 1))
+        T[:, 2, 3] = 0.5
+        return T
+
+    t_s = np.arange(400) / 30.0
+    err = np.array(
+        [
+            np.array(simulate_t265(still, t_s, spec, np.random.default_rng(s), noise=True).poses)[:, :2, 3]
+            for s in range(50)
+        ]
+    )  # (run, frame, axis)
+    first, last = err[:, :50].std(), err[:, -50:].std()
+    assert last == pytest.approx(first, rel=0.15)
+    assert last < 2 * jitter_m  # a walk: 0.5 mm * sqrt(375) = 9.7 mm
 
 
 def test_the_drift_priors_are_the_simulated_t265s_spread():
