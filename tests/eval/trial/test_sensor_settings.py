@@ -13,6 +13,13 @@ from poi.config import apply_overrides, load_config
 from sim.scenario import RelocaliseSpec, Scenario, T265Spec, apply_settings
 from sim.sensors.t265 import simulate_t265
 
+# the simulated T265 with every error off (drift, jitter, latency, tilt, scale, relocalisation):
+# each test turns on the one it measures
+QUIET_T265 = replace(
+    T265Spec(), drift_fraction=0.0, z_drift_fraction=0.0, yaw_drift_deg_per_m=0.0, tilt_sigma_deg=0.0,
+    scale_error=0.0, latency_s=0.0, jitter_m=0.0, jitter_deg=0.0, relocalise=RelocaliseSpec(enabled=False),
+)  # fmt: skip
+
 
 def _values(sets: list[str]) -> dict[str, float]:
     return {k: float(v) for k, v in (s.split("=", 1) for s in sets)}
@@ -75,10 +82,7 @@ def test_the_t265s_position_jitter_does_not_add_up():
     SLAM's white position noise per frame (``slam.sigma_xy_m``) is 0 in a trial. A walk of the
     pipeline's default 0.5 mm a frame would be 10 mm off after 400 frames."""
     jitter_m = 0.0005
-    spec = replace(
-        T265Spec(), drift_fraction=0.0, jitter_m=jitter_m, jitter_deg=0.0, latency_s=0.0, tilt_sigma_deg=0.0,
-        z_drift_fraction=0.0, yaw_drift_deg_per_m=0.0, scale_error=0.0, relocalise=RelocaliseSpec(enabled=False),
-    )  # fmt: skip
+    spec = replace(QUIET_T265, jitter_m=jitter_m)
 
     def still(t):
         T = np.tile(np.eye(4), (len(np.atleast_1d(t)), 1, 1))
@@ -101,10 +105,7 @@ def test_the_drift_priors_are_the_simulated_t265s_spread():
     """Over many seeds, the drift rate of the simulated T265 on its first metre has the per-axis
     standard deviation the prior says (its direction is uniform), and its heading drift rate
     the size the prior says (its sign is drawn once)."""
-    spec = replace(
-        T265Spec(), drift_fraction=0.01, jitter_m=0.0, jitter_deg=0.0, latency_s=0.0, tilt_sigma_deg=0.0,
-        z_drift_fraction=0.0, yaw_drift_deg_per_m=0.0, relocalise=RelocaliseSpec(enabled=False),
-    )  # fmt: skip
+    spec = replace(QUIET_T265, drift_fraction=0.01)
     sc = Scenario()
     sc.sensors.t265 = replace(spec, yaw_drift_deg_per_m=0.1)
     v = _values(odometry_prior_settings(sc, 1.0))
