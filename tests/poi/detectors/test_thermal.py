@@ -129,3 +129,23 @@ def test_bad_inputs_and_settings():
         ThermalHotSpotDetector(min_temp_c=90.0)
     det = build_detector({"name": "thermal", "min_temp_c": 40.0, "min_area_px": 2})
     assert isinstance(det, ThermalHotSpotDetector) and det.name == "thermal"
+
+
+def test_a_finned_heaters_stripes_are_one_source():
+    """A heater seen close: seven 62 C fins 6 px wide with 5 px gaps at ambient between them
+    (the shipped heater's 1.3 cm gaps at about 0.35 m) are one source whose box spans them
+    all; a second source 9 px further (over the default 8 px gap) stays apart; with
+    ``merge_gap_px: 0`` each fin is its own."""
+    T = _room(np.random.default_rng(6))
+    for k in range(7):
+        T[100:120, 10 + 11 * k : 16 + 11 * k] = 62.0  # cols 10..15, 21..26, ..., 76..81
+    T[100:110, 91:95] = 70.0  # 9 px right of the last fin (cols 82..90 cool)
+    heater, lamp = sorted(ThermalHotSpotDetector().detect(_frame(T)), key=lambda d: d.box_xyxy[0])
+    assert np.allclose(heater.box_xyxy, (40, 400, 328, 480), atol=BOX_TOL_PX)
+    assert np.allclose(lamp.box_xyxy, (364, 400, 380, 440), atol=BOX_TOL_PX)
+    assert len(ThermalHotSpotDetector(merge_gap_px=0).detect(_frame(T))) == 8
+    # a gap of exactly merge_gap_px bridges, one more does not
+    assert len(ThermalHotSpotDetector(merge_gap_px=5).detect(_frame(T))) == 2
+    assert len(ThermalHotSpotDetector(merge_gap_px=4).detect(_frame(T))) == 8
+    with pytest.raises(DetectorConfigError, match="merge_gap_px must be >= 0"):
+        ThermalHotSpotDetector(merge_gap_px=-1)
