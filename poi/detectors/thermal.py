@@ -7,7 +7,7 @@ through the colour camera's optics resampled: ``frame.thermal_intrinsics`` is
 image); 8-connected hot regions of at least ``min_area_px`` thermal pixels are
 heat sources. With the defaults a body at 37 C (a baby doll) is never one.
 
-Hot regions less than ``merge_gap_px`` thermal pixels apart are one source: a finned
+Hot regions up to ``merge_gap_px`` thermal pixels apart are one source: a finned
 heater seen close shows each fin as a hot stripe with the cooler gap between them under
 the threshold (the shipped heater's 1.3 cm gaps are 5-7 px at 0.3-0.4 m; without this
 rule it gave one box per fin, five to seven in a frame). The hot pixels are dilated by a
