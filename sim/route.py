@@ -2,9 +2,21 @@
 
 A tour (``sim.tour.plan_tour``) visits every cell; the robot turns in place at
 each cell centre toward the next one at ``yaw_rate_dps`` and drives straight at
-``speed_mps``. The camera pans on the mast as ``pan(t) = A sin(2 pi t / T)`` so
-side walls come into view. A route can instead be replayed from a CSV of timed
+``speed_mps``. The mast robot's camera pans as ``robot.pan`` says
+(``sim.scenario.PanSpec``; docs/FACTS.md "How a rescue robot searches"): by
+default in steps, as a pan-tilt unit scans ([HectorCameraControl]_): at each cell
+it enters for the first time the base stops, the camera slews through the step
+angles, dwelling at each, and back to 0, and the robot drives on looking ahead;
+or, with ``mode: sweep``, continuously as ``pan(t) = A sin(2 pi t / T)`` while the
+robot drives and turns. A route can instead be replayed from a CSV of timed
 poses in the map frame (columns ``t_s,x_m,y_m,yaw_deg`` and optionally ``pan_deg``).
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [HectorCameraControl] Team Hector Darmstadt, hector_camera_control (ROS), sensor head
+   "look_around" patterns.
 """
 
 from __future__ import annotations
@@ -59,32 +71,73 @@ def _wrap_to(target: float, current: float) -> float:
     return current + (target - current + np.pi) % (2.0 * np.pi) - np.pi
 
 
+class _Keyframes:
+    """The route's keyframes as they are laid down: the state now, appended when time moves."""
+
+    def __init__(self, x: float, y: float, yaw: float) -> None:
+        self.t, self.x, self.y, self.yaw, self.pan = 0.0, x, y, yaw, 0.0
+        self.rows = [(0.0, x, y, yaw, 0.0)]
+
+    def advance(self, dt: float) -> None:
+        """Let ``dt`` seconds pass and record the state reached (nothing when dt is 0)."""
+        if dt > 0.0:
+            self.t += dt
+            self.rows.append((self.t, self.x, self.y, self.yaw, self.pan))
+
+    def scan(self, steps_rad: np.ndarray, rate_rad_s: float, dwell_s: float) -> None:
+        """The base still, the camera slews to each step angle at ``rate_rad_s``, dwells
+        ``dwell_s`` there, and slews back to 0 (a pan-tilt unit's stepped scan)."""
+        for a in [*steps_rad, None]:
+            target = 0.0 if a is None else float(a)
+            dt = abs(target - self.pan) / rate_rad_s
+            self.pan = target
+            self.advance(dt)
+            if a is not None:
+                self.advance(dwell_s)
+
+
 def route_from_tour(maze, cells: list[tuple[int, int]], spec: RobotSpec, start_yaw: float) -> Route:
-    """Turn-then-drive keyframes through the centres of ``cells``."""
+    """Turn-then-drive keyframes through the centres of ``cells``, with the camera's pan.
+
+    With ``spec.pan.mode == "steps"`` on the mast robot the base stops at the first visit
+    of each cell (the start cell included, revisits not) while the camera scans
+    (:meth:`_Keyframes.scan`); the pan is 0 whenever the base moves. Otherwise (``sweep``,
+    or a TurtleBot, whose camera does not pan) the pan is the sinusoid and the route ends
+    with a full turn in place in the last cell; the stepped route needs none, its last cell
+    being new and so scanned.
+    """
     w = np.deg2rad(spec.yaw_rate_dps)
-    t, (x, y), yaw = 0.0, maze.cell_center(*cells[0]), start_yaw
-    ts, xs, ys, yaws = [t], [x], [y], [yaw]
+    steps = spec.kind == "mast" and spec.pan.mode == "steps"
+    steps_rad = np.deg2rad(np.asarray(spec.pan.steps_deg, dtype=float))
+    rate = np.deg2rad(spec.pan.rate_dps)
+    x, y = maze.cell_center(*cells[0])
+    k = _Keyframes(float(x), float(y), float(start_yaw))
+    seen = {cells[0]}
+    if steps:
+        k.scan(steps_rad, rate, spec.pan.dwell_s)
     for cell in cells[1:]:
         nx, ny = maze.cell_center(*cell)
-        heading = _wrap_to(float(np.arctan2(ny - y, nx - x)), yaw)
-        if abs(heading - yaw) > 1e-9:
-            t += abs(heading - yaw) / w
-            yaw = heading
-            ts.append(t), xs.append(x), ys.append(y), yaws.append(yaw)
-        dist = float(np.hypot(nx - x, ny - y))
-        t += dist / spec.speed_mps
-        x, y = nx, ny
-        ts.append(t), xs.append(x), ys.append(y), yaws.append(yaw)
-    # finish with a full look around in the last cell
-    t += 2.0 * np.pi / w
-    yaw += 2.0 * np.pi
-    ts.append(t), xs.append(x), ys.append(y), yaws.append(yaw)
+        heading = _wrap_to(float(np.arctan2(ny - k.y, nx - k.x)), k.yaw)
+        turn = abs(heading - k.yaw)
+        k.yaw = heading
+        k.advance(turn / w if turn > 1e-9 else 0.0)
+        dist = float(np.hypot(nx - k.x, ny - k.y))
+        k.x, k.y = float(nx), float(ny)
+        k.advance(dist / spec.speed_mps)
+        if steps and cell not in seen:
+            k.scan(steps_rad, rate, spec.pan.dwell_s)
+        seen.add(cell)
+    if not steps:  # finish with a full look around in the last cell
+        k.yaw += 2.0 * np.pi
+        k.advance(2.0 * np.pi / w)
+    t, xs, ys, yaws, pans = (np.array(c) for c in zip(*k.rows, strict=True))
     return Route(
-        t_s=np.array(ts),
-        x_m=np.array(xs),
-        y_m=np.array(ys),
-        yaw_rad=np.array(yaws),
-        pan_amplitude_rad=np.deg2rad(spec.pan.amplitude_deg),
+        t_s=t,
+        x_m=xs,
+        y_m=ys,
+        yaw_rad=yaws,
+        pan_rad=pans if steps else None,
+        pan_amplitude_rad=0.0 if steps else float(np.deg2rad(spec.pan.amplitude_deg)),
         pan_period_s=spec.pan.period_s,
     )
 

@@ -318,8 +318,41 @@ class ArenaSpec:
 
 @dataclass(kw_only=True)
 class PanSpec:
-    amplitude_deg: float = 80.0
-    period_s: float = 5.0
+    """How the mast robot's camera pans (docs/FACTS.md "How a rescue robot searches").
+
+    ``mode: steps`` (the default) scans as a pan-tilt unit does: at each cell the tour enters
+    for the first time the base stops, the camera slews at ``rate_dps`` through the pan angles
+    ``steps_deg`` (degrees from the base's heading, positive left) in the order given, dwells
+    ``dwell_s`` at each, slews back to 0 and the robot drives on looking ahead. Team Hector's
+    sensor head scans in steps of 40 degrees out to 80 with a 1 s dwell ([HectorCameraControl]_);
+    the defaults, -90 to 90 in 45-degree steps, put each side wall face on in the simulated D435's
+    55-degree view with 10 degrees of overlap, and 0.5 s holds the camera still for five frames
+    at 10 fps. 120 deg/s is within what a Dynamixel MX-28 (330 deg/s unloaded, [RobotisMX28]_)
+    or a PTU-D46 ([PTU-D46]_) turns.
+
+    ``mode: sweep`` pans continuously, ``pan(t) = amplitude_deg sin(2 pi t / period_s)``, while the
+    robot drives and turns without stopping (the default before issue 57).
+
+    References
+    ----------
+    Full entries in docs/SOURCES.md.
+
+    .. [HectorCameraControl] Team Hector Darmstadt, hector_camera_control (ROS), sensor head
+       "look_around" patterns.
+    .. [RobotisMX28] ROBOTIS, DYNAMIXEL MX-28 e-Manual, specifications.
+    .. [PTU-D46] Directed Perception, PTU-D46 pan-tilt unit user's manual, v2.14.0, 2006.
+    """
+
+    mode: Literal["sweep", "steps"] = "steps"
+    steps_deg: tuple[float, ...] = number((-90.0, -45.0, 0.0, 45.0, 90.0), lo=-180.0, hi=180.0)
+    dwell_s: float = number(0.5, lo=0.0, hi=60.0)
+    rate_dps: float = number(120.0, lo=0.0, hi=1000.0, lo_open=True)
+    amplitude_deg: float = number(80.0, lo=-180.0, hi=180.0)
+    period_s: float = number(5.0, lo=0.0, lo_open=True)
+
+    def __post_init__(self) -> None:
+        if self.mode == "steps" and not self.steps_deg:
+            raise ValueError("steps_deg: mode 'steps' needs at least one pan angle, e.g. [-90, -45, 0, 45, 90]")
 
 
 TURTLEBOT_CAMERA_HEIGHT_M = 0.30  # the D435 on a TurtleBot's top plate
