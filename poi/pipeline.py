@@ -65,6 +65,10 @@ class FrameResult:
     skipped_reason: str | None = None
     timing_ms: dict[str, float] = field(default_factory=dict)
     pose_map: np.ndarray | None = None  # the pose the frame was mapped with (corrected in slam mode)
+    # the index in ``detections`` of each observation's detection, and of each QR detection the
+    # reader was given this frame (a funnel tells a code not read from one never tried)
+    observed: list[int] = field(default_factory=list)
+    qr_tried: list[int] = field(default_factory=list)
 
 
 def _find_qr_reader() -> tuple[Callable | None, str | None]:
@@ -187,8 +191,9 @@ class Pipeline:
         elif not np.all(np.isfinite(frame.pose)):
             reason = "pose not finite"
         if reason is not None:
+            qr_tried = self._unread_qr(detections) if self._qr_reader is not None else []
             if self._qr_reader is not None:
-                detections = self._read_qr(frame.rgb, detections, self._unread_qr(detections))
+                detections = self._read_qr(frame.rgb, detections, qr_tried)
             timing["qr"] = 1e3 * (time.perf_counter() - t1)
             return FrameResult(
                 frame_index=frame.index,
@@ -198,6 +203,7 @@ class Pipeline:
                 newly_confirmed=[],
                 skipped_reason=reason,
                 timing_ms=timing,
+                qr_tried=qr_tried,
             )
 
         observations: list[Observation] = []
@@ -221,6 +227,7 @@ class Pipeline:
             timing["slam"] = 1e3 * (t_slam - t2)
             t2 = t_slam
 
+        todo: list[int] = []
         if self._qr_reader is not None:
             unread = set(self._unread_qr(detections))
             todo = [i for i, k in enumerate(det_of_obs) if k in unread and not self._settled_qr(observations[i])]
@@ -249,6 +256,8 @@ class Pipeline:
             skipped_reason=None,
             timing_ms=timing,
             pose_map=np.asarray(frame.pose, dtype=float),
+            observed=list(det_of_obs),
+            qr_tried=[det_of_obs[i] for i in todo],
         )
 
     def confirmed(self) -> list[TrackSnapshot]:

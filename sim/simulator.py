@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 import sim.gl  # noqa: F401  (sim/__init__ has chosen the GL backend already)
-from maze_assets.models import reference_point
+from maze_assets.models import FLAT_TYPES, body_rotation, reference_point
 from maze_assets.objects import PlacedObject
 from poi.core.geometry import (
     R_BODY_OPTICAL,
@@ -121,6 +121,9 @@ class VisibleObject:
     pixels: int
     visible_fraction: float
     position_cam: np.ndarray  # true position in the camera optical frame
+    # angle between a flat item's face normal and the ray from it to the camera (0: seen face-on);
+    # NaN for a 3-D object, which has no one face
+    view_angle_deg: float = float("nan")
 
 
 @dataclass(kw_only=True)
@@ -146,6 +149,8 @@ class FrameTruth:
     T_map_tracker: np.ndarray  # true tracker pose
     visible: list[VisibleObject]
     object_mask: np.ndarray | None = None  # (H, W) object id per pixel, -1 elsewhere
+    # pixels the image centre moved during the colour exposure (the motion blur's length); 0 without it
+    blur_px: float = 0.0
 
 
 def _rpy(deg) -> np.ndarray:
@@ -292,6 +297,7 @@ class Simulation:
         self._object_corners_world = self._object_geom_corners()
         # objects never move: each one's reference point (world frame), once
         self._reference_world = {o.id: reference_point(o) for o in self.objects}
+        self._face_normal_world = {o.id: body_rotation(o).apply([1.0, 0.0, 0.0]) for o in self.objects}
         self._model_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(
             1, thread_name_prefix="poibench-sensors"
         )
@@ -691,6 +697,7 @@ class Simulation:
             T_map_camera=T_map_optical,
             T_map_tracker=T_map_tracker,
             visible=[],
+            blur_px=float(np.hypot(*motion)),
         )
         if seg.object_ids is not None:
             truth.object_mask = seg.object_ids
@@ -746,6 +753,13 @@ class Simulation:
             p_cam = transform_points(T_optical_map, transform_points(self.T_map_world, p_world))
             n = int(sel.sum())
             full = self._unoccluded_pixels(int(oid), T_optical_world)
+            angle = float("nan")
+            if o.type in FLAT_TYPES:
+                # cos = n . (camera - p) / |camera - p|, in the optical frame, where the camera is at 0
+                n_cam = T_optical_world[:3, :3] @ self._face_normal_world[o.id]
+                r = float(np.linalg.norm(p_cam))
+                cos = float(np.clip(-n_cam @ p_cam / r, -1.0, 1.0)) if r > 0 else 1.0
+                angle = float(np.degrees(np.arccos(cos)))
             out.append(
                 VisibleObject(
                     id=o.id,
@@ -760,6 +774,7 @@ class Simulation:
                     pixels=n,
                     visible_fraction=float(min(1.0, n / full)) if full > 0 else 0.0,
                     position_cam=p_cam,
+                    view_angle_deg=angle,
                 )
             )
         return out

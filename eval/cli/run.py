@@ -117,6 +117,7 @@ def cmd_view(args) -> int:
 def cmd_run(args) -> int:
     import yaml
 
+    from eval.scoring.funnel import format_funnel
     from eval.scoring.map_error import MapErrorResult
     from eval.scoring.report import format_tables
     from eval.scoring.rules import load_rules
@@ -193,6 +194,9 @@ def cmd_run(args) -> int:
     for note in res.notes:
         print(f"note: {note}", file=sys.stderr)
     print(format_tables(res.score))
+    if res.funnel is not None:
+        f = res.funnel
+        print("\n" + format_funnel(f.per_type(), f.lost, f.max_minus_score))
     s = res.score
     if isinstance(s, MapErrorResult):
         outcome = s.headline()

@@ -128,6 +128,20 @@ def _table(df, cols: list[str]) -> str:
     return df[cols].to_string(index=False)
 
 
+def print_funnel(ok, per_type: dict) -> None:
+    """The funnel summed over a run's trials (``per_type``, eval.experiments.sweep.summed_funnel)
+    and its check: each trial's lost points add up to its max minus score (eval.scoring.funnel)."""
+    from eval.scoring.funnel import format_funnel
+
+    if "funnel_lost" not in ok or not len(ok):
+        return
+    lost = float(ok["funnel_lost"].astype(float).sum())
+    max_minus = float((ok["max_score"].astype(float) - ok["score"].astype(float)).sum())
+    print("\n" + format_funnel(per_type, lost, max_minus))
+    bad = int((ok["funnel_check"] != "ok").sum())
+    print(f"funnel check: lost = max - score in {len(ok) - bad} of {len(ok)} trials")
+
+
 def cmd_suite_list(args) -> int:
     from eval.experiments.suites import load_suite, shipped_suites
 
@@ -139,6 +153,7 @@ def cmd_suite_list(args) -> int:
 
 def cmd_suite_run(args) -> int:
     from eval.experiments.suites import load_suite
+    from eval.experiments.sweep import summed_funnel
 
     suite = load_suite(args.name)
     with tempfile.TemporaryDirectory() as tmp:
@@ -155,6 +170,7 @@ def cmd_suite_run(args) -> int:
             "misses",
             "loc_err_median_m",
             "pose_err_median_m",
+            "boxes_per_frame",
             "wall_s",
             "cpu_s_per_sim_s",
             "error",
@@ -162,6 +178,7 @@ def cmd_suite_run(args) -> int:
         print(_table(df, cols))
         ok = df[df["error"] == ""]
         print(f"mean score fraction {ok['fraction'].mean():.4f} over {len(ok)} of {len(df)} trials")
+        print_funnel(ok, summed_funnel(ok, out))
         if args.out:
             print(f"trials.csv and each trial's files in {out}")
     return 0 if (df["error"] == "").all() else 1
@@ -175,13 +192,14 @@ def cmd_sweep(args) -> int:
     df, agg = _run(_spec(args, args.suite, grid), out, args.quiet)
     print(agg.to_string(index=False))
     failed = int((df["error"] != "").sum())
-    print(f"{len(df)} trials ({failed} failed): trials.csv, aggregate.csv and plots in {out}")
+    print(f"{len(df)} trials ({failed} failed): trials.csv, aggregate.csv, funnel.csv and plots in {out}")
     return 0
 
 
 def cmd_regress(args) -> int:
     from eval.experiments.regress import baseline_doc, compare, load_baseline, write_junit
     from eval.experiments.suites import load_suite
+    from eval.experiments.sweep import summed_funnel
 
     suite = load_suite(args.suite)
     base_path = Path(args.baseline)
@@ -190,6 +208,7 @@ def cmd_regress(args) -> int:
         out = Path(args.out) if args.out else Path(tmp)
         grid = [(k, [v]) for k, v in (item.split("=", 1) for item in args.set)] if args.set else []
         df, _ = _run(_spec(args, args.suite, grid), out, args.quiet)
+        funnel = summed_funnel(df[df["error"] == ""], out)
     if args.update:
         if (df["error"] != "").any():
             bad = df[df["error"] != ""].iloc[0]
@@ -207,6 +226,7 @@ def cmd_regress(args) -> int:
         return 0
     verdict = compare(df, baseline, args.tolerance, suite)
     print("\n".join(verdict.lines))
+    print_funnel(df[df["error"] == ""], funnel)
     if args.junit:
         write_junit(Path(args.junit), df, baseline, args.tolerance, suite.name)
     return 0 if verdict.passed else 1

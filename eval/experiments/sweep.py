@@ -58,10 +58,14 @@ ROW_FIELDS_TAIL = [
     "wall_s",
     "cpu_s",
     "cpu_s_per_sim_s",
+    "boxes_per_frame",
+    "funnel_lost",
+    "funnel_check",
     "error",
     "complete",
 ]
 SET_PREFIX = "set."
+FUNNEL_LINES = "funnel.jsonl"  # each trial's per-type funnel, a JSON line a trial (funnel.csv sums them)
 
 
 class SweepError(ValueError):
@@ -252,6 +256,15 @@ def run_task(task: TrialTask) -> dict:
             cpu_s_per_sim_s=round(res.cpu_s_per_sim_s, 4),
             error="",
         )
+        f = res.funnel
+        if f is not None:  # the trial's funnel (eval.scoring.funnel), summed per type by funnel_table
+            act = f.activity
+            row.update(
+                boxes_per_frame=round(act.boxes / act.frames, 3) if act.frames else float("nan"),
+                funnel_lost=round(f.lost, 3),
+                funnel_check="ok" if f.check_ok else "MISMATCH",
+                funnel_per_type=f.per_type(),  # to funnel.jsonl, not trials.csv (run_sweep)
+            )
     except Exception as e:  # a failing trial is a row, never the end of the sweep
         first = str(e).splitlines()[0] if str(e) else ""
         row.update(error=f"{type(e).__name__}: {first}"[:300])
@@ -477,6 +490,9 @@ def run_sweep(
         else:
             raise SweepError(f"--backend: expected local or ray, got {spec.backend!r}")
         for row in rows:
+            per_type = row.pop("funnel_per_type", None)
+            if per_type is not None:
+                append_funnel(out / FUNNEL_LINES, row["trial"], per_type)
             writer.write(row)
             if progress:
                 progress(1, len(tasks))
@@ -485,8 +501,73 @@ def run_sweep(
     df = read_rows(path)
     agg = aggregate(df, [k for k, _ in spec.grid])
     agg.to_csv(out / "aggregate.csv", index=False)
+    funnel_table(df, [k for k, _ in spec.grid], out).to_csv(out / "funnel.csv", index=False)
     plot_sweep(out, agg, [k for k, _ in spec.grid])
     return df, agg
+
+
+def append_funnel(path: Path, trial: str, per_type: dict) -> None:
+    """Append one trial's per-type funnel to ``funnel.jsonl`` as one whole line, fsynced (as
+    :class:`RowWriter` does; a torn last line is skipped when read)."""
+    line = json.dumps({"trial": trial, "per_type": per_type}, sort_keys=True, separators=(",", ":")) + "\n"
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(fd, line.encode("utf-8"))
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def read_funnels(path: Path) -> dict[str, dict]:
+    """Trial -> per-type funnel from ``funnel.jsonl`` (the last line of a trial run twice wins;
+    a line a kill cut short is skipped)."""
+    out: dict[str, dict] = {}
+    if not path.exists():
+        return out
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if isinstance(rec, dict) and isinstance(rec.get("per_type"), dict):
+            out[str(rec.get("trial"))] = rec["per_type"]
+    return out
+
+
+def summed_funnel(rows, out: Path) -> dict[str, dict[str, float]]:
+    """The per-type funnel (eval.scoring.funnel.Funnel.per_type) summed over ``rows``' trials."""
+    from eval.scoring.funnel import sum_per_type
+
+    funnels = read_funnels(Path(out) / FUNNEL_LINES)
+    trials = list(rows["trial"]) if "trial" in rows else []
+    return sum_per_type([funnels[t] for t in trials if t in funnels])
+
+
+def funnel_table(df, keys: list[str], out_dir: Path):
+    """``funnel.csv`` of a sweep: per setting combination and type, the objects, how many
+    passed each stage and the points lost to each cause, summed over its trials."""
+    import pandas as pd
+
+    from eval.scoring.funnel import CAUSES, STAGES
+
+    cols = [SET_PREFIX + k for k in keys]
+    if not len(df):
+        return pd.DataFrame()
+    groups = df.groupby(cols, sort=False, dropna=False) if cols else [((), df)]
+    out = []
+    for key, g in groups:
+        rec = dict(zip(cols, key if isinstance(key, tuple) else (key,), strict=True))
+        for t, row in sorted(summed_funnel(g[g["error"] == ""], out_dir).items()):
+            out.append(
+                {
+                    **rec,
+                    "type": t,
+                    "objects": row.get("objects", 0),
+                    **{s: row.get(s, 0) for s in STAGES},
+                    **{c: row.get(c, 0) for c in CAUSES},
+                }
+            )
+    return pd.DataFrame(out)
 
 
 def t_quantile_975(dof: int) -> float:
@@ -533,6 +614,7 @@ def aggregate(df, keys: list[str]):
             wall_s_mean=round(float(g["wall_s"].astype(float).mean()), 2),
             cpu_s_mean=mean_of("cpu_s", 2),
             cpu_s_per_sim_s_mean=mean_of("cpu_s_per_sim_s", 4),
+            boxes_per_frame_mean=mean_of("boxes_per_frame", 3) if "boxes_per_frame" in ok else float("nan"),
         )
         out.append(rec)
     return pd.DataFrame(out)

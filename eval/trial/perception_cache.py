@@ -54,11 +54,12 @@ from pathlib import Path
 
 import numpy as np
 
+from eval.scoring.funnel import ObjectView
 from poi.core.types import Detection, Frame, Intrinsics
 
 # 2: detections carry class_probs over 29 classes (landolt-c added); 3: drift_multiplier;
-# 4: frames carry pose_relocalised
-CACHE_FORMAT = 4
+# 4: frames carry pose_relocalised; 5: frames carry the truth's object views and the blur (the funnel)
+CACHE_FORMAT = 5
 CONF_FLOOR = 0.05  # ONNX detections are recorded down to this score; detector.conf below it runs in full
 TILE_PX = 32
 MAGIC = b"POIBPCR\x00"
@@ -73,7 +74,12 @@ ONNX_SOURCE = "onnx"  # Detection.source of the ONNX detector, the one detector.
 ROOT = Path(__file__).resolve().parents[2]
 # the source that simulates and detects: a change in any of it makes every record stale
 FINGERPRINT_DIRS = ("sim", "maze_assets", "poi/detectors", "poi/core")
-FINGERPRINT_FILES = ("eval/trial/perception_cache.py", "eval/trial/run.py", "eval/scoring/truth.py")
+FINGERPRINT_FILES = (
+    "eval/trial/perception_cache.py",
+    "eval/trial/run.py",
+    "eval/scoring/truth.py",
+    "eval/scoring/funnel.py",
+)
 
 
 class PerceptionCacheError(ValueError):
@@ -207,6 +213,8 @@ class FrameRecord:
     detections: list[Detection]  # every detector's, in order; the ONNX detector's down to the floor
     qr_texts: dict[tuple[float, float, float, float], str]  # box -> text read, for QR boxes without text
     T_map_tracker_true: np.ndarray
+    views: list[ObjectView] = field(default_factory=list)  # the objects the frame shows (ground truth)
+    blur_px: float = 0.0  # the colour camera's motion blur
 
 
 @dataclass(kw_only=True)
@@ -262,6 +270,7 @@ class ReplayDetector:
         self._conf = float(conf)
         self._labelled = record.labelled
         self.current: FrameRecord | None = None
+        self.highest_score = 0.0  # the best ONNX score recorded in the frames replayed (at or above the floor)
 
     def _keeps(self, d: Detection) -> bool:
         if d.source != ONNX_SOURCE:
@@ -272,6 +281,8 @@ class ReplayDetector:
 
     def detect(self, frame: Frame) -> list[Detection]:
         self.current = self._by_index[frame.index]
+        scores = [d.confidence for d in self.current.detections if d.source == ONNX_SOURCE]
+        self.highest_score = max([self.highest_score, *scores])
         # copies: the pipeline writes track ids into the detections it is given
         return [dataclasses.replace(d) for d in self.current.detections if self._keeps(d)]
 

@@ -35,6 +35,7 @@ import numpy as np
 import yaml
 
 from eval.live.video import H264Writer
+from eval.scoring.funnel import Funnel, ObjectView, funnel_json, funnel_rows
 from eval.scoring.map_error import MapErrorResult
 from eval.scoring.map_plot import draw_map, score_layers
 from eval.scoring.report import live_summary, to_json_dict
@@ -42,6 +43,7 @@ from eval.scoring.rules import AnyRules
 from eval.scoring.scorer import ScoreResult, score
 from eval.scoring.truth import truth_rows, write_truth_csv
 from eval.trial.cost import CostClock
+from eval.trial.funnel_recorder import FunnelRecorder
 from eval.trial.outputs import TrialOutputs
 from eval.trial.sensor_settings import mean_drift_multiplier, sensor_settings, simulation_sensor_settings
 from poi.core.geometry import planar_pose, wrap_angle
@@ -71,6 +73,7 @@ class TrialResult:
     skipped_frames: int = 0
     pose_error: dict[str, float] = field(default_factory=dict)
     written: list[str] = field(default_factory=list)  # the outputs in out_dir, e.g. "pois.csv", "live/"
+    funnel: Funnel | None = None  # which stage lost each point (eval.scoring.funnel); None for a map-error preset
 
     @property
     def real_time_factor(self) -> float:
@@ -226,6 +229,49 @@ def pose_error_summary(errors: list[tuple[float, float]]) -> dict[str, float]:
     }
 
 
+def object_views(truth) -> list[ObjectView]:
+    """The funnel's views of the objects a frame's ground truth (``sim.simulator.FrameTruth``) shows."""
+    return [
+        ObjectView(
+            id=v.id,
+            box_xyxy=tuple(round(float(c), 2) for c in v.box_xyxy),
+            visible_fraction=round(float(v.visible_fraction), 4),
+            distance_m=round(float(np.linalg.norm(v.position_cam)), 4),
+            angle_deg=round(float(v.view_angle_deg), 2),
+        )
+        for v in truth.visible
+    ]
+
+
+def funnel_objects(rows) -> list[tuple[int, str, str, int | None]]:
+    """(id, type, text, modules across) of each truth row; modules for a QR code only (its
+    quiet zone included, maze_assets.qr), None where the text cannot be drawn."""
+    from maze_assets.qr import QUIET_MODULES, QrTextureError, qr_modules
+
+    out = []
+    for r in rows:
+        modules = None
+        if r.type == "qr" and r.text:
+            try:
+                modules = int(qr_modules(r.text).shape[0]) + 2 * QUIET_MODULES
+            except (QrTextureError, ValueError):
+                modules = None
+        out.append((int(r.id), str(r.type), str(r.text), modules))
+    return out
+
+
+def write_funnel_csv(path: Path, funnel: Funnel) -> None:
+    """``funnel.csv``: one row an object, one a charged false report (eval.scoring.funnel.CSV_COLUMNS)."""
+    import csv
+
+    from eval.scoring.funnel import CSV_COLUMNS
+
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(CSV_COLUMNS), lineterminator="\n")
+        w.writeheader()
+        w.writerows(funnel_rows(funnel))
+
+
 def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, key: str):
     """Simulate the scenario and run its detectors (the ONNX one at the cache's floor) on every
     frame, keeping what the pipeline after detection reads (eval.trial.perception_cache)."""
@@ -240,7 +286,7 @@ def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, 
     try:
         notes: list[str] = []
         detectors, oracle = make_detectors(detector, rec_cfg, sim, notes)
-        sim.truth_boxes = oracle is not None  # only the oracle reads the frames' truth boxes
+        sim.truth_boxes = True  # the oracle's boxes and the funnel's views
         labelled = any(getattr(d, "label_model", None) is not None for d in detectors)
         reader = find_qr_reader()
         n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
@@ -269,6 +315,8 @@ def record_perception(sc: Scenario, cfg, detector: str, max_frames: int | None, 
                     detections=dets,
                     qr_texts=texts,
                     T_map_tracker_true=np.array(truth.T_map_tracker),
+                    views=object_views(truth),
+                    blur_px=round(float(truth.blur_px), 3),
                 )
             )
         return PerceptionRecord(
@@ -369,9 +417,7 @@ def run_trial(
         if record is None:
             detectors, oracle = make_detectors(detector, cfg, sim, notes)
             uses_oracle = oracle is not None
-            # nothing but the oracle and an on_frame caller reads the frames' truth boxes: without
-            # them the object segmentation render is left out (the same files, less CPU)
-            sim.truth_boxes = uses_oracle or on_frame is not None
+            sim.truth_boxes = True  # the oracle's boxes and the funnel's views of the objects
         else:
             from eval.trial.perception_cache import ReplayDetector
 
@@ -395,10 +441,14 @@ def run_trial(
         writer = PoiWriter(out / "pois.csv", header, robot=cfg.report.robot, mode=cfg.report.mode)
         if record is None:
             n = sim.n_frames if max_frames is None else min(max_frames, sim.n_frames)
-            frames = ((f, t, t.T_map_tracker) for f, t in sim.frames(0, n))
+            frames = ((f, t, t.T_map_tracker, object_views(t), t.blur_px) for f, t in sim.frames(0, n))
         else:
             n = record.n_frames
-            frames = ((f, None, T_true) for f, T_true in record.replay_frames())
+            frames = (
+                (f, None, T_true, fr.views, fr.blur_px)
+                for (f, T_true), fr in zip(record.replay_frames(), record.frames, strict=True)
+            )
+        recorder = FunnelRecorder(funnel_objects(rows), cfg, rules)
         vid = (
             H264Writer(out / "trial.mp4", sim.intrinsics.width, sim.intrinsics.height, sc.sensors.fps)
             if video
@@ -424,7 +474,7 @@ def run_trial(
                 record=record_live,
             )
         try:
-            for frame, truth, T_true in tqdm(
+            for frame, truth, T_true, views, blur_px in tqdm(
                 frames,
                 total=n,
                 desc="trial",
@@ -435,6 +485,7 @@ def run_trial(
                 if oracle is not None:
                     oracle.set_truth(truth)
                 res = pipe.process(frame)
+                recorder.on_frame(views, blur_px, frame, res)
                 if res.skipped_reason:
                     skipped += 1
                 if res.pose_map is not None:
@@ -475,7 +526,13 @@ def run_trial(
         times_s = sim.times_s if record is None else record.times_s
         sim_duration = float(times_s[n - 1]) if n else 0.0
         result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
+        funnel = recorder.funnel(pipe.confirmed(), result, detectors)
+        silent = funnel.activity.note()
+        if silent:
+            notes.append(silent)
         doc = to_json_dict(result)
+        if isinstance(result, ScoreResult):
+            doc["funnel"] = funnel_json(funnel)
         pose_error = pose_error_summary(pose_errors)
         doc["pose_error"] = pose_error
         doc["trial"] = {
@@ -490,6 +547,7 @@ def run_trial(
         outputs.write(
             "score.json", lambda path: path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
         )
+        outputs.write("funnel.csv", lambda path: write_funnel_csv(path, funnel))
         # What the trial cost, up to its score: the one output that differs between reruns, so it has a
         # file of its own and score.json stays the same, byte for byte, for the same seed and config.
         cost_doc = clock.read(sim_duration).to_dict()
@@ -537,4 +595,5 @@ def run_trial(
         skipped_frames=skipped,
         pose_error=pose_error,
         written=outputs.names(),
+        funnel=funnel if isinstance(result, ScoreResult) else None,
     )

@@ -319,7 +319,8 @@ class OnnxYoloDetector:
     (:meth:`_name_placards`). A model class 'hazmat' (or 'placard') finds placards
     without naming them (``poibench train --placards one``); it needs ``label_model``.
     ``last_timing_ms`` holds the last frame's preprocess / inference /
-    postprocess / labels / qr times in milliseconds.
+    postprocess / labels / qr times in milliseconds; ``highest_score`` the best class score of
+    any box of its classes in any frame so far, below ``conf`` or not.
     """
 
     model: str | Path
@@ -338,6 +339,7 @@ class OnnxYoloDetector:
     name: str = field(default="onnx", init=False)
     notes: list[str] = field(default_factory=list, init=False)
     last_timing_ms: dict[str, float] = field(default_factory=dict, init=False)
+    highest_score: float = field(default=0.0, init=False)  # the best class score of any box so far, kept or not
     model_names: list[str] = field(default_factory=list, init=False)
     input_hw: tuple[int, int] = field(default=(0, 0), init=False)
     _session: Any = field(default=None, init=False, repr=False)
@@ -556,7 +558,10 @@ class OnnxYoloDetector:
             cls = np.argmax(np.where(np.isfinite(scores), scores, -np.inf), axis=1)  # (N,)
             top_score = scores[np.arange(len(cls)), cls]  # (N,)
         ours = self._class_to_ours[cls]  # (N,), -1 for ignored classes
-        keep = finite & (top_score >= self.conf) & (ours >= 0)
+        candidate = finite & (ours >= 0)
+        if np.any(candidate):  # the best score of the run, kept or not: a silent detector says how near it came
+            self.highest_score = max(self.highest_score, float(np.max(top_score[candidate])))
+        keep = candidate & (top_score >= self.conf)
         if not np.any(keep):
             return []
         box_in, scores, cls, top_score, ours = (

@@ -1,0 +1,581 @@
+"""The funnel: which stage lost each point of a trial (docs/RULES.md "The funnel").
+
+Every ground-truth object passes, or stops at, the stages of the pipeline in order
+(:data:`STAGES`): in view, boxed, boxed as its type, localised, read, confirmed in a track,
+paired by the scorer, located. :class:`ObjectTrace` holds what a trial saw of one object at
+each stage, frame by frame (:mod:`eval.trial.funnel_recorder` fills it), and
+:class:`TrackTrace` which objects each track's boxes lay on.
+
+:func:`attribute` then gives every lost point exactly one cause, in the manner of TIDE
+([Bolya2020]_: an error is charged to the one fix that would recover its points, so the
+charges add up to the loss):
+
+* an object the scorer left unpaired loses its ``max_points`` to the first stage it did not
+  pass (:data:`OBJECT_CAUSES`), or, when it passed them all, to what became of its report
+  (read wrong in the file, misplaced, or taken by another object's pairing);
+* a paired object that is not located loses the located bonus to ``not located``, and a run
+  whose autonomy multiplier was withheld loses the rest to ``autonomy withheld``;
+* a false report loses its penalty to what its track's boxes lay on
+  (:data:`FALSE_CAUSES`): background, another object, the right object read with a wrong
+  label, a second track of an object already reported, or a report too far from its object.
+
+The sum of the charges equals ``max_total - total`` of the score (:attr:`Funnel.check_ok`);
+the ``tests/eval/scoring/test_funnel.py`` scenarios lose an object at each stage in turn.
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [Bolya2020] D. Bolya, S. Foley, J. Hays, J. Hoffman, "TIDE: A General Toolbox for
+   Identifying Object Detection Errors", ECCV 2020.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from eval.scoring.map_error import MapErrorResult
+from eval.scoring.pairing import STATUS_FALSE, STATUS_IGNORED, STATUS_MISSED, ObjectOutcome, ReportOutcome
+from eval.scoring.rules import Rules
+from eval.scoring.scorer import ScoreResult, identity_of
+
+# The stages, in the order an object passes them (Funnel.per_type counts the objects that passed each)
+STAGES = ("in_view", "boxed", "typed", "localised", "read", "confirmed", "paired", "located")
+# What an object's lost points are charged to; the first six are the first stage it did not pass
+OBJECT_CAUSES = (
+    "not in view",  # the tour never showed it (at least IN_VIEW_FRACTION visible, a box of IN_VIEW_MIN_PX)
+    "not boxed",  # in view, but no box overlapped it with IoU >= BOX_IOU
+    "wrong type",  # boxed, never as its own type
+    "not localised",  # boxed as its type, no box gave an observation (depth, border)
+    "not read",  # localised, its text or label never read right (qr, hazmat, landolt-c)
+    "not confirmed",  # read and localised, but no track of its boxes was confirmed
+    "reported wrong",  # its track was reported with another identity (the tracker's vote)
+    "misplaced",  # its track was reported too far from it to pair
+    "taken",  # its track's report was paired with another object of its identity
+    "not located",  # paired, but beyond the locate radius: the located bonus
+    "autonomy withheld",  # paired, but the run's autonomy multiplier was withheld
+)
+FALSE_CAUSES = (
+    "false: background",  # the track's boxes lay on no object
+    "false: other object",  # on an object of another type
+    "false: wrong label",  # on an object of its type, read with another text or label
+    "false: duplicate",  # a second track of an object already paired
+    "false: misplaced",  # on its object, but reported too far from it
+    "false: unknown",  # no track behind the row (an unreadable row, a team's file)
+)
+CAUSES = OBJECT_CAUSES + FALSE_CAUSES
+# The in-view test: the oracle detector's own (sim/oracle.py OracleSettings): a perfect detector
+# boxes what passes it, so an object that never does is lost to the tour, not to perception
+IN_VIEW_FRACTION = 0.35
+IN_VIEW_MIN_PX = 12.0
+BOX_IOU = 0.5  # a box is on an object when their IoU is at least this ([Bolya2020]'s t_f)
+QR_MIN_MODULE_PX = 3.0  # a QR view counts towards the read rate from this many pixels a module
+TEXT_TYPES = ("hazmat", "qr", "landolt-c")  # their identity includes what was read
+
+
+@dataclass(kw_only=True)
+class ObjectView:
+    """One ground-truth object as one frame shows it: its visible pixels' box, the share of it
+    visible, its distance (m) and, for a flat item, the angle (degrees) between its face normal
+    and the ray to the camera (NaN otherwise)."""
+
+    id: int
+    box_xyxy: tuple[float, float, float, float]
+    visible_fraction: float
+    distance_m: float
+    angle_deg: float = float("nan")
+
+    @property
+    def min_side_px(self) -> float:
+        x1, y1, x2, y2 = self.box_xyxy
+        return min(x2 - x1, y2 - y1)
+
+    def in_view(self) -> bool:
+        """The in-view test (module constants)."""
+        return self.visible_fraction >= IN_VIEW_FRACTION and self.min_side_px >= IN_VIEW_MIN_PX
+
+
+@dataclass(kw_only=True)
+class ObjectTrace:
+    """What a trial saw of one ground-truth object, stage by stage (frame counts)."""
+
+    id: int
+    type: str
+    text: str
+    modules: int | None = None  # a QR code's modules across, quiet zone included
+    in_view_frames: int = 0
+    first_in_view: int | None = None  # frame index
+    best_px: float = 0.0  # the largest short side of its box in view
+    min_distance_m: float = math.inf
+    min_angle_deg: float = math.nan
+    blur_px: list[float] = field(default_factory=list)  # the camera's blur at each in-view frame
+    boxed_frames: int = 0
+    typed_frames: int = 0
+    boxed_as: Counter = field(default_factory=Counter)  # type of the box on it -> frames
+    localised_frames: int = 0
+    not_localised: Counter = field(default_factory=Counter)  # why a box of its type gave no observation
+    read_frames: int = 0
+    read_as: Counter = field(default_factory=Counter)  # text of its localised boxes -> frames
+    qr_views: int = 0  # in-view frames at >= QR_MIN_MODULE_PX a module where the reader was given it
+    qr_decoded: int = 0  # ... and read its text right
+    qr_untried: int = 0  # in-view frames at >= QR_MIN_MODULE_PX a module where it was not given it
+    tracks: Counter = field(default_factory=Counter)  # track id -> observations of it with its identity
+    confirmed_frame: int | None = None  # when the first track of its observations was confirmed (attribute)
+    observations_at_confirmation: int | None = None
+
+    def px_per_module(self) -> float | None:
+        return None if not self.modules else self.best_px / self.modules
+
+
+@dataclass(kw_only=True)
+class TrackTrace:
+    """One track: what its observations' boxes lay on (object id, None for background) and
+    when it was confirmed."""
+
+    track_id: int
+    on: Counter = field(default_factory=Counter)
+    confirmed_frame: int | None = None
+    observations_at_confirmation: int | None = None
+    report_id: int | None = None
+
+    def main_object(self) -> int | None:
+        """The object most of its boxes lay on (None: background); ties to the lower id."""
+        if not self.on:
+            return None
+        return min(self.on, key=lambda k: (-self.on[k], -1 if k is None else k))
+
+
+@dataclass(kw_only=True)
+class Charge:
+    """Points lost to one cause: an object's (``object_id``) or a false report's (``report_line``)."""
+
+    cause: str
+    points: float
+    type: str
+    detail: str
+    object_id: int | None = None
+    report_line: int | None = None
+
+
+@dataclass(kw_only=True)
+class DetectorActivity:
+    """What the detectors gave over a trial: boxes at the run's threshold and the best score."""
+
+    frames: int = 0
+    boxes: int = 0
+    conf: float | None = None
+    highest_score: float | None = None  # the ONNX detector's best score, kept or not (None: not known)
+
+    def note(self) -> str | None:
+        """One line when the detectors boxed nothing, None otherwise."""
+        if self.boxes or not self.frames:
+            return None
+        at = f" at conf >= {self.conf:g}" if self.conf is not None else ""
+        best = "" if self.highest_score is None else f" (highest score {self.highest_score:.2f})"
+        return f"detector: 0 boxes{at} in {self.frames} frames{best}"
+
+
+@dataclass(kw_only=True)
+class Funnel:
+    """The funnel of one trial: each object's trace and stages, the charges, and their sum
+    against the score's loss."""
+
+    objects: list[ObjectTrace]
+    stages: dict[int, dict[str, bool]]  # object id -> stage -> passed
+    charges: list[Charge]
+    lost: float  # the sum of the charges
+    max_minus_score: float  # the score's max_total - total
+    activity: DetectorActivity = field(default_factory=DetectorActivity)
+
+    @property
+    def check_ok(self) -> bool:
+        return abs(self.lost - self.max_minus_score) < 1e-6
+
+    def by_cause(self) -> dict[str, float]:
+        """Points lost per cause, in :data:`CAUSES` order, causes that lost nothing left out."""
+        out: dict[str, float] = {}
+        for c in CAUSES:
+            pts = sum(ch.points for ch in self.charges if ch.cause == c)
+            if pts:
+                out[c] = pts
+        return out
+
+    def per_type(self) -> dict[str, dict[str, float]]:
+        """Per type: objects, how many passed each stage, and the points lost per cause."""
+        out: dict[str, dict[str, float]] = {}
+        for o in self.objects:
+            if o.id not in self.stages:
+                continue
+            row = out.setdefault(o.type, {"objects": 0, **{s: 0 for s in STAGES}})
+            row["objects"] += 1
+            for s, ok in self.stages[o.id].items():
+                row[s] += ok
+        for ch in self.charges:
+            row = out.setdefault(ch.type, {"objects": 0, **{s: 0 for s in STAGES}})
+            row[ch.cause] = row.get(ch.cause, 0) + ch.points
+        return out
+
+
+def _first_missing_stage(o: ObjectTrace, rules: Rules) -> str | None:
+    """The object cause of the first of the six perception stages ``o`` did not pass."""
+    if not o.in_view_frames:
+        return "not in view"
+    if not o.boxed_frames:
+        return "not boxed"
+    if not o.typed_frames:
+        return "wrong type"
+    if not o.localised_frames:
+        return "not localised"
+    if not o.read_frames:
+        return "not read"
+    return None
+
+
+def _stages(o: ObjectTrace, outcome: ObjectOutcome, confirmed: bool) -> dict[str, bool]:
+    paired = outcome.status not in (STATUS_MISSED, STATUS_IGNORED)
+    return {
+        "in_view": o.in_view_frames > 0,
+        "boxed": o.boxed_frames > 0,
+        "typed": o.typed_frames > 0,
+        "localised": o.localised_frames > 0,
+        "read": o.read_frames > 0,
+        "confirmed": confirmed,
+        "paired": paired,
+        "located": bool(outcome.located),
+    }
+
+
+def _perception_detail(cause: str, o: ObjectTrace) -> str:
+    if cause == "not in view":
+        return f"never at least {IN_VIEW_FRACTION:.0%} visible with a box of {IN_VIEW_MIN_PX:g} px"
+    blur = sorted(o.blur_px)
+    median_blur = blur[len(blur) // 2] if blur else 0.0
+    seen = (
+        f"in view {o.in_view_frames} frames, best {o.best_px:.0f} px, nearest {o.min_distance_m:.2f} m"
+        + ("" if math.isnan(o.min_angle_deg) else f", angle from {o.min_angle_deg:.0f} deg")
+        + f", blur {median_blur:.1f} px median"
+    )
+    if cause == "not boxed":
+        return seen
+    if cause == "wrong type":
+        kind, n = o.boxed_as.most_common(1)[0]
+        return f"boxed {o.boxed_frames} frames, as {kind} in {n}"
+    if cause == "not localised":
+        why = ", ".join(f"{k} {n}" for k, n in sorted(o.not_localised.items()))
+        return f"boxed as {o.type} in {o.typed_frames} frames, no observation ({why or 'no reason recorded'})"
+    if cause == "not read":
+        if o.type == "qr":
+            ppm = o.px_per_module()
+            at = "" if ppm is None else f", best {ppm:.1f} px a module"
+            return (
+                f"localised {o.localised_frames} frames; the reader was given {o.qr_views} views at >= "
+                f"{QR_MIN_MODULE_PX:g} px a module (and not {o.qr_untried}){at}: none decoded"
+            )
+        read = ", ".join(f"{t or 'nothing'} {n}" for t, n in o.read_as.most_common(3))
+        return f"localised {o.localised_frames} frames, read as {read}"
+    return seen
+
+
+def attribute(
+    traces: list[ObjectTrace],
+    tracks: dict[int, TrackTrace],
+    result: ScoreResult | MapErrorResult,
+    truth_ids: dict[int, int],
+    activity: DetectorActivity | None = None,
+) -> Funnel:
+    """Charge every point ``result`` lost to one cause (module docstring).
+
+    ``traces`` are the ground-truth objects' traces, ``tracks`` the traces of the tracks by track
+    id (with their ``report_id`` set for those reported), ``truth_ids`` maps the truth file's row
+    id (``ObjectOutcome.id``) to the object id of the traces (the same in a trial). A map-error
+    result (no points) gives the stages and no charges.
+    """
+    by_id = {o.id: o for o in traces}
+    report_track = {t.report_id: t for t in tracks.values() if t.report_id is not None}
+    confirmed_by_object: dict[int, list[TrackTrace]] = {}
+    for t in tracks.values():
+        if t.confirmed_frame is None:
+            continue
+        for oid in t.on:
+            if oid is not None:
+                confirmed_by_object.setdefault(oid, []).append(t)
+    stages: dict[int, dict[str, bool]] = {}
+    charges: list[Charge] = []
+    points_result = isinstance(result, ScoreResult)
+    rules = result.rules if points_result else None
+    reports_by_id = {r.id: r for r in result.reports if r.id is not None}
+    for outcome in result.objects:
+        if outcome.status == STATUS_IGNORED:
+            continue
+        oid = truth_ids.get(outcome.id, outcome.id)
+        o = by_id.get(oid)
+        if o is None:
+            continue
+        mine = [t for t in confirmed_by_object.get(oid, []) if o.tracks.get(t.track_id)]
+        if mine:
+            first = min(mine, key=lambda t: (t.confirmed_frame, t.track_id))
+            o.confirmed_frame, o.observations_at_confirmation = (
+                first.confirmed_frame,
+                first.observations_at_confirmation,
+            )
+        stages[oid] = _stages(o, outcome, bool(mine))
+        if rules is None:
+            continue
+        max_pts = rules.max_points(o.type)
+        lost = max_pts - float(outcome.points)
+        if lost <= 0:
+            continue
+        if outcome.status != STATUS_MISSED:
+            charges.extend(_paired_charges(o, outcome, rules, lost, result))
+            continue
+        cause = _first_missing_stage(o, rules)
+        detail = "" if cause is None else _perception_detail(cause, o)
+        if cause is None:
+            cause, detail = _report_fate(o, mine, reports_by_id, report_track, rules)
+        charges.append(Charge(cause=cause, points=lost, type=o.type, detail=detail, object_id=oid))
+    if rules is not None:
+        for r in result.reports:
+            if r.status == STATUS_FALSE and r.points:
+                charges.append(_false_charge(r, report_track, by_id, result, rules))
+    max_minus = float(result.max_total - result.total) if points_result else 0.0
+    return Funnel(
+        objects=traces,
+        stages=stages,
+        charges=charges,
+        lost=float(sum(c.points for c in charges)),
+        max_minus_score=max_minus,
+        activity=activity or DetectorActivity(),
+    )
+
+
+def _paired_charges(
+    o: ObjectTrace, outcome: ObjectOutcome, rules: Rules, lost: float, result: ScoreResult
+) -> list[Charge]:
+    """A paired object's loss: the located bonus to ``not located``, the multiplier to
+    ``autonomy withheld`` (its points were not multiplied)."""
+    rule = rules.types[o.type]
+    plain = rule.located_points if outcome.located and rule.located_points is not None else rule.points
+    out: list[Charge] = []
+    if math.isclose(float(outcome.points), float(plain)):  # not multiplied
+        bonus = 0.0 if outcome.located or rule.located_points is None else rule.located_points - rule.points
+        rest = lost - bonus
+    else:  # multiplied: all of the loss is the located bonus, times the multiplier
+        bonus, rest = lost, 0.0
+    if bonus > 0:
+        d = "" if outcome.distance_m is None else f"reported {outcome.distance_m:.2f} m from it"
+        out.append(Charge(cause="not located", points=bonus, type=o.type, detail=d, object_id=o.id))
+    if rest > 0:
+        why = (result.autonomy or {}).get("reason", "")
+        out.append(Charge(cause="autonomy withheld", points=rest, type=o.type, detail=why, object_id=o.id))
+    return out
+
+
+def _report_fate(
+    o: ObjectTrace,
+    mine: list[TrackTrace],
+    reports_by_id: dict[int, ReportOutcome],
+    report_track: dict[int, TrackTrace],
+    rules: Rules,
+) -> tuple[str, str]:
+    """The cause of an object that passed every perception stage and still went unpaired."""
+    if not mine:
+        n = sum(o.tracks.values())
+        return "not confirmed", f"{n} observations with its identity in {len(o.tracks)} track(s), none confirmed"
+    want = identity_of(o.type, o.text, rules)
+    best = max(mine, key=lambda t: (o.tracks[t.track_id], -t.track_id))
+    rep = reports_by_id.get(best.report_id) if best.report_id is not None else None
+    if rep is None:
+        return "not confirmed", f"track {best.track_id} confirmed but not in the file"
+    got = identity_of(rep.type, rep.text, rules) if rep.type in rules.types else None
+    if got != want:
+        return "reported wrong", f"track {best.track_id} reported as {rep.type} {rep.text!r}".rstrip()
+    if rep.object_id is not None and rep.status != STATUS_FALSE:
+        return "taken", f"its report {rep.id} was paired with object {rep.object_id}"
+    return "misplaced", f"report {rep.id}: {rep.reason}"
+
+
+def _false_charge(
+    r: ReportOutcome,
+    report_track: dict[int, TrackTrace],
+    by_id: dict[int, ObjectTrace],
+    result: ScoreResult,
+    rules: Rules,
+) -> Charge:
+    """A false report's penalty, charged to what its track's boxes lay on."""
+    pts = -float(r.points)
+    kind = r.type or "unknown"
+    t = report_track.get(r.id) if r.id is not None else None
+    if t is None:
+        return Charge(cause="false: unknown", points=pts, type=kind, detail=r.reason, report_line=r.line)
+    oid = t.main_object()
+    where = f"at ({r.x:.2f}, {r.y:.2f})" if r.x is not None and r.y is not None else ""
+    if oid is None or oid not in by_id:
+        return Charge(
+            cause="false: background", points=pts, type=kind, detail=f"{kind} {where}", report_line=r.line
+        )
+    o = by_id[oid]
+    if o.type != r.type:
+        detail = f"{r.type} on object {oid} ({o.type})"
+        return Charge(cause="false: other object", points=pts, type=kind, detail=detail, report_line=r.line)
+    if identity_of(o.type, o.text, rules) != identity_of(r.type, r.text, rules):
+        detail = f"object {oid} {o.text!r} read as {r.text!r}"
+        return Charge(cause="false: wrong label", points=pts, type=kind, detail=detail, report_line=r.line)
+    if r.reason.startswith("duplicate") or any(
+        ob.status not in (STATUS_MISSED, STATUS_IGNORED) and ob.id == oid for ob in result.objects
+    ):
+        detail = f"a second track ({t.track_id}) of object {oid}"
+        return Charge(cause="false: duplicate", points=pts, type=kind, detail=detail, report_line=r.line)
+    return Charge(cause="false: misplaced", points=pts, type=kind, detail=r.reason, report_line=r.line)
+
+
+# ------------------------------------------------------------------------------ output
+
+CSV_COLUMNS = (
+    "kind",
+    "id",
+    "type",
+    "text",
+    "in_view",
+    "best_px",
+    "min_distance_m",
+    "min_angle_deg",
+    "median_blur_px",
+    "boxed",
+    "typed",
+    "localised",
+    "read",
+    "qr_views",
+    "qr_decoded",
+    "tracks",
+    "confirmed_frame",
+    "points_lost",
+    "lost_to",
+    "detail",
+)
+
+
+def _r(v: float | None, k: int = 2) -> Any:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    return round(float(v), k)
+
+
+def funnel_rows(f: Funnel) -> list[dict[str, Any]]:
+    """One row an object, then one a charged false report (:data:`CSV_COLUMNS`)."""
+    by_object: dict[int, list[Charge]] = {}
+    for ch in f.charges:
+        if ch.object_id is not None:
+            by_object.setdefault(ch.object_id, []).append(ch)
+    rows = []
+    for o in f.objects:
+        if o.id not in f.stages:
+            continue
+        chs = by_object.get(o.id, [])
+        blur = sorted(o.blur_px)
+        rows.append(
+            {
+                "kind": "object",
+                "id": o.id,
+                "type": o.type,
+                "text": o.text,
+                "in_view": o.in_view_frames,
+                "best_px": _r(o.best_px, 1),
+                "min_distance_m": _r(o.min_distance_m),
+                "min_angle_deg": _r(o.min_angle_deg, 1),
+                "median_blur_px": _r(blur[len(blur) // 2] if blur else None, 1),
+                "boxed": o.boxed_frames,
+                "typed": o.typed_frames,
+                "localised": o.localised_frames,
+                "read": o.read_frames,
+                "qr_views": o.qr_views if o.type == "qr" else "",
+                "qr_decoded": o.qr_decoded if o.type == "qr" else "",
+                "tracks": len(o.tracks),
+                "confirmed_frame": "" if o.confirmed_frame is None else o.confirmed_frame,
+                "points_lost": _r(sum(c.points for c in chs), 3),
+                "lost_to": "; ".join(c.cause for c in chs),
+                "detail": "; ".join(c.detail for c in chs),
+            }
+        )
+    for ch in f.charges:
+        if ch.report_line is None:
+            continue
+        row = dict.fromkeys(CSV_COLUMNS, "")
+        row.update(kind="false report", id=ch.report_line, type=ch.type, points_lost=_r(ch.points, 3))
+        row.update(lost_to=ch.cause, detail=ch.detail)
+        rows.append(row)
+    return rows
+
+
+def funnel_json(f: Funnel) -> dict[str, Any]:
+    """The funnel as ``score.json`` carries it: per type, per cause, the check, the charges."""
+    return {
+        "stages": list(STAGES),
+        "per_type": {t: {k: _r(v, 3) for k, v in row.items()} for t, row in f.per_type().items()},
+        "lost_by_cause": {k: _r(v, 3) for k, v in f.by_cause().items()},
+        "lost": _r(f.lost, 3),
+        "max_minus_score": _r(f.max_minus_score, 3),
+        "check": "ok" if f.check_ok else "MISMATCH",
+        "charges": [{k: v for k, v in asdict(c).items() if v is not None} for c in f.charges],
+        "detector": {k: v for k, v in asdict(f.activity).items() if v is not None},
+    }
+
+
+def format_funnel(per_type: dict[str, dict[str, float]], lost: float, max_minus_score: float | None) -> str:
+    """The compact per-type table printed after a score (or summed over a suite): objects, how
+    many passed each stage, the points lost and to what; then the check line."""
+    header = [
+        "type",
+        "objects",
+        "in view",
+        "boxed",
+        "typed",
+        "localised",
+        "read",
+        "confirmed",
+        "paired",
+        "located",
+        "lost",
+        "lost to",
+    ]
+    rows = []
+    for t in sorted(per_type):
+        row = per_type[t]
+        causes = [(c, row[c]) for c in CAUSES if row.get(c)]
+        lost_t = sum(v for _, v in causes)
+        rows.append(
+            [
+                t,
+                _g(row["objects"]),
+                *(_g(row[s]) for s in STAGES),
+                _g(lost_t),
+                ", ".join(f"{c} {_g(v)}" for c, v in causes),
+            ]
+        )
+    widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
+    lines = ["Funnel (objects passing each stage; points lost, each to one cause)"]
+    lines.append("  ".join(str(h).ljust(w) for h, w in zip(header, widths, strict=True)).rstrip())
+    lines.append("  ".join("-" * w for w in widths))
+    for r in rows:
+        lines.append("  ".join(str(v).ljust(w) for v, w in zip(r, widths, strict=True)).rstrip())
+    if max_minus_score is not None:
+        verdict = "ok" if abs(lost - max_minus_score) < 1e-6 else "MISMATCH"
+        lines.append(f"lost {_g(lost)} = max - score {_g(max_minus_score)}: {verdict}")
+    return "\n".join(lines)
+
+
+def _g(v: float) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def sum_per_type(tables: list[dict[str, dict[str, float]]]) -> dict[str, dict[str, float]]:
+    """Several trials' :meth:`Funnel.per_type` tables summed type by type (a suite's funnel)."""
+    out: dict[str, dict[str, float]] = {}
+    for table in tables:
+        for t, row in table.items():
+            acc = out.setdefault(t, {"objects": 0, **{s: 0 for s in STAGES}})
+            for k, v in row.items():
+                acc[k] = acc.get(k, 0) + v
+    return out

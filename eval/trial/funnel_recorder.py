@@ -1,0 +1,216 @@
+"""Fills a trial's funnel frame by frame (:mod:`eval.scoring.funnel`).
+
+Per frame, :meth:`FunnelRecorder.on_frame` takes the ground truth's views of the objects
+(:class:`eval.scoring.funnel.ObjectView`, from the simulator's segmentation render or a
+perception record), the camera's blur and the pipeline's :class:`poi.pipeline.FrameResult`,
+and
+
+1. counts each object in view (the oracle's own test: at least ``IN_VIEW_FRACTION`` visible,
+   a box of ``IN_VIEW_MIN_PX``), with its box size, distance, viewing angle and the blur;
+2. pairs the frame's boxes with the objects' visible boxes one to one, greedily by IoU, at
+   IoU >= ``BOX_IOU`` (the usual detection match, [Bolya2020]_), and counts per object the
+   frames it was boxed, boxed as its type, localised (the box gave an observation; if not,
+   why: a skipped frame, too little depth in the box, or the rest of localisation's tests),
+   and read (the observation's identity is the object's);
+3. counts each QR view at ``QR_MIN_MODULE_PX`` a module or more that the reader was given,
+   and whether it read it right;
+4. notes which objects each track's observations lay on, and when each track was confirmed.
+
+:meth:`FunnelRecorder.funnel` hands that to :func:`eval.scoring.funnel.attribute` with the score.
+
+References
+----------
+.. [Bolya2020] D. Bolya et al., "TIDE: A General Toolbox for Identifying Object Detection
+   Errors", ECCV 2020 (docs/SOURCES.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from eval.scoring.funnel import (
+    BOX_IOU,
+    QR_MIN_MODULE_PX,
+    TEXT_TYPES,
+    DetectorActivity,
+    Funnel,
+    ObjectTrace,
+    ObjectView,
+    TrackTrace,
+    attribute,
+)
+from eval.scoring.map_error import MapErrorResult
+from eval.scoring.rules import AnyRules
+from eval.scoring.scorer import ScoreResult
+from poi.core.types import Detection, Frame, TrackSnapshot
+from poi.estimation.localize import box_depth
+
+# sources of the helpers that run beside a trial's detector (heat, Landolt-C rings, QR finder):
+# their boxes do not say whether the detector itself boxes anything
+HELPER_SOURCES = frozenset({"thermal", "landolt", "qr"})
+
+
+def box_ious(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """IoU of every box of ``a`` (n, 4) with every box of ``b`` (m, 4), x1 y1 x2 y2: (n, m).
+
+    >>> box_ious(np.array([[0, 0, 2, 2.0]]), np.array([[1, 0, 3, 2.0], [5, 5, 6, 6.0]])).round(3).tolist()
+    [[0.333, 0.0]]
+    """
+    a = np.asarray(a, dtype=float).reshape(-1, 4)
+    b = np.asarray(b, dtype=float).reshape(-1, 4)
+    ix = np.clip(np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0]), 0, None)
+    iy = np.clip(np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1]), 0, None)
+    inter = ix * iy
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    union = area_a[:, None] + area_b[None, :] - inter
+    return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+
+
+def match_boxes(
+    dets: Sequence[Detection], views: Sequence[ObjectView], iou_min: float = BOX_IOU
+) -> dict[int, int]:
+    """Detection index -> view index, one to one, greedily by IoU (highest first) at ``iou_min``.
+
+    >>> v = [ObjectView(id=3, box_xyxy=(0, 0, 10, 10), visible_fraction=1.0, distance_m=1.0)]
+    >>> d = [Detection(class_name="qr", type="qr", text="", box_xyxy=(1, 1, 10, 10), confidence=0.9)]
+    >>> match_boxes(d, v)
+    {0: 0}
+    """
+    if not dets or not views:
+        return {}
+    iou = box_ious(np.array([d.box_xyxy for d in dets]), np.array([v.box_xyxy for v in views]))
+    ks, js = np.nonzero(iou >= iou_min)
+    order = np.lexsort((js, ks, -iou[ks, js]))  # highest IoU first; ties by detection, then view
+    out: dict[int, int] = {}
+    taken: set[int] = set()
+    for i in order:
+        k, j = int(ks[i]), int(js[i])
+        if k in out or j in taken:
+            continue
+        out[k] = j
+        taken.add(j)
+    return out
+
+
+class FunnelRecorder:
+    """The funnel's per-frame counts for one trial (module docstring).
+
+    ``objects``: (id, type, text, modules) of every ground-truth object, ``modules`` a QR
+    code's modules across (quiet zone included; None for other types); ``cfg`` the trial's
+    pipeline configuration (its localisation settings say why a box gave no observation);
+    ``rules`` the scoring preset (what identity a read must give).
+    """
+
+    def __init__(self, objects: Iterable[tuple[int, str, str, int | None]], cfg, rules: AnyRules) -> None:
+        self.traces = {
+            oid: ObjectTrace(id=oid, type=t, text=text, modules=modules) for oid, t, text, modules in objects
+        }
+        self.tracks: dict[int, TrackTrace] = {}
+        self.cfg = cfg
+        self.rules = rules
+        self.activity = DetectorActivity(conf=float(cfg.detector.conf))
+
+    def _same_identity(self, det: Detection, o: ObjectTrace) -> bool:
+        """Whether a box's type and text are the object's identity (docs/RULES.md rule 1)."""
+        if det.type != o.type:
+            return False
+        if o.type not in TEXT_TYPES:
+            return True
+        if o.type == "landolt-c" and hasattr(self.rules, "landolt_identity") and self.rules.landolt_rings:
+            mine = self.rules.landolt_identity(o.text)
+            return mine is not None and self.rules.landolt_identity(det.text) == mine
+        return bool(det.text) and det.text == o.text
+
+    def _why_not_localised(self, det: Detection, frame: Frame, skipped: str | None) -> str:
+        if skipped:
+            return skipped
+        lc = self.cfg.localize
+        d = box_depth(
+            frame.depth_m,
+            det.box_xyxy,
+            lc.inner_fraction,
+            lc.min_depth_fill,
+            split_m=lc.depth_split_m,
+            max_split=lc.max_depth_split,
+        )
+        if d is None:
+            return "depth fill"
+        if not lc.min_depth_m <= d * lc.depth_scale <= lc.max_depth_m:
+            return "depth range"
+        return "border or pose"
+
+    def on_frame(self, views: Sequence[ObjectView], blur_px: float, frame: Frame, res) -> None:
+        """Count one frame: its truth ``views``, the camera's ``blur_px`` and the pipeline's result."""
+        views = [v for v in views if v.id in self.traces]
+        for v in views:
+            if not v.in_view():
+                continue
+            o = self.traces[v.id]
+            o.in_view_frames += 1
+            if o.first_in_view is None:
+                o.first_in_view = frame.index
+            o.best_px = max(o.best_px, v.min_side_px)
+            o.min_distance_m = min(o.min_distance_m, v.distance_m)
+            if np.isfinite(v.angle_deg):
+                o.min_angle_deg = v.angle_deg if np.isnan(o.min_angle_deg) else min(o.min_angle_deg, v.angle_deg)
+            o.blur_px.append(round(float(blur_px), 3))
+        dets = res.detections
+        self.activity.frames += 1
+        self.activity.boxes += sum(d.source not in HELPER_SOURCES for d in dets)
+        observed = set(res.observed)
+        tried = set(res.qr_tried)
+        on = match_boxes(dets, views)
+        for k, j in on.items():
+            det, v = dets[k], views[j]
+            o = self.traces[v.id]
+            o.boxed_frames += 1
+            o.boxed_as[det.type] += 1
+            if det.type != o.type:
+                continue
+            o.typed_frames += 1
+            if o.type == "qr" and v.in_view() and o.modules and v.min_side_px / o.modules >= QR_MIN_MODULE_PX:
+                if k in tried:
+                    o.qr_views += 1
+                    o.qr_decoded += det.text == o.text
+                else:
+                    o.qr_untried += 1
+            if k not in observed:
+                o.not_localised[self._why_not_localised(det, frame, res.skipped_reason)] += 1
+                continue
+            o.localised_frames += 1
+            o.read_as[det.text] += 1
+            o.read_frames += self._same_identity(det, o)
+            if det.track_id is not None:
+                o.tracks[det.track_id] += 1
+        for k in observed:
+            tid = dets[k].track_id
+            if tid is None:
+                continue
+            t = self.tracks.setdefault(tid, TrackTrace(track_id=tid))
+            j = on.get(k)
+            t.on[None if j is None else views[j].id] += 1
+        for snap in res.newly_confirmed:
+            t = self.tracks.setdefault(snap.track_id, TrackTrace(track_id=snap.track_id))
+            t.confirmed_frame = res.frame_index
+            t.observations_at_confirmation = snap.n_detections
+
+    def funnel(
+        self,
+        confirmed: Sequence[TrackSnapshot],
+        result: ScoreResult | MapErrorResult,
+        detectors: Sequence = (),
+    ) -> Funnel:
+        """The trial's funnel: the tracks reported (``confirmed``, the pipeline's snapshots at
+        the end) and the score; ``detectors`` give their ``highest_score`` where they keep one."""
+        for snap in confirmed:
+            if snap.report_id is not None and snap.track_id in self.tracks:
+                self.tracks[snap.track_id].report_id = snap.report_id
+        scores = [getattr(d, "highest_score", None) for d in detectors]
+        scores = [s for s in scores if s is not None]
+        if scores:
+            self.activity.highest_score = round(float(max(scores)), 4)
+        ids = {oid: oid for oid in self.traces}
+        return attribute(list(self.traces.values()), self.tracks, result, ids, self.activity)

@@ -1,0 +1,260 @@
+"""The funnel (eval/scoring/funnel.py, eval/trial/funnel_recorder.py): hand-built trials in which
+one object is lost at each stage in turn, each charged to that stage, the charges adding up to
+max minus score."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from eval.scoring.funnel import (
+    IN_VIEW_FRACTION,
+    DetectorActivity,
+    ObjectView,
+    format_funnel,
+    funnel_json,
+    funnel_rows,
+    sum_per_type,
+)
+from eval.scoring.rules import load_rules
+from eval.scoring.scorer import score
+from eval.trial.funnel_recorder import FunnelRecorder, match_boxes
+from poi.config import load_config
+from poi.core.poi_file import PoiHeader, PoiRow, format_poi_text, parse_poi_text
+from poi.core.types import Detection, Frame, Intrinsics, TrackSnapshot
+from poi.pipeline import FrameResult
+
+EX3 = load_rules("ex3")
+RMRC = load_rules("rmrc2025")
+HEADER = PoiHeader(team="t", country="c", date="2025-01-01", start_time="10:00:00", mission="m")
+INTR = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=320.0, ppy=240.0)
+BOX = (100.0, 100.0, 160.0, 160.0)  # every object's visible box in the hand-built frames (60 px)
+
+
+def row(id_: int, type_: str, x: float, y: float = 0.0, text: str = "", mode: str = "T") -> PoiRow:
+    return PoiRow(line=0, id=id_, time="10:00:01", text=text, x=x, y=y, z=0.0, robot="r", mode=mode, type=type_)
+
+
+def poi(*rows: PoiRow):
+    return parse_poi_text(format_poi_text(HEADER, list(rows)))
+
+
+def det(type_: str, text: str = "", track: int | None = None, box=BOX) -> Detection:
+    return Detection(class_name=text or type_, type=type_, text=text, box_xyxy=box, confidence=0.9, track_id=track)
+
+
+def snap(track: int, report: int | None, type_: str, n: int = 3) -> TrackSnapshot:
+    return TrackSnapshot(
+        track_id=track,
+        report_id=report,
+        type=type_,
+        text="",
+        position_map=np.zeros(3),
+        covariance=np.eye(3),
+        first_seen_s=0.0,
+        support=1.0,
+        n_detections=n,
+        confirmed=report is not None,
+    )
+
+
+def frame(k: int, depth: float = 1.0) -> Frame:
+    return Frame(
+        index=k,
+        timestamp_s=0.1 * k,
+        rgb=np.zeros((0, 0, 3), np.uint8),
+        intrinsics=INTR,
+        depth_m=np.full((480, 640), depth, np.float32),
+        pose=np.eye(4),
+    )
+
+
+def view(oid: int, fraction: float = 1.0, box=BOX) -> ObjectView:
+    return ObjectView(id=oid, box_xyxy=box, visible_fraction=fraction, distance_m=1.0, angle_deg=10.0)
+
+
+def result(k: int, dets: list[Detection], observed: list[int], confirmed=(), qr_tried=()) -> FrameResult:
+    return FrameResult(
+        frame_index=k,
+        timestamp_s=0.1 * k,
+        detections=dets,
+        observations=[],
+        newly_confirmed=list(confirmed),
+        observed=list(observed),
+        qr_tried=list(qr_tried),
+    )
+
+
+# The truth: one object lost at each stage, and the objects the false reports lie on.
+TRUTH = [
+    (0, "door", "", 10.0),  # never in view: "not in view"
+    (1, "valve", "", 20.0),  # in view, never boxed: "not boxed"
+    (2, "baby-doll", "", 30.0),  # boxed as a door: "wrong type"
+    (3, "fire-extinguisher", "", 40.0),  # boxed as its type, no depth in its box: "not localised"
+    (4, "qr", "Chart A", 50.0),  # localised, its text never read: "not read"
+    (5, "hazmat", "explosive", 60.0),  # read, its track never confirmed: "not confirmed"
+    (6, "hazmat", "flammable-gas", 70.0),  # its track reported as poison: "reported wrong"
+    (7, "exit-sign", "", 80.0),  # reported 1.5 m off: paired, "not located"
+    (8, "exit-sign", "", 90.0),  # reported 3 m off: "misplaced"
+    (9, "fire-extinguisher-sign", "", 100.0),  # two tracks reported: one pairs, one a duplicate
+]
+
+
+def truth_file():
+    return poi(*(row(i, t, x, text=text) for i, t, text, x in TRUTH))
+
+
+def run_recorder(rules=EX3):
+    """Twelve frames through the recorder, each object seen as its comment in TRUTH says."""
+    objects = [(i, t, text, 10 if t == "qr" else None) for i, t, text, _ in TRUTH]  # QR: 5 px a module
+    rec = FunnelRecorder(objects, load_config(), rules)
+    confirmed_at = {6: [snap(16, 1, "hazmat")], 7: [snap(17, 2, "exit-sign"), snap(18, 3, "exit-sign")]}
+    for k in range(12):
+        # each object in a 50 px box of its own, 60 px apart; object 0 under the in-view fraction
+        views = [
+            view(i, IN_VIEW_FRACTION - 0.1 if i == 0 else 1.0, box=(60.0 * i, 0.0, 60.0 * i + 50, 50.0))
+            for i in range(10)
+        ]
+        box = {v.id: v.box_xyxy for v in views}
+        dets = [
+            det("door", box=box[2]),  # on the doll, as a door; not localised
+            det("fire-extinguisher", box=box[3]),  # not localised (frame has no depth there)
+            det("qr", "", track=14, box=box[4]),
+            det("hazmat", "explosive", track=15, box=box[5]),
+            det("hazmat", "flammable-gas", track=16, box=box[6]),
+            det("exit-sign", track=17, box=box[7]),
+            det("exit-sign", track=18, box=box[8]),
+            det("fire-extinguisher-sign", track=19, box=box[9]),
+            det("valve", track=21, box=(500.0, 400.0, 560.0, 460.0)),  # on nothing: background
+        ]
+        observed = [2, 3, 4, 5, 6, 7, 8]  # the door box and the extinguisher's give no observation
+        conf = confirmed_at.get(k, [])
+        if k == 8:
+            conf = [snap(19, 4, "fire-extinguisher-sign"), snap(21, 5, "valve")]
+        f = frame(k, depth=0.0)  # no valid depth anywhere: why the extinguisher is not localised
+        rec.on_frame(views, 2.5, f, result(k, dets, observed, conf, qr_tried=[2]))
+        # the duplicate track 20: a second box on object 9, in frames of its own
+        second = det("fire-extinguisher-sign", track=20, box=(box[9][0] + 2, 2.0, box[9][2] + 2, 52.0))
+        rec.on_frame(views[9:], 0.0, frame(100 + k), result(100 + k, [second], [0], [snap(20, 6, "x")] * (k == 9)))
+    return rec
+
+
+REPORTS = [
+    row(1, "hazmat", 70.0, text="poison"),  # track 16: object 6 read as poison
+    row(2, "exit-sign", 80.0, 1.5),  # track 17: 1.5 m off object 7
+    row(3, "exit-sign", 90.0, 3.0),  # track 18: 3 m off object 8
+    row(4, "fire-extinguisher-sign", 100.0),  # track 19: object 9
+    row(5, "valve", 500.0, 500.0),  # track 21: background
+    row(6, "fire-extinguisher-sign", 100.0, 0.1),  # track 20: object 9 again
+]
+FINAL = [
+    snap(16, 1, "hazmat"),
+    snap(17, 2, "exit-sign"),
+    snap(18, 3, "exit-sign"),
+    snap(19, 4, "fire-extinguisher-sign"),
+    snap(21, 5, "valve"),
+    snap(20, 6, "fire-extinguisher-sign"),
+]
+
+
+def test_each_object_is_charged_to_the_stage_it_was_lost_at_and_the_charges_add_up() -> None:
+    rec = run_recorder()
+    res = score(poi(*REPORTS), truth_file(), EX3)
+    f = rec.funnel(FINAL, res)
+    by_object = {c.object_id: (c.cause, c.points) for c in f.charges if c.object_id is not None}
+    assert by_object == {
+        0: ("not in view", 10),
+        1: ("not boxed", 6),
+        2: ("wrong type", 10),
+        3: ("not localised", 6),
+        4: ("not read", 2),
+        5: ("not confirmed", 2),
+        6: ("reported wrong", 2),
+        7: ("not located", 1),  # 2 located - 1 identified
+        8: ("misplaced", 2),
+    }
+    by_report = {c.report_line: (c.cause, c.points) for c in f.charges if c.report_line is not None}
+    line = {r.id: r.line for r in res.reports}
+    assert by_report == {
+        line[1]: ("false: wrong label", 1),
+        line[3]: ("false: misplaced", 1),
+        line[5]: ("false: background", 3),
+        line[6]: ("false: duplicate", 1),
+    }
+    # hand-computed: max 10+6+10+6+2+2+2+2+2+2 = 44; won 1 (object 7) + 2 (object 9); lost 1+1+3+1 = 6
+    assert res.max_total == 44 and res.total == 3 - 6
+    assert f.lost == pytest.approx(44 - (3 - 6))
+    assert f.check_ok
+    assert f.by_cause()["not in view"] == 10
+
+
+def test_the_recorder_counts_the_stages_and_why_a_box_gave_no_observation() -> None:
+    rec = run_recorder()
+    t = rec.traces
+    assert t[0].in_view_frames == 0  # under the in-view fraction every frame
+    assert t[1].in_view_frames == 12 and t[1].boxed_frames == 0
+    assert t[2].boxed_as == {"door": 12} and t[2].typed_frames == 0
+    assert t[3].typed_frames == 12 and t[3].not_localised == {"depth fill": 12}
+    assert t[4].localised_frames == 12 and t[4].read_frames == 0
+    assert (t[4].qr_views, t[4].qr_decoded) == (12, 0)  # 50 px / 10 modules: given to the reader, not read
+    assert t[5].read_frames == 12 and t[5].tracks == {15: 12}
+    assert t[9].boxed_frames == 24 and set(t[9].tracks) == {19, 20}
+    assert rec.tracks[21].main_object() is None  # its boxes lay on nothing
+    assert rec.tracks[16].confirmed_frame == 6 and rec.tracks[16].observations_at_confirmation == 3
+
+
+def test_a_qr_view_counts_towards_the_read_rate_only_from_three_pixels_a_module() -> None:
+    rec = FunnelRecorder([(0, "qr", "Chart A", 29)], load_config(), EX3)
+    small = (0.0, 0.0, 86.0, 86.0)  # 86 / 29 = 2.97 px a module
+    large = (0.0, 0.0, 88.0, 88.0)  # 3.03 px
+    for k, (b, text) in enumerate([(small, ""), (large, ""), (large, "Chart A"), (large, "Chart B")]):
+        rec.on_frame(
+            [view(0, box=b)], 0.0, frame(k), result(k, [det("qr", text, track=1, box=b)], [0], qr_tried=[0])
+        )
+    o = rec.traces[0]
+    assert (o.qr_views, o.qr_decoded, o.read_frames) == (3, 1, 1)
+
+
+def test_autonomy_withheld_is_charged_to_the_multiplier_and_a_false_report_to_its_track() -> None:
+    truth = poi(row(0, "hazmat", 0.0, text="explosive"), row(1, "hazmat", 5.0, text="poison"))
+    reports = poi(
+        row(1, "hazmat", 0.0, text="explosive", mode="A"), row(2, "hazmat", 5.0, text="corrosive", mode="A")
+    )
+    rec = FunnelRecorder([(0, "hazmat", "explosive", None), (1, "hazmat", "poison", None)], load_config(), RMRC)
+    b1 = (300.0, 100.0, 360.0, 160.0)
+    dets = [det("hazmat", "explosive", track=1), det("hazmat", "corrosive", track=2, box=b1)]
+    rec.on_frame([view(0), view(1, box=b1)], 0.0, frame(0), result(0, dets, [0, 1]))
+    res = score(reports, truth, RMRC)
+    f = rec.funnel([snap(1, 1, "hazmat"), snap(2, 2, "hazmat")], res)
+    causes = sorted((c.cause, c.points) for c in f.charges)
+    # rmrc2025: a label scores 1, x4 autonomous; a false report withholds the multiplier and costs 0
+    assert causes == [("autonomy withheld", 3), ("not read", 4)]  # its boxes read corrosive
+    assert f.check_ok and f.lost == res.max_total - res.total == 7
+
+
+def test_boxes_pair_one_to_one_by_iou_from_half() -> None:
+    v = [view(0, box=(0, 0, 10, 10)), view(1, box=(20, 0, 30, 10))]
+    d = [det("door", box=(0, 0, 10, 12)), det("door", box=(1, 0, 10, 10)), det("door", box=(24, 0, 34, 10))]
+    # d1 (IoU 0.9) wins object 0 over d0 (0.83); d2 overlaps object 1 at IoU 0.43 < 0.5: background
+    assert match_boxes(d, v) == {1: 0}
+
+
+def test_a_silent_detector_is_named_in_one_line() -> None:
+    a = DetectorActivity(frames=400, boxes=0, conf=0.4, highest_score=0.07)
+    assert a.note() == "detector: 0 boxes at conf >= 0.4 in 400 frames (highest score 0.07)"
+    assert DetectorActivity(frames=400, boxes=3, conf=0.4).note() is None
+
+
+def test_the_outputs_carry_every_charge_and_a_suite_sums_per_type() -> None:
+    rec = run_recorder()
+    res = score(poi(*REPORTS), truth_file(), EX3)
+    f = rec.funnel(FINAL, res)
+    rows = funnel_rows(f)
+    assert len([r for r in rows if r["kind"] == "object"]) == 10
+    assert sum(float(r["points_lost"] or 0) for r in rows) == pytest.approx(f.lost)
+    doc = funnel_json(f)
+    assert doc["check"] == "ok" and doc["lost"] == pytest.approx(f.lost)
+    twice = sum_per_type([f.per_type(), f.per_type()])
+    assert twice["exit-sign"]["objects"] == 4 and twice["exit-sign"]["misplaced"] == 4
+    text = format_funnel(twice, 2 * f.lost, 2 * f.max_minus_score)
+    assert text.splitlines()[-1].endswith(": ok")
