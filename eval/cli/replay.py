@@ -84,6 +84,10 @@ def cmd_replay(args) -> int:
         print(f"note: {note}", file=sys.stderr)
     if res.score is not None:
         print(format_tables(res.score))
+    if res.funnel is not None:
+        from eval.scoring.funnel import format_funnel
+
+        print("\n" + format_funnel(res.funnel.per_type(), res.funnel.lost, res.funnel.max_minus_score))
     print(
         f"{rec.path.name} ({rec.layout} layout, pose from {rec.pose_source}): {res.n_frames} frames in "
         f"{res.wall_s:.1f} s ({res.frames_per_s:.1f} frames/s, {res.cpu_ms_per_frame:.0f} ms CPU a frame), "

@@ -6,7 +6,9 @@ the outputs are written as :func:`eval.trial.run.run_trial` writes them (one
 :class:`eval.trial.outputs.TrialOutputs`): ``pois.csv`` (streamed, then finished atomically),
 ``trial.mp4`` (the annotated view), ``live/`` (what ``poibench view`` replays), ``map.png`` (the
 path and the reports), ``replay.json`` (what was read and how fast) and, with a ground truth,
-``score.json``.
+``score.json`` and ``funnel.csv`` (docs/RULES.md "The funnel": a recording has no truth boxes, so
+an object is in view where its true position projects into the image by the recording's own pose
+and nothing nearer stands in the depth there, and boxed by a box that holds that point).
 
 The POI file's date and start time are the first colour frame's stamp (UTC); its mission name is
 the trial config's scenario (``--config``), else the recording's name.
@@ -48,6 +50,7 @@ class ReplayResult:
     written: list[str]
     score: object | None = None
     confirmed: int = 0
+    funnel: object | None = None  # eval.scoring.funnel.Funnel, with a ground truth
 
 
 @dataclass
@@ -129,7 +132,9 @@ def replay(
     from tqdm import tqdm
 
     from eval.live.record import LiveRecorder
-    from eval.trial.run import detector_label, make_detectors
+    from eval.scoring.funnel import funnel_json
+    from eval.trial.funnel_recorder import FunnelRecorder, projected_views
+    from eval.trial.run import detector_label, funnel_objects, make_detectors, write_funnel_csv
     from poi.annotate import annotate
     from poi.pipeline import Pipeline
     from poi.report import PoiWriter, ReportHeader
@@ -146,6 +151,12 @@ def replay(
     pipe = Pipeline(cfg, detectors)
     notes.extend(pipe.notes)
     truth_file = read_poi_file(truth_path) if truth_path else None
+    recorder = positions = None
+    if truth_file is not None:  # the funnel, with views of the truth's positions by the recording's pose
+        recorder = FunnelRecorder(funnel_objects(truth_file.rows), cfg, rules)
+        positions = {int(r.id): np.array([r.x, r.y, r.z], dtype=float) for r in truth_file.rows}
+    else:
+        notes.append("funnel: no ground truth (--truth), so no stage can be checked against the objects")
     header = ReportHeader(
         team=cfg.report.team,
         country=cfg.report.country,
@@ -173,6 +184,9 @@ def replay(
             if k >= n:
                 break
             res = pipe.process(frame)
+            if recorder is not None:
+                views = projected_views(positions, frame, pipe.T_tracker_camera, cfg.visibility)
+                recorder.on_frame(views, None, frame, res)
             skipped += res.skipped_reason is not None
             if res.pose_map is not None:
                 T = res.pose_map @ pipe.T_tracker_camera
@@ -205,10 +219,14 @@ def replay(
     cpu = time.process_time() - c0  # all threads of the process (the encoder's ffmpeg is a child: not counted)
     final = pipe.confirmed()
     outputs.write("pois.csv", lambda _: writer.finalize(final))
-    result = None
+    result = funnel = None
     if truth_file is not None:
         result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
+        funnel = recorder.funnel(final, result, detectors)
         doc = to_json_dict(result)
+        if hasattr(result, "max_total"):
+            doc["funnel"] = funnel_json(funnel)
+            outputs.write("funnel.csv", lambda p: write_funnel_csv(p, funnel))
         doc["replay"] = {"recording": str(rec.path), "frames": k, "skipped_frames": skipped, "notes": notes}
         outputs.write("score.json", lambda p: p.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8"))
         layers = score_layers(result)
@@ -260,4 +278,5 @@ def replay(
         written=outputs.names(),
         score=result,
         confirmed=len(final),
+        funnel=funnel if result is not None and hasattr(result, "max_total") else None,
     )

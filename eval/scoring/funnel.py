@@ -87,6 +87,10 @@ class ObjectView:
     visible_fraction: float
     distance_m: float
     angle_deg: float = float("nan")
+    # a recording's view (poibench replay): only the object's position, projected by the pose the
+    # recording gives; in view when it projects into the image with nothing nearer in the depth,
+    # boxed by a box that holds that point (eval.trial.funnel_recorder.projected_views)
+    point: bool = False
 
     @property
     def min_side_px(self) -> float:
@@ -94,7 +98,9 @@ class ObjectView:
         return min(x2 - x1, y2 - y1)
 
     def in_view(self) -> bool:
-        """The in-view test (module constants)."""
+        """The in-view test (module constants); a point view is in view by construction."""
+        if self.point:
+            return True
         return self.visible_fraction >= IN_VIEW_FRACTION and self.min_side_px >= IN_VIEW_MIN_PX
 
 

@@ -81,7 +81,13 @@ def match_boxes(
     """
     if not dets or not views:
         return {}
-    iou = box_ious(np.array([d.box_xyxy for d in dets]), np.array([v.box_xyxy for v in views]))
+    boxes = np.array([d.box_xyxy for d in dets], dtype=float)  # (n, 4)
+    iou = box_ious(boxes, np.array([v.box_xyxy for v in views]))
+    for j, v in enumerate(views):
+        if v.point:  # a recording's view: the boxes that hold its point, each counted as a full overlap
+            u, w = v.box_xyxy[0], v.box_xyxy[1]
+            holds = (boxes[:, 0] <= u) & (u <= boxes[:, 2]) & (boxes[:, 1] <= w) & (w <= boxes[:, 3])
+            iou[:, j] = holds.astype(float)
     ks, js = np.nonzero(iou >= iou_min)
     order = np.lexsort((js, ks, -iou[ks, js]))  # highest IoU first; ties by detection, then view
     out: dict[int, int] = {}
@@ -92,6 +98,45 @@ def match_boxes(
             continue
         out[k] = j
         taken.add(j)
+    return out
+
+
+def projected_views(
+    positions: dict[int, np.ndarray], frame: Frame, T_tracker_camera: np.ndarray, visibility
+) -> list[ObjectView]:
+    """The point views (:attr:`ObjectView.point`) of the objects at map ``positions`` that a
+    recording's ``frame`` shows by its own pose: the pipeline's in-view test
+    (:func:`poi.estimation.visibility.in_view`, with the ``visibility`` settings) on each."""
+    from poi.core.geometry import invert_transform, transform_points
+    from poi.estimation.localize import project_point_to_pixel
+    from poi.estimation.visibility import in_view
+
+    if frame.pose is None:
+        return []
+    T_camera_map = invert_transform(np.asarray(frame.pose, dtype=float) @ T_tracker_camera)
+    out = []
+    for oid, p in positions.items():
+        if not in_view(
+            p,
+            frame,
+            T_tracker_camera,
+            frame.intrinsics,
+            visibility.margin_px,
+            visibility.max_range_m,
+            visibility.occlusion_tolerance_m,
+        ):
+            continue
+        p_c = transform_points(T_camera_map, p)
+        u, v = (float(x) for x in project_point_to_pixel(frame.intrinsics, p_c))
+        out.append(
+            ObjectView(
+                id=oid,
+                box_xyxy=(u, v, u, v),
+                visible_fraction=1.0,
+                distance_m=float(np.linalg.norm(p_c)),
+                point=True,
+            )
+        )
     return out
 
 
@@ -142,8 +187,9 @@ class FunnelRecorder:
             return "depth range"
         return "border or pose"
 
-    def on_frame(self, views: Sequence[ObjectView], blur_px: float, frame: Frame, res) -> None:
-        """Count one frame: its truth ``views``, the camera's ``blur_px`` and the pipeline's result."""
+    def on_frame(self, views: Sequence[ObjectView], blur_px: float | None, frame: Frame, res) -> None:
+        """Count one frame: its truth ``views``, the camera's ``blur_px`` (None: not known) and the
+        pipeline's result."""
         views = [v for v in views if v.id in self.traces]
         for v in views:
             if not v.in_view():
@@ -156,7 +202,8 @@ class FunnelRecorder:
             o.min_distance_m = min(o.min_distance_m, v.distance_m)
             if np.isfinite(v.angle_deg):
                 o.min_angle_deg = v.angle_deg if np.isnan(o.min_angle_deg) else min(o.min_angle_deg, v.angle_deg)
-            o.blur_px.append(round(float(blur_px), 3))
+            if blur_px is not None:
+                o.blur_px.append(round(float(blur_px), 3))
         dets = res.detections
         self.activity.frames += 1
         self.activity.boxes += sum(d.source not in HELPER_SOURCES for d in dets)

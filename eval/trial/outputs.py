@@ -13,7 +13,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 # the order the closing "wrote DIR/: ..." line lists them in
-OUTPUT_ORDER = ("pois.csv", "truth.csv", "score.json", "cost.json", "map.png", "trial.mp4", "config.yaml", "live/")
+OUTPUT_ORDER = (
+    "pois.csv",
+    "truth.csv",
+    "score.json",
+    "funnel.csv",
+    "cost.json",
+    "map.png",
+    "trial.mp4",
+    "config.yaml",
+    "live/",
+)
 
 
 class TrialOutputError(ValueError):

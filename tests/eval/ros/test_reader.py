@@ -56,6 +56,12 @@ def test_replay_of_the_real_d435_recording_writes_a_valid_poi_file(tmp_path, cap
     assert main(["replay", str(bag), "--out", str(out), "--quiet"]) == 0
     err = capsys.readouterr().err
     assert "the camera's first pose is the map frame" in err
+    # no --truth: the funnel says in one line that it has nothing to check against
+    funnel_lines = [line for line in err.splitlines() if "funnel" in line]
+    assert funnel_lines == [
+        "note: funnel: no ground truth (--truth), so no stage can be checked against the objects"
+    ]
+    assert not (out / "funnel.csv").exists()
     poi = read_poi_file(out / "pois.csv")
     assert not poi.problems and not poi.warnings and poi.header.mission == bag.stem
     info = json.loads((out / "replay.json").read_text())

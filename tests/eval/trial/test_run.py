@@ -31,13 +31,13 @@ def test_run_writes_every_file_and_reruns_from_its_config(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "points" in printed and "TOTAL" in printed
     # the closing line lists what was written, the live record included
-    wrote = "pois.csv truth.csv score.json cost.json map.png trial.mp4 config.yaml live/"
+    wrote = "pois.csv truth.csv score.json funnel.csv cost.json map.png trial.mp4 config.yaml live/"
     assert f"wrote {out}/: {wrote}\n" in printed
     assert (out / "live" / "frames.jsonl").stat().st_size > 0
     # same config, same result, byte for byte
     again = tmp_path / "again"
     assert main(["run", "--config", str(out / "config.yaml"), "--out", str(again), "--quiet", "--no-video"]) == 0
-    assert f"wrote {again}/: pois.csv truth.csv score.json cost.json map.png config.yaml live/\n" in (
+    assert f"wrote {again}/: pois.csv truth.csv score.json funnel.csv cost.json map.png config.yaml live/\n" in (
         capsys.readouterr().out
     )
     for name in ("pois.csv", "truth.csv", "score.json"):
@@ -59,7 +59,7 @@ def test_no_live_record_writes_no_live_folder_and_scores_the_same(tmp_path, caps
     assert main([*base, "--out", str(with_live)]) == 0
     assert main([*base, "--out", str(without), "--no-live-record"]) == 0
     printed = capsys.readouterr().out
-    assert f"wrote {without}/: pois.csv truth.csv score.json cost.json map.png config.yaml\n" in printed
+    assert f"wrote {without}/: pois.csv truth.csv score.json funnel.csv cost.json map.png config.yaml\n" in printed
     assert (with_live / "live" / "frames.jsonl").exists() and not (without / "live").exists()
     for name in ("pois.csv", "score.json"):
         assert (without / name).read_bytes() == (with_live / name).read_bytes(), name
@@ -134,6 +134,12 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
     assert len(parsed.rows) >= 3
     assert parsed.header.mission == "default"
     assert not list(Path(out).glob(".pois.csv*")), "no temporary file left behind"
+    # and it scores: truth.csv was written before the first frame
+    from eval.scoring.rules import load_rules
+    from eval.scoring.scorer import score
+
+    result = score(parsed, read_poi_file(out / "truth.csv"), load_rules("ex3"))
+    assert result.identified >= 3 and result.total > 0
 
 
 def test_turtlebot_goal_trial_writes_the_map_error(tmp_path, capsys):
