@@ -32,8 +32,9 @@ through PyOpenGL. A 20 cm code seen at 65 degrees from 1.2 m: Laplacian variance
 69 without, 131 with (issue 57; tests/sim/test_render.py checks the gain). Only
 decals, because Mesa's llvmpipe filters anisotropically in software: on every
 texture of the default world it made a colour + depth render 16 times the CPU
-(13.6 -> 220 ms), on the decals alone 3 % (14.0 ms; bench/bench_aniso.py). Where the extension is missing the renderer draws as MuJoCo
-does and says so in ``SceneRenderer.anisotropy_note`` and one ``RuntimeWarning``.
+(13.6 -> 220 ms), on the decals alone 3 % (14.0 ms; bench/bench_aniso.py).
+Where the extension is missing the renderer draws as MuJoCo does and says so in
+``SceneRenderer.anisotropy_note`` and one ``RuntimeWarning``.
 
 References
 ----------

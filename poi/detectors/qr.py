@@ -1,49 +1,50 @@
 """QR codes: read the text in a detector's 'qr' box, or find and read codes on their own.
 
 docs/DESIGN.md "What real means here": QR codes carry real encoded text and are
-decoded from rendered pixels, with OpenCV's ``QRCodeDetector`` and, where this
-OpenCV has it, ``QRCodeDetectorAruco`` (a second, more tolerant finder).
+decoded from rendered pixels, by zxing-cpp ([ZXingCpp]_), chosen by measurement
+(bench/bench_qr.py; docs/FACTS.md "QR codes"): on the maze's rendered codes it
+read every view OpenCV's ``QRCodeDetector`` and ``QRCodeDetectorAruco`` read and
+many more (at 1.5-2 px a module, 100 % of the default trial's whole, still views
+against 7 %), at about a hundredth of their CPU; OpenCV added no read, so it was
+dropped (it stays the encoder, maze_assets/qr.py).
 
-A detector box is cropped with a margin (the quiet zone round the code) and
-upscaled when small so that a module of the densest code we expect is at least
-``min_module_px`` pixels; the crop is also tried binarised and with a white
-border added, for boxes that cut the quiet zone off.
+A detector box is cropped with a margin (the quiet zone round the code, which a
+tight box cuts off) and tried as it is, upscaled twice (cubic), stretched to a
+square when it is narrow (a code on a side wall seen along a corridor is
+foreshortened across), and upscaled and sharpened (an unsharp mask against the
+camera's defocus); the first text found wins. A failed box costs about 0.4 ms.
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [ZXingCpp] A. Bösch et al., "zxing-cpp", a C++ port of ZXing with Python bindings
+   (github.com/zxing-cpp/zxing-cpp, Apache-2.0).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+import zxingcpp
 
 from poi.core.types import Detection, Frame
 from poi.detectors.base import DetectorConfigError, make_detection, one_class_probs, register
 
-MIN_MODULE_PX = 3.0  # smallest module size, in pixels, the decoders read reliably
-MAX_MODULES = 33  # modules across a version-4 code (21 + 4 * 3), the densest we size for
-MAX_UPSCALE = 8.0  # never blow a crop up more than this
 MARGIN_FRAC = 0.15  # crop margin on each side, as a fraction of the box's longer side
-QUIET_ZONE_MODULES = 4  # white border the QR standard asks for round a code
-# Boxes whose shorter side is under this many pixels are not tried: in the default
-# trial none of 92 such boxes decoded (under 2 px per module of a version-1 code),
-# and each failed try costs tens of milliseconds.
-MIN_BOX_PX = 40.0
-
-
-_DECODERS: list[cv2.QRCodeDetector] = []
-
-
-def _decoders() -> list[cv2.QRCodeDetector]:
-    """OpenCV's decoders, built once: the tolerant Aruco-based finder first (a failed try
-    costs about a tenth of the classic one's), then the classic ``QRCodeDetector``."""
-    if not _DECODERS:
-        if hasattr(cv2, "QRCodeDetectorAruco"):
-            _DECODERS.append(cv2.QRCodeDetectorAruco())
-        _DECODERS.append(cv2.QRCodeDetector())
-    return _DECODERS
+UPSCALE = 2.0  # the second try's scale (cubic): 1.5-2 px modules become 3-4 px
+NARROW_ASPECT = 0.8  # a crop narrower than this (width / height) is also tried stretched square
+SHARPEN_SIGMA_PX = 2.0  # unsharp mask of the upscaled crop: img + a (img - blur(img, sigma))
+SHARPEN_AMOUNT = 1.5
+# Boxes whose shorter side is under this many pixels are not tried: a version-1 code and its
+# quiet zone (29 modules) at 0.7 px a module. None under 1 px a module decoded in the default
+# trial (bench/bench_qr.py); a failed try costs well under a millisecond.
+MIN_BOX_PX = 20.0
+_QR = zxingcpp.BarcodeFormat.QRCode
 
 
 def _to_gray(rgb: np.ndarray) -> np.ndarray:
@@ -54,15 +55,25 @@ def _to_gray(rgb: np.ndarray) -> np.ndarray:
     raise ValueError(f"expected an RGB (H, W, 3) or grey (H, W) image, got shape {rgb.shape}")
 
 
-def _decode_gray(gray: np.ndarray) -> str | None:
-    for decoder in _decoders():
-        try:
-            text, _points, _straight = decoder.detectAndDecode(gray)
-        except cv2.error:
-            continue
-        if text:
-            return text
-    return None
+def _read(gray: np.ndarray) -> str | None:
+    """The text of the first QR code zxing-cpp finds in ``gray`` ([ZXingCpp]_), or None."""
+    found = zxingcpp.read_barcodes(np.ascontiguousarray(gray), formats=_QR)
+    return found[0].text if found and found[0].text else None
+
+
+def _attempts(crop: np.ndarray) -> Iterator[np.ndarray]:
+    """The images one box is tried as, cheapest first (module docstring); ``crop`` is only read."""
+    yield crop
+    up = cv2.resize(crop, None, fx=UPSCALE, fy=UPSCALE, interpolation=cv2.INTER_CUBIC)  # (2h, 2w)
+    yield up
+    h, w = crop.shape
+    if w < NARROW_ASPECT * h:
+        square = cv2.resize(crop, (h, h), interpolation=cv2.INTER_CUBIC)  # (h, h): width stretched
+        yield square
+        yield cv2.resize(square, None, fx=UPSCALE, fy=UPSCALE, interpolation=cv2.INTER_CUBIC)
+    # unsharp mask: up + a (up - G_sigma * up)
+    blurred = cv2.GaussianBlur(up, (0, 0), SHARPEN_SIGMA_PX)
+    yield cv2.addWeighted(up, 1.0 + SHARPEN_AMOUNT, blurred, -SHARPEN_AMOUNT, 0.0)
 
 
 def decode_qr(
@@ -70,21 +81,13 @@ def decode_qr(
     box_xyxy: Sequence[float],
     *,
     margin_frac: float = MARGIN_FRAC,
-    min_module_px: float = MIN_MODULE_PX,
-    max_modules: int = MAX_MODULES,
     min_box_px: float = MIN_BOX_PX,
 ) -> str | None:
     """The text of the QR code inside ``box_xyxy`` (pixels of ``rgb``), or None.
 
     Boxes with a side under ``min_box_px`` are not tried (None). The crop is
     the box grown by ``margin_frac`` of its longer side on every side, clipped
-    to the image. It is scaled by
-    s = clip(min_module_px * max_modules / min(box w, h), 1, MAX_UPSCALE), so a
-    module of a code ``max_modules`` wide covers at least ``min_module_px``
-    pixels, and then by 2 s (sharper finder patterns for the decoders); at each
-    scale the grey crop and the crop with a white quiet zone added are tried
-    with each decoder, the first text found wins. (An Otsu-binarised crop was
-    tried too until it was measured to add no read in the default trial.)
+    to the image, and is tried as the module docstring says.
     """
     x1, y1, x2, y2 = (float(v) for v in box_xyxy)
     if not all(np.isfinite([x1, y1, x2, y2])) or min(x2 - x1, y2 - y1) < max(min_box_px, 1e-9):
@@ -97,15 +100,10 @@ def decode_qr(
     if c2 - c1 < 8 or r2 - r1 < 8:
         return None
     crop = gray[r1:r2, c1:c2]  # (r2 - r1, c2 - c1), a view: only read below
-    s0 = float(np.clip(min_module_px * max_modules / min(x2 - x1, y2 - y1), 1.0, MAX_UPSCALE))
-    for s in dict.fromkeys((s0, min(2.0 * s0, MAX_UPSCALE))):
-        img = crop if s == 1.0 else cv2.resize(crop, None, fx=s, fy=s, interpolation=cv2.INTER_CUBIC)
-        b = int(np.ceil(QUIET_ZONE_MODULES * min(img.shape) / max_modules))
-        bordered = cv2.copyMakeBorder(img, b, b, b, b, cv2.BORDER_CONSTANT, value=255)
-        for candidate in (img, bordered):
-            text = _decode_gray(candidate)
-            if text is not None:
-                return text
+    for img in _attempts(crop):
+        text = _read(img)
+        if text is not None:
+            return text
     return None
 
 
@@ -140,9 +138,8 @@ class QrDetector:
     Every decoded code becomes a Detection of class 'qr' with its text, its box
     the bounding box of the four corner points, and ``confidence`` (a decoded
     code is almost surely a QR code); codes found but not decoded are dropped,
-    since a QR report without its text cannot score. ``dedupe_iou``: a code found
-    by the second decoder overlapping one already found by more than this is the
-    same code.
+    since a QR report without its text cannot score. ``dedupe_iou``: a code
+    overlapping one already found by more than this is the same code.
     """
 
     confidence: float = 0.95
@@ -156,30 +153,25 @@ class QrDetector:
             raise DetectorConfigError(f"detector 'qr': dedupe_iou must be in [0, 1], got {self.dedupe_iou}")
 
     def detect(self, frame: Frame) -> list[Detection]:
+        """Every QR code zxing-cpp reads in the whole frame ([ZXingCpp]_), one Detection each."""
         gray = _to_gray(frame.rgb)
         h, w = gray.shape
         found: list[tuple[str, tuple[float, float, float, float]]] = []
-        for decoder in _decoders():
-            try:
-                ok, texts, points, _straight = decoder.detectAndDecodeMulti(gray)
-            except cv2.error:
+        for code in zxingcpp.read_barcodes(np.ascontiguousarray(gray), formats=_QR):
+            p = code.position
+            xs = [p.top_left.x, p.top_right.x, p.bottom_right.x, p.bottom_left.x]
+            ys = [p.top_left.y, p.top_right.y, p.bottom_right.y, p.bottom_left.y]
+            box = (
+                float(np.clip(min(xs), 0, w)),
+                float(np.clip(min(ys), 0, h)),
+                float(np.clip(max(xs), 0, w)),
+                float(np.clip(max(ys), 0, h)),
+            )
+            if not code.text or box[2] <= box[0] or box[3] <= box[1]:
                 continue
-            if not ok or points is None:
+            if any(box_iou(box, b) > self.dedupe_iou for _t, b in found):
                 continue
-            for text, pts in zip(texts, np.asarray(points, dtype=np.float64), strict=False):
-                if not text or not np.all(np.isfinite(pts)):
-                    continue
-                box = (
-                    float(np.clip(pts[:, 0].min(), 0, w)),
-                    float(np.clip(pts[:, 1].min(), 0, h)),
-                    float(np.clip(pts[:, 0].max(), 0, w)),
-                    float(np.clip(pts[:, 1].max(), 0, h)),
-                )
-                if box[2] <= box[0] or box[3] <= box[1]:
-                    continue
-                if any(box_iou(box, b) > self.dedupe_iou for _t, b in found):
-                    continue
-                found.append((text, box))
+            found.append((code.text, box))
         probs = one_class_probs("qr", float(self.confidence))
         return [
             make_detection(
