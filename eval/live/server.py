@@ -6,24 +6,35 @@ few microseconds); the server encodes and sends at most ``MAX_RATE_HZ``
 updates a second, and only while a page is connected, dropping frames a slow
 page cannot take. A page that closes is forgotten; the trial never waits for
 it. In replay (``ReplaySource``) the page asks for a frame index and gets that
-frame's message and images from the trial's record.
+frame's message and images from the trial's record; its init message also carries
+the trial's funnel (``funnel.csv``, docs/RULES.md "The funnel") and the ground-truth
+positions (``truth.csv``), which the page lists and draws.
 """
 
 from __future__ import annotations
 
 import asyncio
 import base64
+import csv
 import json
 import logging
+import math
 import threading
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from eval.scoring.funnel import CSV_COLUMNS
+from poi.core.names import display_name
+from poi.core.poi_file import PoiFileError, read_poi_file
+
 STATIC_DIR = Path(__file__).parent / "static"
 MAX_RATE_HZ = 10.0
 JPEG_QUALITY = 80
+# funnel.csv's columns that hold words; the rest are numbers, or empty where they do not apply
+FUNNEL_TEXT_COLUMNS = ("kind", "type", "text", "lost_to", "detail")
+NO_FUNNEL_NOTE = "no funnel.csv in this trial (written by poibench run since issue 57): no funnel to show"
 
 
 class LiveError(ValueError):
@@ -66,6 +77,61 @@ def _images(camera: np.ndarray | None, insets: np.ndarray | None) -> dict:
     }
 
 
+def _number(v: str) -> int | float | None:
+    if v.strip() == "":
+        return None
+    f = float(v)
+    if not math.isfinite(f):  # JSON has no NaN; the page shows None as a dash
+        return None
+    return int(f) if f.is_integer() and "." not in v else f
+
+
+def read_funnel(trial_dir: str | Path) -> dict:
+    """The funnel of a trial folder for the page: ``{"rows": [...], "note": str | None}``.
+
+    One row a line of ``funnel.csv`` (its :data:`~eval.scoring.funnel.CSV_COLUMNS`, numbers as
+    numbers, empty cells None) with the object's display ``name``; a folder without the file
+    (a trial older than the funnel) or with one that cannot be read gives no rows and a note.
+    """
+    path = Path(trial_dir) / "funnel.csv"
+    if not path.exists():
+        return {"rows": [], "note": NO_FUNNEL_NOTE}
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = []
+            for raw in csv.DictReader(f):
+                row = {k: (raw.get(k) or "") for k in CSV_COLUMNS}
+                row.update({k: _number(v) for k, v in row.items() if k not in FUNNEL_TEXT_COLUMNS})
+                row["name"] = display_name(row["type"], row["text"]) if row["type"] else ""
+                rows.append(row)
+    except (OSError, ValueError, csv.Error) as e:
+        return {"rows": [], "note": f"funnel.csv cannot be read ({e}): no funnel to show"}
+    return {"rows": rows, "note": None}
+
+
+def read_truth(trial_dir: str | Path) -> list[dict]:
+    """The ground-truth objects of ``truth.csv`` (map frame, m) for the page; [] without one."""
+    path = Path(trial_dir) / "truth.csv"
+    if not path.exists():
+        return []
+    try:
+        rows = read_poi_file(path).rows
+    except PoiFileError:
+        return []
+    return [
+        {
+            "id": r.id,
+            "type": r.type or "",
+            "text": r.text,
+            "name": display_name(r.type or "", r.text),
+            "x": round(r.x, 3),
+            "y": round(r.y, 3),
+            "z": round(r.z, 3),
+        }
+        for r in rows
+    ]
+
+
 class ReplaySource:
     """A finished trial's record: messages from live/frames.jsonl, images from the videos."""
 
@@ -81,6 +147,8 @@ class ReplaySource:
         self.frames = [json.loads(line) for line in frames_path.read_text(encoding="utf-8").splitlines() if line]
         self.init["n_frames"] = len(self.frames)
         self.init["replay"] = True
+        self.init["funnel"] = read_funnel(d)
+        self.init["truth"] = read_truth(d)
         self._videos = {}
         for key, name in (("camera", "trial.mp4"), ("insets", "live/insets.mp4")):
             p = d / name

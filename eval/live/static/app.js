@@ -1,7 +1,9 @@
 // poibench live view: one WebSocket, an init message (map, colours), then frame messages.
 // The map is SVG in metres, map frame x right and y up (drawn as (x, -y)), in the
 // competition's conventions: 1 m checkerboard, 0.5 m grid, walls (0,40,120), path
-// (120,0,240), markers of radius 0.175 m with their id in white.
+// (120,0,240), markers of radius 0.175 m with their id in white. In replay the init message
+// also carries the trial's funnel (funnel.csv rows) and the ground truth (truth.csv), drawn as
+// small hollow markers in the type's box colour; picking one shows its funnel.
 "use strict";
 
 const SVG_NS = "http://www.w3.org/2000/svg";
@@ -46,6 +48,7 @@ function drawMap() {
   el("polyline", {id: "path", fill: "none", stroke: "rgb(120,0,240)", "stroke-width": 0.04,
                   "stroke-linejoin": "round"}, svg);
   el("g", {id: "ellipses"}, svg);
+  el("g", {id: "truth"}, svg);
   el("g", {id: "markers"}, svg);
   el("polygon", {id: "robot", points: "0.25,0 -0.15,0.12 -0.15,-0.12", fill: "rgb(120,0,240)",
                  stroke: "#fff", "stroke-width": 0.02, visibility: "hidden"}, svg);
@@ -132,6 +135,155 @@ function showTable(objs) {
   }
 }
 
+// ------------------------------------------------------------------ funnel (replay)
+// The stages an object passes, with the cause that charges its points to the first it did not
+// pass (docs/RULES.md "The funnel"); the counts are frames.
+const STAGES = [["in view", "in_view", "not in view"], ["boxed", "boxed", "not boxed"],
+                ["typed", "typed", "wrong type"], ["localised", "localised", "not localised"],
+                ["read", "read", "not read"]];
+const dash = (v, unit) => (v === null || v === undefined || v === "" ? "—" : `${v}${unit || ""}`);
+const boxColor = (type) => init.box_colors[type] || "#888";
+
+const PICK_RADIUS_M = 0.25;  // a click on the map this near an object picks it (reports may cover it)
+
+function drawTruth() {
+  const g = $("truth"), r = 0.12;
+  if ((init.truth || []).length) {
+    $("map").classList.add("pickable");
+    $("map").addEventListener("click", pickOnMap);
+  }
+  for (const o of init.truth || []) {
+    const m = el("g", {class: "truth", "data-id": o.id, transform: `translate(${o.x} ${-o.y})`}, g);
+    // hollow, under the reports' markers (a found object's is covered by its report); a dark halo
+    // keeps the heat source's white visible on the map
+    for (const [cls, stroke, width] of [["halo", "rgba(0,0,0,0.5)", 0.065], ["mark", boxColor(o.type), 0.035]]) {
+      const style = {class: cls, fill: "none", stroke: stroke, "stroke-width": width, "pointer-events": "all"};
+      if ((init.marker_shapes[o.type] || "diamond") === "circle") el("circle", {r: r, ...style}, m);
+      else el("polygon", {points: `0,${-r} ${r},0 0,${r} ${-r},0`, ...style}, m);
+    }
+    el("circle", {class: "ring", r: 0.3, fill: "none", stroke: "#111", "stroke-width": 0.03,
+                  "stroke-dasharray": "0.08 0.05"}, m);
+    el("title", {}, m).textContent = `truth ${o.id}: ${o.name}`;
+  }
+}
+
+function pickOnMap(ev) {
+  const svg = $("map"), pt = svg.createSVGPoint();
+  [pt.x, pt.y] = [ev.clientX, ev.clientY];
+  const p = pt.matrixTransform(svg.getScreenCTM().inverse());  // SVG coordinates: (x, -y) of the map
+  let best = null, bestD = PICK_RADIUS_M;
+  for (const o of init.truth) {
+    const d = Math.hypot(o.x - p.x, -o.y - p.y);
+    if (d <= bestD) [best, bestD] = [o, d];
+  }
+  if (best === null) return;
+  pick("object", best.id);
+  $("funnel-pane").scrollIntoView({block: "nearest"});
+}
+
+function funnelRow(r) {
+  const tr = document.createElement("tr");
+  tr.dataset.key = `${r.kind}:${r.id}`;
+  const lost = Number(r.points_lost) || 0;
+  if (lost > 0) tr.className = "lost";
+  const cells = [[r.kind === "object" ? r.id : `line ${dash(r.id)}`, "num"], [r.type, "type"],
+                 [r.kind === "object" ? r.name : "", ""], [lost > 0 ? lost : "0", "num points"],
+                 [r.lost_to || (r.kind === "object" ? "found" : ""), "cause"]];
+  for (const [v, cls] of cells) {
+    const td = document.createElement("td");
+    td.textContent = v;
+    td.className = cls;
+    if (cls === "type") td.style.borderLeftColor = boxColor(r.type);
+    tr.appendChild(td);
+  }
+  tr.addEventListener("click", () => pick(r.kind, r.id));
+  return tr;
+}
+
+function showFunnel() {
+  const f = init.funnel;
+  $("funnel-pane").hidden = !f;
+  if (!f) return;
+  $("funnel-note").hidden = !f.note;
+  $("funnel-note").textContent = f.note || "";
+  $("funnel-wrap").hidden = !f.rows.length;
+  const body = $("funnel").querySelector("tbody");
+  body.innerHTML = "";
+  const objects = f.rows.filter((r) => r.kind === "object"), falses = f.rows.filter((r) => r.kind !== "object");
+  for (const r of objects) body.appendChild(funnelRow(r));
+  if (falses.length) {
+    const tr = document.createElement("tr");
+    tr.innerHTML = '<th colspan="5" class="group">charged false reports (POI file line)</th>';
+    body.appendChild(tr);
+    for (const r of falses) body.appendChild(funnelRow(r));
+  }
+  const lost = f.rows.reduce((s, r) => s + (Number(r.points_lost) || 0), 0);
+  $("funnel-sum").textContent = f.rows.length ? `(${+lost.toFixed(3)} points lost; ${objects.length} objects, `
+                                                + `${falses.length} false reports)` : "";
+  $("funnel-detail").hidden = !f.rows.length && !(init.truth || []).length;
+  $("funnel-detail").innerHTML = '<p class="hint">Pick an object (its row, or its hollow marker on the map) '
+                                 + "to see its funnel.</p>";
+}
+
+function seekTo(k) {
+  $("slider").value = k;
+  ws.send(JSON.stringify({seek: k}));
+}
+
+function pick(kind, id) {
+  const key = `${kind}:${id}`;
+  for (const tr of $("funnel").querySelectorAll("tbody tr")) tr.classList.toggle("picked", tr.dataset.key === key);
+  for (const g of $("truth").querySelectorAll(".truth")) {
+    g.classList.toggle("picked", kind === "object" && g.dataset.id === String(id));
+  }
+  const row = (init.funnel ? init.funnel.rows : []).find((r) => r.kind === kind && r.id === id);
+  const truth = kind === "object" ? (init.truth || []).find((o) => o.id === id) : null;
+  const d = $("funnel-detail");
+  d.innerHTML = "";
+  const add = (tag, cls, text) => {
+    const e = document.createElement(tag);
+    if (cls) e.className = cls;
+    if (text !== undefined) e.textContent = text;
+    d.appendChild(e);
+    return e;
+  };
+  const type = row ? row.type : truth.type;
+  const h = add("h3", "", kind === "object" ? `#${id} ${row ? row.name : truth.name}` : `false report, line ${id}`);
+  h.style.borderLeftColor = boxColor(type);
+  add("p", "type", truth ? `${type} · at (${truth.x}, ${truth.y}, ${truth.z}) m` : type);
+  if (!row) { add("p", "hint", "no funnel for this trial"); return; }
+  const lost = Number(row.points_lost) || 0;
+  if (kind === "object") {
+    const top = Math.max(1, ...STAGES.map(([, k]) => Number(row[k]) || 0));
+    for (const [label, k, cause] of STAGES) {
+      const s = add("div", row.lost_to === cause ? "stage lost" : "stage");
+      s.innerHTML = '<span class="label"></span><span class="bar"><span></span></span><span class="n"></span>';
+      s.querySelector(".label").textContent = label;
+      s.querySelector(".bar span").style.width = `${100 * (Number(row[k]) || 0) / top}%`;
+      s.querySelector(".bar span").style.background = boxColor(type);
+      s.querySelector(".n").textContent = `${row[k] ?? 0} frames`;
+    }
+    add("p", "", `best box ${dash(row.best_px, " px")} · nearest ${dash(row.min_distance_m, " m")} · `
+                 + `angle ${dash(row.min_angle_deg, "°")} · median blur ${dash(row.median_blur_px, " px")}`);
+    if (row.qr_views !== null && row.qr_views !== undefined) {
+      add("p", "", `QR views given to the reader ${row.qr_views}, decoded ${dash(row.qr_decoded)}`);
+    }
+    const p = add("p", "", `tracks ${dash(row.tracks)} · `);
+    if (row.confirmed_frame === null || row.confirmed_frame === undefined) p.append("never confirmed");
+    else {
+      p.append("confirmed at ");
+      const a = document.createElement("a");
+      a.href = "#";
+      a.textContent = `frame ${row.confirmed_frame + 1}`;  // 1-based, as the slider's label counts
+      a.title = "show this frame";
+      a.onclick = (ev) => { ev.preventDefault(); seekTo(row.confirmed_frame); };
+      p.appendChild(a);
+    }
+  }
+  add("p", lost > 0 ? "cause lost" : "cause", lost > 0 ? `${lost} points lost to ${row.lost_to}` : "no points lost");
+  if (row.detail) add("p", "detail", row.detail);
+}
+
 function onFrame(m) {
   if (!init) return;
   if (m.pose && !replay && path.length < (m.path_len || path.length + 1)) path.push([m.pose[0], m.pose[1]]);
@@ -158,12 +310,14 @@ function onInit(m) {
   drawMap();
   drawPath(path.length);
   if (replay) {
+    drawTruth();
+    showFunnel();
     $("replay").hidden = false;
     const slider = $("slider");
     slider.max = Math.max(m.n_frames - 1, 0);
     slider.oninput = () => {
       clearTimeout(seekTimer);
-      seekTimer = setTimeout(() => ws.send(JSON.stringify({seek: Number(slider.value)})), 30);
+      seekTimer = setTimeout(() => seekTo(Number(slider.value)), 30);
     };
     setStatus(m.has_video ? "replay" : "replay (no camera video was recorded)");
     ws.send(JSON.stringify({seek: 0}));
