@@ -73,6 +73,9 @@ IN_VIEW_FRACTION = 0.35
 IN_VIEW_MIN_PX = 12.0
 BOX_IOU = 0.5  # a box is on an object when their IoU is at least this ([Bolya2020]'s t_f)
 QR_MIN_MODULE_PX = 3.0  # a QR view counts towards the read rate from this many pixels a module
+# A QR code is read from its three finder patterns and every module between them ([ISO18004]): a view
+# cut by the image border is unreadable by any decoder, and so is one smeared over more than a module
+QR_WHOLE_FRACTION = 0.9
 TEXT_TYPES = ("hazmat", "qr", "landolt-c")  # their identity includes what was read
 
 
@@ -125,9 +128,14 @@ class ObjectTrace:
     not_localised: Counter = field(default_factory=Counter)  # why a box of its type gave no observation
     read_frames: int = 0
     read_as: Counter = field(default_factory=Counter)  # text of its localised boxes -> frames
-    qr_views: int = 0  # in-view frames at >= QR_MIN_MODULE_PX a module where the reader was given it
-    qr_decoded: int = 0  # ... and read its text right
-    qr_untried: int = 0  # in-view frames at >= QR_MIN_MODULE_PX a module where it was not given it
+    # The reader on its views (QR codes): every in-view frame at >= QR_MIN_MODULE_PX a module with a QR
+    # box on it, and those whole in the image (>= QR_WHOLE_FRACTION visible) and still (blur under one
+    # module): the views a decoder can read at all. The reader's text on each such box counts, whether or
+    # not the pipeline asked for it (it stops asking once a track's text is settled).
+    qr_views: int = 0
+    qr_decoded: int = 0
+    qr_clear_views: int = 0
+    qr_clear_decoded: int = 0
     tracks: Counter = field(default_factory=Counter)  # track id -> observations of it with its identity
     confirmed_frame: int | None = None  # when the first track of its observations was confirmed (attribute)
     observations_at_confirmation: int | None = None
@@ -219,6 +227,9 @@ class Funnel:
             row["objects"] += 1
             for s, ok in self.stages[o.id].items():
                 row[s] += ok
+            if o.type == "qr":
+                for k, v in qr_read_rate([o]).items():
+                    row["qr_" + k] = row.get("qr_" + k, 0) + v
         for ch in self.charges:
             row = out.setdefault(ch.type, {"objects": 0, **{s: 0 for s in STAGES}})
             row[ch.cause] = row.get(ch.cause, 0) + ch.points
@@ -277,8 +288,8 @@ def _perception_detail(cause: str, o: ObjectTrace) -> str:
             ppm = o.px_per_module()
             at = "" if ppm is None else f", best {ppm:.1f} px a module"
             return (
-                f"localised {o.localised_frames} frames; the reader was given {o.qr_views} views at >= "
-                f"{QR_MIN_MODULE_PX:g} px a module (and not {o.qr_untried}){at}: none decoded"
+                f"localised {o.localised_frames} frames; {o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a "
+                f"module{at}, {o.qr_clear_views} of them whole and still; the pipeline's reads: none right"
             )
         read = ", ".join(f"{t or 'nothing'} {n}" for t, n in o.read_as.most_common(3))
         return f"localised {o.localised_frames} frames, read as {read}"
@@ -455,6 +466,8 @@ CSV_COLUMNS = (
     "read",
     "qr_views",
     "qr_decoded",
+    "qr_clear_views",
+    "qr_clear_decoded",
     "tracks",
     "confirmed_frame",
     "points_lost",
@@ -498,6 +511,8 @@ def funnel_rows(f: Funnel) -> list[dict[str, Any]]:
                 "read": o.read_frames,
                 "qr_views": o.qr_views if o.type == "qr" else "",
                 "qr_decoded": o.qr_decoded if o.type == "qr" else "",
+                "qr_clear_views": o.qr_clear_views if o.type == "qr" else "",
+                "qr_clear_decoded": o.qr_clear_decoded if o.type == "qr" else "",
                 "tracks": len(o.tracks),
                 "confirmed_frame": "" if o.confirmed_frame is None else o.confirmed_frame,
                 "points_lost": _r(sum(c.points for c in chs), 3),
@@ -515,6 +530,17 @@ def funnel_rows(f: Funnel) -> list[dict[str, Any]]:
     return rows
 
 
+def qr_read_rate(objects: list[ObjectTrace]) -> dict[str, int]:
+    """The reader's score on the QR views of a trial (:class:`ObjectTrace`'s ``qr_*`` counts summed)."""
+    qr = [o for o in objects if o.type == "qr"]
+    return {
+        "views": sum(o.qr_views for o in qr),
+        "decoded": sum(o.qr_decoded for o in qr),
+        "clear_views": sum(o.qr_clear_views for o in qr),
+        "clear_decoded": sum(o.qr_clear_decoded for o in qr),
+    }
+
+
 def funnel_json(f: Funnel) -> dict[str, Any]:
     """The funnel as ``score.json`` carries it: per type, per cause, the check, the charges."""
     return {
@@ -524,6 +550,7 @@ def funnel_json(f: Funnel) -> dict[str, Any]:
         "lost": _r(f.lost, 3),
         "max_minus_score": _r(f.max_minus_score, 3),
         "check": "ok" if f.check_ok else "MISMATCH",
+        "qr_reads": qr_read_rate(f.objects),
         "charges": [{k: v for k, v in asdict(c).items() if v is not None} for c in f.charges],
         "detector": {k: v for k, v in asdict(f.activity).items() if v is not None},
     }
@@ -566,6 +593,14 @@ def format_funnel(per_type: dict[str, dict[str, float]], lost: float, max_minus_
     lines.append("  ".join("-" * w for w in widths))
     for r in rows:
         lines.append("  ".join(str(v).ljust(w) for v, w in zip(r, widths, strict=True)).rstrip())
+    qr = per_type.get("qr", {})
+    if qr.get("qr_views"):
+        lines.append(
+            f"QR reader: {_g(qr['qr_decoded'])} of {_g(qr['qr_views'])} views at >= {QR_MIN_MODULE_PX:g} px "
+            f"a module read right ({qr['qr_decoded'] / qr['qr_views']:.0%}); of those whole in the image and blurred less "
+            f"than a module, {_g(qr['qr_clear_decoded'])} of {_g(qr['qr_clear_views'])}"
+            + (f" ({qr['qr_clear_decoded'] / qr['qr_clear_views']:.0%})" if qr["qr_clear_views"] else "")
+        )
     if max_minus_score is not None:
         verdict = "ok" if abs(lost - max_minus_score) < 1e-6 else "MISMATCH"
         lines.append(f"lost {_g(lost)} = max - score {_g(max_minus_score)}: {verdict}")

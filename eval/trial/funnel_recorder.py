@@ -12,8 +12,9 @@ and
    frames it was boxed, boxed as its type, localised (the box gave an observation; if not,
    why: a skipped frame, too little depth in the box, or the rest of localisation's tests),
    and read (the observation's identity is the object's);
-3. counts each QR view at ``QR_MIN_MODULE_PX`` a module or more that the reader was given,
-   and whether it read it right;
+3. counts each QR view at ``QR_MIN_MODULE_PX`` a module or more with a QR box on it and whether
+   the reader reads it right (asking the reader, ``qr_reader``, where the pipeline did not), and
+   those whole in the image and blurred by less than a module;
 4. notes which objects each track's observations lay on, and when each track was confirmed.
 
 :meth:`FunnelRecorder.funnel` hands that to :func:`eval.scoring.funnel.attribute` with the score.
@@ -26,13 +27,14 @@ References
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
 from eval.scoring.funnel import (
     BOX_IOU,
     QR_MIN_MODULE_PX,
+    QR_WHOLE_FRACTION,
     TEXT_TYPES,
     DetectorActivity,
     Funnel,
@@ -149,7 +151,13 @@ class FunnelRecorder:
     ``rules`` the scoring preset (what identity a read must give).
     """
 
-    def __init__(self, objects: Iterable[tuple[int, str, str, int | None]], cfg, rules: AnyRules) -> None:
+    def __init__(
+        self,
+        objects: Iterable[tuple[int, str, str, int | None]],
+        cfg,
+        rules: AnyRules,
+        qr_reader: Callable[[Frame, Detection], str] | None = None,
+    ) -> None:
         self.traces = {
             oid: ObjectTrace(id=oid, type=t, text=text, modules=modules) for oid, t, text, modules in objects
         }
@@ -157,6 +165,8 @@ class FunnelRecorder:
         self.cfg = cfg
         self.rules = rules
         self.activity = DetectorActivity(conf=float(cfg.detector.conf))
+        # (frame, QR box) -> the reader's text, for the QR views the pipeline did not ask it about
+        self.qr_reader = qr_reader
 
     def _same_identity(self, det: Detection, o: ObjectTrace) -> bool:
         """Whether a box's type and text are the object's identity (docs/RULES.md rule 1)."""
@@ -219,11 +229,7 @@ class FunnelRecorder:
                 continue
             o.typed_frames += 1
             if o.type == "qr" and v.in_view() and o.modules and v.min_side_px / o.modules >= QR_MIN_MODULE_PX:
-                if k in tried:
-                    o.qr_views += 1
-                    o.qr_decoded += det.text == o.text
-                else:
-                    o.qr_untried += 1
+                self._count_qr_view(o, v, det, k in tried, blur_px, frame)
             if k not in observed:
                 o.not_localised[self._why_not_localised(det, frame, res.skipped_reason)] += 1
                 continue
@@ -243,6 +249,24 @@ class FunnelRecorder:
             t = self.tracks.setdefault(snap.track_id, TrackTrace(track_id=snap.track_id))
             t.confirmed_frame = res.frame_index
             t.observations_at_confirmation = snap.n_detections
+
+    def _count_qr_view(
+        self, o: ObjectTrace, v: ObjectView, det: Detection, tried: bool, blur_px: float | None, frame: Frame
+    ) -> None:
+        """One QR view at >= QR_MIN_MODULE_PX a module: did the reader read it right? Its text as the
+        pipeline read it, or, where the pipeline did not ask (a settled track), the reader's answer."""
+        text = det.text
+        if not tried and not text:
+            if self.qr_reader is None:
+                return
+            text = self.qr_reader(frame, det)
+        right = text == o.text
+        o.qr_views += 1
+        o.qr_decoded += right
+        module_px = v.min_side_px / o.modules
+        if v.visible_fraction >= QR_WHOLE_FRACTION and (blur_px or 0.0) < module_px:
+            o.qr_clear_views += 1
+            o.qr_clear_decoded += right
 
     def funnel(
         self,

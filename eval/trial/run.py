@@ -260,6 +260,19 @@ def funnel_objects(rows) -> list[tuple[int, str, str, int | None]]:
     return out
 
 
+def _funnel_qr_reader(replay):
+    """(frame, QR box) -> the QR reader's text, for the funnel's views the pipeline did not ask
+    about: the text recorded for the box in a replay, else the reader on the frame's pixels."""
+    if replay is not None:
+        return lambda frame, det: replay.current.qr_texts.get(tuple(det.box_xyxy), "")
+    from poi.pipeline import find_qr_reader
+
+    reader = find_qr_reader()
+    if reader is None:
+        return None
+    return lambda frame, det: reader(frame.rgb, [det])[0].text
+
+
 def write_funnel_csv(path: Path, funnel: Funnel) -> None:
     """``funnel.csv``: one row an object, one a charged false report (eval.scoring.funnel.CSV_COLUMNS)."""
     import csv
@@ -448,7 +461,7 @@ def run_trial(
                 (f, None, T_true, fr.views, fr.blur_px)
                 for (f, T_true), fr in zip(record.replay_frames(), record.frames, strict=True)
             )
-        recorder = FunnelRecorder(funnel_objects(rows), cfg, rules)
+        recorder = FunnelRecorder(funnel_objects(rows), cfg, rules, qr_reader=_funnel_qr_reader(replay))
         vid = (
             H264Writer(out / "trial.mp4", sim.intrinsics.width, sim.intrinsics.height, sc.sensors.fps)
             if video

@@ -203,16 +203,33 @@ def test_the_recorder_counts_the_stages_and_why_a_box_gave_no_observation() -> N
     assert rec.tracks[16].confirmed_frame == 6 and rec.tracks[16].observations_at_confirmation == 3
 
 
-def test_a_qr_view_counts_towards_the_read_rate_only_from_three_pixels_a_module() -> None:
-    rec = FunnelRecorder([(0, "qr", "Chart A", 29)], load_config(), EX3)
-    small = (0.0, 0.0, 86.0, 86.0)  # 86 / 29 = 2.97 px a module
+def test_a_qr_view_counts_towards_the_read_rate_from_three_pixels_a_module_whole_and_still_apart() -> None:
+    asked = []
+
+    def reader(frame, d):  # the reader, for the views the pipeline did not ask about
+        asked.append(frame.index)
+        return "Chart A"
+
+    rec = FunnelRecorder([(0, "qr", "Chart A", 29)], load_config(), EX3, qr_reader=reader)
+    small = (0.0, 0.0, 86.0, 86.0)  # 86 / 29 = 2.97 px a module: not counted
     large = (0.0, 0.0, 88.0, 88.0)  # 3.03 px
-    for k, (b, text) in enumerate([(small, ""), (large, ""), (large, "Chart A"), (large, "Chart B")]):
-        rec.on_frame(
-            [view(0, box=b)], 0.0, frame(k), result(k, [det("qr", text, track=1, box=b)], [0], qr_tried=[0])
-        )
+    cases = [  # box, text the pipeline read, asked, visible fraction, blur px
+        (small, "", True, 1.0, 0.0),
+        (large, "", True, 1.0, 0.0),  # asked, not read
+        (large, "Chart A", True, 1.0, 0.0),  # read
+        (large, "Chart B", True, 1.0, 0.0),  # read wrong
+        (large, "", False, 1.0, 0.0),  # not asked (a settled track): the reader reads it
+        (large, "Chart A", True, 0.5, 0.0),  # cut by the border: counted, not clear
+        (large, "", True, 1.0, 4.0),  # smeared over more than a module: counted, not clear
+    ]
+    for k, (b, text, tried, fraction, blur) in enumerate(cases):
+        res = result(k, [det("qr", text, track=1, box=b)], [0], qr_tried=[0] if tried else [])
+        rec.on_frame([view(0, fraction, box=b)], blur, frame(k), res)
     o = rec.traces[0]
-    assert (o.qr_views, o.qr_decoded, o.read_frames) == (3, 1, 1)
+    assert asked == [4]
+    assert (o.qr_views, o.qr_decoded) == (6, 3)
+    assert (o.qr_clear_views, o.qr_clear_decoded) == (4, 2)
+    assert o.read_frames == 2  # what the pipeline itself read right
 
 
 def test_autonomy_withheld_is_charged_to_the_multiplier_and_a_false_report_to_its_track() -> None:
