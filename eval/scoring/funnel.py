@@ -597,8 +597,8 @@ def format_funnel(per_type: dict[str, dict[str, float]], lost: float, max_minus_
     if qr.get("qr_views"):
         lines.append(
             f"QR reader: {_g(qr['qr_decoded'])} of {_g(qr['qr_views'])} views at >= {QR_MIN_MODULE_PX:g} px "
-            f"a module read right ({qr['qr_decoded'] / qr['qr_views']:.0%}); of those whole in the image and blurred less "
-            f"than a module, {_g(qr['qr_clear_decoded'])} of {_g(qr['qr_clear_views'])}"
+            f"a module read right ({qr['qr_decoded'] / qr['qr_views']:.0%}); of those whole in the image "
+            f"and blurred less than a module, {_g(qr['qr_clear_decoded'])} of {_g(qr['qr_clear_views'])}"
             + (f" ({qr['qr_clear_decoded'] / qr['qr_clear_views']:.0%})" if qr["qr_clear_views"] else "")
         )
     if max_minus_score is not None:
