@@ -46,6 +46,7 @@ class Route:
     pan_rad: np.ndarray | None = None  # per keyframe when replayed from a file
     pan_amplitude_rad: float = 0.0
     pan_period_s: float = 8.0
+    tilt_rad: np.ndarray | None = None  # per keyframe: the camera head's tilt over the mount's, up positive
 
     @property
     def duration_s(self) -> float:
@@ -65,6 +66,12 @@ class Route:
             return 0.0
         return self.pan_amplitude_rad * float(np.sin(2.0 * np.pi * t / self.pan_period_s))
 
+    def tilt(self, t: float) -> float:
+        """The camera head's tilt at time t over the mount's own (0 without keyframes)."""
+        if self.tilt_rad is None:
+            return 0.0
+        return float(np.interp(t, self.t_s, self.tilt_rad))
+
 
 def _wrap_to(target: float, current: float) -> float:
     """The angle equal to ``target`` mod 2 pi that is closest to ``current``."""
@@ -75,25 +82,58 @@ class _Keyframes:
     """The route's keyframes as they are laid down: the state now, appended when time moves."""
 
     def __init__(self, x: float, y: float, yaw: float) -> None:
-        self.t, self.x, self.y, self.yaw, self.pan = 0.0, x, y, yaw, 0.0
-        self.rows = [(0.0, x, y, yaw, 0.0)]
+        self.t, self.x, self.y, self.yaw, self.pan, self.tilt = 0.0, x, y, yaw, 0.0, 0.0
+        self.rows = [(0.0, x, y, yaw, 0.0, 0.0)]
 
     def advance(self, dt: float) -> None:
         """Let ``dt`` seconds pass and record the state reached (nothing when dt is 0)."""
         if dt > 0.0:
             self.t += dt
-            self.rows.append((self.t, self.x, self.y, self.yaw, self.pan))
+            self.rows.append((self.t, self.x, self.y, self.yaw, self.pan, self.tilt))
 
-    def scan(self, steps_rad: np.ndarray, rate_rad_s: float, dwell_s: float) -> None:
+    def slew(self, pan: float, tilt: float, rate_rad_s: float) -> None:
+        """Pan and tilt together to (pan, tilt), each axis at ``rate_rad_s``: the slower axis decides."""
+        dt = max(abs(pan - self.pan), abs(tilt - self.tilt)) / rate_rad_s
+        self.pan, self.tilt = pan, tilt
+        self.advance(dt)
+
+    def scan(
+        self,
+        steps_rad: np.ndarray,
+        rate_rad_s: float,
+        dwell_s: float,
+        wall_tilts_rad: np.ndarray | None = None,
+        walled: list[bool] | None = None,
+    ) -> None:
         """The base still, the camera slews to each step angle at ``rate_rad_s``, dwells
-        ``dwell_s`` there, and slews back to 0 (a pan-tilt unit's stepped scan)."""
-        for a in [*steps_rad, None]:
-            target = 0.0 if a is None else float(a)
-            dt = abs(target - self.pan) / rate_rad_s
-            self.pan = target
-            self.advance(dt)
-            if a is not None:
-                self.advance(dwell_s)
+        ``dwell_s`` there, and slews back to 0 (a pan-tilt unit's stepped scan); at a step that
+        faces a wall beside the cell (``walled``) it also dwells at each of ``wall_tilts_rad``
+        before tilting back level, so the wall is seen from its foot to its top."""
+        for i, a in enumerate(steps_rad):
+            self.slew(float(a), 0.0, rate_rad_s)
+            self.advance(dwell_s)
+            if walled is not None and walled[i] and wall_tilts_rad is not None:
+                for tilt in wall_tilts_rad:
+                    self.slew(float(a), float(tilt), rate_rad_s)
+                    self.advance(dwell_s)
+        self.slew(0.0, 0.0, rate_rad_s)
+
+
+def walled_steps(maze, cell: tuple[int, int], yaw: float, steps_rad: np.ndarray) -> list[bool]:
+    """For each pan step, whether the camera then faces a wall of ``cell`` (at yaw + pan along
+    one of the grid's four directions, within 10 degrees, with no open neighbour there)."""
+    cx, cy = maze.cell_center(*cell)
+    open_dirs = [
+        float(np.arctan2(ny - cy, nx - cx))
+        for nx, ny in (maze.cell_center(*nb) for nb in maze.open_neighbours(*cell))
+    ]
+    out = []
+    for a in steps_rad:
+        d = yaw + float(a)
+        on_grid = abs(_wrap_to(d, 0.0) - np.round(_wrap_to(d, 0.0) / (np.pi / 2)) * np.pi / 2) < np.deg2rad(10.0)
+        is_open = any(abs(_wrap_to(d, o) - o) < np.deg2rad(10.0) for o in open_dirs)
+        out.append(on_grid and not is_open)
+    return out
 
 
 def route_from_tour(maze, cells: list[tuple[int, int]], spec: RobotSpec, start_yaw: float) -> Route:
@@ -109,12 +149,17 @@ def route_from_tour(maze, cells: list[tuple[int, int]], spec: RobotSpec, start_y
     w = np.deg2rad(spec.yaw_rate_dps)
     steps = spec.kind == "mast" and spec.pan.mode == "steps"
     steps_rad = np.deg2rad(np.asarray(spec.pan.steps_deg, dtype=float))
+    tilts_rad = np.deg2rad(np.asarray(spec.pan.wall_tilts_deg, dtype=float))
     rate = np.deg2rad(spec.pan.rate_dps)
     x, y = maze.cell_center(*cells[0])
     k = _Keyframes(float(x), float(y), float(start_yaw))
     seen = {cells[0]}
+
+    def scan(cell: tuple[int, int]) -> None:
+        k.scan(steps_rad, rate, spec.pan.dwell_s, tilts_rad, walled_steps(maze, cell, k.yaw, steps_rad))
+
     if steps:
-        k.scan(steps_rad, rate, spec.pan.dwell_s)
+        scan(cells[0])
     for cell in cells[1:]:
         nx, ny = maze.cell_center(*cell)
         heading = _wrap_to(float(np.arctan2(ny - k.y, nx - k.x)), k.yaw)
@@ -125,18 +170,19 @@ def route_from_tour(maze, cells: list[tuple[int, int]], spec: RobotSpec, start_y
         k.x, k.y = float(nx), float(ny)
         k.advance(dist / spec.speed_mps)
         if steps and cell not in seen:
-            k.scan(steps_rad, rate, spec.pan.dwell_s)
+            scan(cell)
         seen.add(cell)
     if not steps:  # finish with a full look around in the last cell
         k.yaw += 2.0 * np.pi
         k.advance(2.0 * np.pi / w)
-    t, xs, ys, yaws, pans = (np.array(c) for c in zip(*k.rows, strict=True))
+    t, xs, ys, yaws, pans, tilts = (np.array(c) for c in zip(*k.rows, strict=True))
     return Route(
         t_s=t,
         x_m=xs,
         y_m=ys,
         yaw_rad=yaws,
         pan_rad=pans if steps else None,
+        tilt_rad=tilts if steps and np.any(tilts) else None,
         pan_amplitude_rad=0.0 if steps else float(np.deg2rad(spec.pan.amplitude_deg)),
         pan_period_s=spec.pan.period_s,
     )
@@ -183,8 +229,10 @@ def load_route_csv(path: str | Path, T_world_map: np.ndarray) -> Route:
 
 
 def rig_pose(route: Route, t: float, mast_height_m: float, tilt_rad: float) -> np.ndarray:
-    """T_world_rig: the camera rig body frame (x fwd, y left, z up) at time t."""
+    """T_world_rig: the camera rig body frame (x fwd, y left, z up) at time t; ``tilt_rad`` the
+    mount's own tilt, to which the head's (:meth:`Route.tilt`) adds."""
     x, y, yaw = route.base_pose(t)
     T_world_base = make_transform(rot_z(yaw), [x, y, 0.0])
-    T_base_rig = make_transform(rot_z(route.pan(t)) @ rot_y(-tilt_rad), [0.0, 0.0, mast_height_m])
+    R = rot_z(route.pan(t)) @ rot_y(-(tilt_rad + route.tilt(t)))
+    T_base_rig = make_transform(R, [0.0, 0.0, mast_height_m])
     return T_world_base @ T_base_rig

@@ -330,6 +330,11 @@ class PanSpec:
     at 10 fps. 120 deg/s is within what a Dynamixel MX-28 (330 deg/s unloaded, [RobotisMX28]_)
     or a PTU-D46 ([PTU-D46]_) turns.
 
+    At a step that faces a wall of the cell (0.6 m away in an RRL cell, where the D435's
+    42-degree vertical view spans only 0.27-0.73 m of it from a 0.5 m mast) the head also dwells
+    at each tilt of ``wall_tilts_deg`` (up positive) before levelling: at -25 and +25 degrees it
+    sees the wall from its foot to 1.1 m, as a sensor head looks down and up a wall within reach.
+
     ``mode: sweep`` pans continuously, ``pan(t) = amplitude_deg sin(2 pi t / period_s)``, while the
     robot drives and turns without stopping (the default before issue 57).
 
@@ -346,6 +351,7 @@ class PanSpec:
     mode: Literal["sweep", "steps"] = "steps"
     steps_deg: tuple[float, ...] = number((-90.0, -45.0, 0.0, 45.0, 90.0), lo=-180.0, hi=180.0)
     dwell_s: float = number(0.5, lo=0.0, hi=60.0)
+    wall_tilts_deg: tuple[float, ...] = number((-25.0, 25.0), lo=-60.0, hi=60.0)
     rate_dps: float = number(120.0, lo=0.0, hi=1000.0, lo_open=True)
     amplitude_deg: float = number(80.0, lo=-180.0, hi=180.0)
     period_s: float = number(5.0, lo=0.0, lo_open=True)

@@ -365,6 +365,7 @@ class Simulation:
         r = self.route
         x, y, yaw = (np.interp(t, r.t_s, v) for v in (r.x_m, r.y_m, r.yaw_rad))
         pan = np.array([r.pan(float(ti)) for ti in t])
+        tilt = self._tilt_rad + (np.zeros(len(t)) if r.tilt_rad is None else np.interp(t, r.t_s, r.tilt_rad))
         n = len(t)
         T_world_base = np.zeros((n, 4, 4))
         c, sn = np.cos(yaw), np.sin(yaw)
@@ -375,7 +376,10 @@ class Simulation:
         Rz_pan = np.zeros((n, 3, 3))
         Rz_pan[:, 0, 0], Rz_pan[:, 0, 1], Rz_pan[:, 1, 0], Rz_pan[:, 1, 1], Rz_pan[:, 2, 2] = cp, -sp, sp, cp, 1.0
         T_base_rig = np.zeros((n, 4, 4))
-        T_base_rig[:, :3, :3] = Rz_pan @ rot_y(-self._tilt_rad)
+        ct, st = np.cos(-tilt), np.sin(-tilt)  # rot_y(-tilt) for each time
+        Ry = np.zeros((n, 3, 3))
+        Ry[:, 0, 0], Ry[:, 0, 2], Ry[:, 1, 1], Ry[:, 2, 0], Ry[:, 2, 2] = ct, st, 1.0, -st, ct
+        T_base_rig[:, :3, :3] = Rz_pan @ Ry
         T_base_rig[:, 2, 3] = self.mast_height_m
         T_base_rig[:, 3, 3] = 1.0
         return self.T_map_world @ T_world_base @ T_base_rig @ self._T_rig_tracker

@@ -36,8 +36,11 @@ def _camera_rate_dps(route: Route, t: np.ndarray, h: float = 1e-3) -> np.ndarray
     return np.abs(_camera_yaw_deg(route, t + h) - _camera_yaw_deg(route, t - h)) / (2 * h)
 
 
+NO_TILTS = ["robot.pan.wall_tilts_deg=[]"]  # the pan alone: no tilted dwells at walls beside the cell
+
+
 def test_default_pan_steps_through_the_angles_with_a_dwell_at_each():
-    route, spec, cells = _route()
+    route, spec, cells = _route(NO_TILTS)
     p = spec.pan
     assert p.mode == "steps" and route.pan_rad is not None
     pan_deg = np.rad2deg(route.pan_rad)
@@ -68,12 +71,13 @@ def test_default_pan_steps_through_the_angles_with_a_dwell_at_each():
 
 def test_the_base_is_still_while_the_camera_scans_and_drives_looking_ahead():
     route, _, _ = _route()
-    pan = route.pan_rad
+    pan, tilt = route.pan_rad, route.tilt_rad
     base_moves = (np.diff(route.x_m) != 0) | (np.diff(route.y_m) != 0) | (np.diff(route.yaw_rad) != 0)
-    pan_moves = np.diff(pan) != 0
-    assert not np.any(base_moves & pan_moves)
-    # whenever the base moves the camera looks straight ahead at both ends of the segment
+    head_moves = (np.diff(pan) != 0) | (np.diff(tilt) != 0)
+    assert not np.any(base_moves & head_moves)
+    # whenever the base moves the camera looks straight ahead, level, at both ends of the segment
     assert np.all(pan[:-1][base_moves] == 0.0) and np.all(pan[1:][base_moves] == 0.0)
+    assert np.all(tilt[:-1][base_moves] == 0.0) and np.all(tilt[1:][base_moves] == 0.0)
     # it starts and ends looking ahead; the stepped route needs no closing turn in place
     assert pan[0] == 0.0 and pan[-1] == 0.0
 
@@ -86,7 +90,7 @@ def test_sweep_mode_gives_the_route_before_issue_57():
     want = spec.pan.amplitude_deg * np.sin(2 * np.pi * t / spec.pan.period_s)
     assert np.allclose([np.rad2deg(route.pan(ti)) for ti in t], want)
     # the same base path as the stepped route with its scans taken out, plus the closing turn
-    stepped, s, _ = _route()
+    stepped, s, _ = _route(NO_TILTS)
     p = s.pan
     scan_s = (abs(p.steps_deg[0]) + np.abs(np.diff(p.steps_deg)).sum() + abs(p.steps_deg[-1])) / p.rate_dps
     scan_s += len(p.steps_deg) * p.dwell_s
@@ -102,12 +106,57 @@ def test_a_turtlebot_on_a_tour_does_not_stop_to_scan():
 
 
 def test_steps_with_no_dwell_and_a_single_angle():
-    route, spec, cells = _route(["robot.pan.steps_deg=[90]", "robot.pan.dwell_s=0", "robot.pan.rate_dps=90"])
+    one = ["robot.pan.steps_deg=[90]", "robot.pan.dwell_s=0", "robot.pan.rate_dps=90"]
+    route, spec, cells = _route([*one, *NO_TILTS])
     pan_deg = np.rad2deg(route.pan_rad)
     assert pan_deg.max() == pytest.approx(90.0) and pan_deg.min() == 0.0
     assert np.all(np.diff(route.t_s) > 0)  # no two keyframes at one time
     sweep, s, _ = _route(["robot.pan.mode=sweep"])
     assert route.duration_s == pytest.approx(sweep.duration_s - 360.0 / s.yaw_rate_dps + len(set(cells)) * 2.0)
+
+
+def test_the_head_looks_down_and_up_each_wall_beside_the_cell_and_nowhere_else():
+    """At a pan step that faces a wall of the cell the head also dwells at each wall tilt; at a
+    step that faces an opening (or between the grid's directions) it does not."""
+    from sim.route import walled_steps
+
+    route, spec, cells = _route()
+    p = spec.pan
+    sc = load_scenario("default")
+    maze = load_maze(find_maze(sc.resolve(sc.maze.file)))
+    steps = np.deg2rad(p.steps_deg)
+    # the grid's four directions: +-90 and 0 can face a wall, +-45 never do
+    first = walled_steps(maze, cells[0], maze.start_heading_rad, steps)
+    assert not first[1] and not first[3]
+    n_walled = 0
+    yaw = maze.start_heading_rad
+    seen: set = set()
+    for cell in cells:  # the walls each first visit faces, by the heading the route has there
+        if cell in seen:
+            continue
+        seen.add(cell)
+        cx, cy = maze.cell_center(*cell)
+        yaw = float(route.yaw_rad[int(np.argmin(np.abs(route.x_m - cx) + np.abs(route.y_m - cy)))])
+        n_walled += sum(walled_steps(maze, cell, yaw, steps))
+    tilt_deg = np.rad2deg(route.tilt_rad)
+    dt = np.diff(route.t_s)
+    held = np.isclose(dt, p.dwell_s) & (np.diff(tilt_deg) == 0) & (np.diff(route.pan_rad) == 0)
+    tilted = held & (tilt_deg[:-1] != 0)
+    assert n_walled > 0
+    for tilt in p.wall_tilts_deg:  # one dwell at each wall tilt per wall faced
+        assert np.sum(np.isclose(tilt_deg[:-1][tilted], tilt)) == n_walled
+    # tilted dwells only at the steps that face the grid's directions
+    pans = np.round(np.rad2deg(route.pan_rad[:-1][tilted]), 6)
+    assert set(pans) <= {-90.0, 0.0, 90.0}
+    # the camera looks up at a positive tilt: its optical axis (rig x) has a positive z
+    k = int(np.flatnonzero(tilted & (tilt_deg[:-1] > 0))[0])
+    R = rig_pose(route, float(route.t_s[k]) + 0.01, MAST_HEIGHT_M, 0.0)[:3, :3]
+    assert R[2, 0] == pytest.approx(np.sin(np.deg2rad(tilt_deg[k])))
+    # each wall costs the tilts' dwells and their slews (down 25, up 50; levelling again rides on
+    # the next pan slew, both axes turning at once)
+    plain, _, _ = _route(NO_TILTS)
+    extra = n_walled * (len(p.wall_tilts_deg) * p.dwell_s + (25 + 50) / p.rate_dps)
+    assert route.duration_s == pytest.approx(plain.duration_s + extra)
 
 
 @pytest.mark.parametrize(
