@@ -52,6 +52,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from poi.core.geometry import iou_matrix
 from poi.core.loader import safe_load_file
 from poi.core.types import Frame, Intrinsics
 from poi.detectors.base import canonical_class
@@ -317,16 +318,6 @@ def poibench_boxes(
         xyxy = np.array([d.box_xyxy for d in dets], dtype=np.float64).reshape(-1, 4)
         out.append(Boxes([d.class_name for d in dets], xyxy, np.array([d.confidence for d in dets])))
     return out
-
-
-def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of every box of a (N, 4) with every box of b (M, 4), xyxy."""
-    tl = np.maximum(a[:, None, :2], b[None, :, :2])
-    br = np.minimum(a[:, None, 2:], b[None, :, 2:])
-    inter = np.prod(np.clip(br - tl, 0, None), axis=2)
-    area_a = np.prod(a[:, 2:] - a[:, :2], axis=1)
-    area_b = np.prod(b[:, 2:] - b[:, :2], axis=1)
-    return inter / np.maximum(area_a[:, None] + area_b[None, :] - inter, 1e-12)
 
 
 def match(ul: Boxes, pb: Boxes) -> tuple[int, float, float]:

@@ -543,6 +543,15 @@ def summed_funnel(rows, out: Path) -> dict[str, dict[str, float]]:
     return sum_per_type([funnels[t] for t in trials if t in funnels])
 
 
+def setting_groups(df, keys: list[str]) -> Iterator[tuple[dict, object]]:
+    """(the setting columns' values, the rows) of each setting combination of a sweep's rows,
+    in the order they first appear; one group of every row when nothing was swept."""
+    cols = [SET_PREFIX + k for k in keys]
+    groups = df.groupby(cols, sort=False, dropna=False) if cols else [((), df)]
+    for key, g in groups:
+        yield dict(zip(cols, key if isinstance(key, tuple) else (key,), strict=True)), g
+
+
 def funnel_table(df, keys: list[str], out_dir: Path):
     """``funnel.csv`` of a sweep: per setting combination and type, the objects, how many
     passed each stage and the points lost to each cause, summed over its trials."""
@@ -550,13 +559,10 @@ def funnel_table(df, keys: list[str], out_dir: Path):
 
     from eval.scoring.funnel import CAUSES, STAGES
 
-    cols = [SET_PREFIX + k for k in keys]
     if not len(df):
         return pd.DataFrame()
-    groups = df.groupby(cols, sort=False, dropna=False) if cols else [((), df)]
     out = []
-    for key, g in groups:
-        rec = dict(zip(cols, key if isinstance(key, tuple) else (key,), strict=True))
+    for rec, g in setting_groups(df, keys):
         for t, row in sorted(summed_funnel(g[g["error"] == ""], out_dir).items()):
             out.append(
                 {
@@ -580,18 +586,15 @@ def aggregate(df, keys: list[str]):
     """Per setting combination: trials, failures, mean fraction and its 95% t interval, means."""
     import pandas as pd
 
-    cols = [SET_PREFIX + k for k in keys]
     if not len(df):
         return pd.DataFrame()
-    groups = df.groupby(cols, sort=False, dropna=False) if cols else [((), df)]
     out = []
-    for key, g in groups:
+    for rec, g in setting_groups(df, keys):
         ok = g[g["error"] == ""]
         f = ok["fraction"].astype(float).to_numpy()
         n = len(f)
         mean = float(np.mean(f)) if n else float("nan")
         half = t_quantile_975(n - 1) * float(np.std(f, ddof=1)) / math.sqrt(n) if n > 1 else float("nan")
-        rec = dict(zip(cols, key if isinstance(key, tuple) else (key,), strict=True))
 
         def mean_of(col: str, digits: int, ok=ok) -> float:
             # the mean of the trials that have a value (a trial that located nothing has no

@@ -46,29 +46,13 @@ from eval.scoring.funnel import (
 from eval.scoring.map_error import MapErrorResult
 from eval.scoring.rules import AnyRules
 from eval.scoring.scorer import ScoreResult
+from poi.core.geometry import iou_matrix
 from poi.core.types import Detection, Frame, TrackSnapshot
 from poi.estimation.localize import box_depth
 
 # sources of the helpers that run beside a trial's detector (heat, Landolt-C rings, QR finder):
 # their boxes do not say whether the detector itself boxes anything
 HELPER_SOURCES = frozenset({"thermal", "landolt", "qr"})
-
-
-def box_ious(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of every box of ``a`` (n, 4) with every box of ``b`` (m, 4), x1 y1 x2 y2: (n, m).
-
-    >>> box_ious(np.array([[0, 0, 2, 2.0]]), np.array([[1, 0, 3, 2.0], [5, 5, 6, 6.0]])).round(3).tolist()
-    [[0.333, 0.0]]
-    """
-    a = np.asarray(a, dtype=float).reshape(-1, 4)
-    b = np.asarray(b, dtype=float).reshape(-1, 4)
-    ix = np.clip(np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0]), 0, None)
-    iy = np.clip(np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1]), 0, None)
-    inter = ix * iy
-    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
-    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
-    union = area_a[:, None] + area_b[None, :] - inter
-    return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
 
 
 def match_boxes(
@@ -84,7 +68,7 @@ def match_boxes(
     if not dets or not views:
         return {}
     boxes = np.array([d.box_xyxy for d in dets], dtype=float)  # (n, 4)
-    iou = box_ious(boxes, np.array([v.box_xyxy for v in views]))
+    iou = iou_matrix(boxes, np.array([v.box_xyxy for v in views]))
     for j, v in enumerate(views):
         if v.point:  # a recording's view: the boxes that hold its point, each counted as a full overlap
             u, w = v.box_xyxy[0], v.box_xyxy[1]

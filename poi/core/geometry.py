@@ -1,4 +1,5 @@
-"""Small rigid-transform helpers. Quaternions only at the edges, in (w, x, y, z) order.
+"""Small rigid-transform helpers, and the IoU of image boxes. Quaternions only at the edges, in
+(w, x, y, z) order.
 
 >>> T = make_transform(rot_z(np.pi / 2), [1.0, 0.0, 0.0])
 >>> np.round(transform_points(T, np.array([[1.0, 0.0, 0.0]])), 6).tolist()
@@ -93,3 +94,20 @@ def matrix_to_quat_wxyz(R: np.ndarray) -> np.ndarray:
 # Camera optical frame (x right, y down, z forward) expressed in a body frame with
 # x forward, y left, z up: optical z = body x, optical x = -body y, optical y = -body z.
 R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+
+def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(len(a), len(b)) intersection over union of xyxy boxes.
+
+    >>> iou_matrix(np.array([[0, 0, 2, 2]]), np.array([[1, 0, 3, 2], [5, 5, 6, 6]])).round(4).tolist()
+    [[0.3333, 0.0]]
+    """
+    a = np.asarray(a, float).reshape(-1, 4)
+    b = np.asarray(b, float).reshape(-1, 4)
+    ix = np.clip(np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0]), 0, None)
+    iy = np.clip(np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1]), 0, None)
+    inter = ix * iy
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    union = area_a[:, None] + area_b[None, :] - inter
+    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
