@@ -72,6 +72,9 @@ CAUSES = OBJECT_CAUSES + FALSE_CAUSES
 IN_VIEW_FRACTION = 0.35
 IN_VIEW_MIN_PX = 12.0
 BOX_IOU = 0.5  # a box is on an object when their IoU is at least this ([Bolya2020]'s t_f)
+# a false report's box lies on the object it overlaps most from this IoU on, on the background
+# below it everywhere ([Bolya2020]'s t_b)
+BACKGROUND_IOU = 0.1
 QR_MIN_MODULE_PX = 3.0  # a QR view counts towards the read rate from this many pixels a module
 # A QR code is read from its three finder patterns and every module between them ([ISO18004]): a view
 # cut by the image border is unreadable by any decoder, and so is one smeared over more than a module
@@ -146,8 +149,8 @@ class ObjectTrace:
 
 @dataclass(kw_only=True)
 class TrackTrace:
-    """One track: what its observations' boxes lay on (object id, None for background) and
-    when it was confirmed."""
+    """One track: what its observations' boxes lay on (the object each overlaps most at IoU >=
+    ``BACKGROUND_IOU``; None, the background, below it) and when it was confirmed."""
 
     track_id: int
     on: Counter = field(default_factory=Counter)
@@ -156,10 +159,10 @@ class TrackTrace:
     report_id: int | None = None
 
     def main_object(self) -> int | None:
-        """The object most of its boxes lay on (None: background); ties to the lower id."""
+        """The object most of its boxes lay on (None: background); ties to an object, the lower id."""
         if not self.on:
             return None
-        return min(self.on, key=lambda k: (-self.on[k], -1 if k is None else k))
+        return min(self.on, key=lambda k: (-self.on[k], k is None, -1 if k is None else k))
 
 
 @dataclass(kw_only=True)

@@ -15,7 +15,8 @@ and
 3. counts each QR view at ``QR_MIN_MODULE_PX`` a module or more with a QR box on it and whether
    the reader reads it right (asking the reader, ``qr_reader``, where the pipeline did not), and
    those whole in the image and blurred by less than a module;
-4. notes which objects each track's observations lay on, and when each track was confirmed.
+4. notes which object each track's observations lay on (the one each box overlaps most, from
+   IoU ``BACKGROUND_IOU``: [Bolya2020]_'s background threshold), and when each track was confirmed.
 
 :meth:`FunnelRecorder.funnel` hands that to :func:`eval.scoring.funnel.attribute` with the score.
 
@@ -32,6 +33,7 @@ from collections.abc import Callable, Iterable, Sequence
 import numpy as np
 
 from eval.scoring.funnel import (
+    BACKGROUND_IOU,
     BOX_IOU,
     QR_MIN_MODULE_PX,
     QR_WHOLE_FRACTION,
@@ -222,17 +224,28 @@ class FunnelRecorder:
             o.read_frames += self._same_identity(det, o)
             if det.track_id is not None:
                 o.tracks[det.track_id] += 1
+        near = self._nearest_views(dets, views)
         for k in observed:
             tid = dets[k].track_id
             if tid is None:
                 continue
             t = self.tracks.setdefault(tid, TrackTrace(track_id=tid))
-            j = on.get(k)
+            j = on.get(k, near.get(k))
             t.on[None if j is None else views[j].id] += 1
         for snap in res.newly_confirmed:
             t = self.tracks.setdefault(snap.track_id, TrackTrace(track_id=snap.track_id))
             t.confirmed_frame = res.frame_index
             t.observations_at_confirmation = snap.n_detections
+
+    @staticmethod
+    def _nearest_views(dets: Sequence[Detection], views: Sequence[ObjectView]) -> dict[int, int]:
+        """Detection index -> the view it overlaps most, where that IoU is at least
+        ``BACKGROUND_IOU`` (a box below it on every object lies on the background)."""
+        if not dets or not views:
+            return {}
+        iou = iou_matrix(np.array([d.box_xyxy for d in dets]), np.array([v.box_xyxy for v in views]))
+        best = np.argmax(iou, axis=1)
+        return {k: int(best[k]) for k in range(len(dets)) if iou[k, best[k]] >= BACKGROUND_IOU}
 
     def _count_qr_view(
         self, o: ObjectTrace, v: ObjectView, det: Detection, tried: bool, blur_px: float | None, frame: Frame

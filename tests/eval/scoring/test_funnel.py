@@ -275,3 +275,19 @@ def test_the_outputs_carry_every_charge_and_a_suite_sums_per_type() -> None:
     assert twice["exit-sign"]["objects"] == 4 and twice["exit-sign"]["misplaced"] == 4
     text = format_funnel(twice, 2 * f.lost, 2 * f.max_minus_score)
     assert text.splitlines()[-1].endswith(": ok")
+
+
+@pytest.mark.parametrize("shift_px, cause", [(30.0, "false: other object"), (52.0, "false: background")])
+def test_a_false_reports_box_lies_on_an_object_from_a_tenth_of_iou(shift_px, cause) -> None:
+    """A box half off a placard (IoU 0.33 with its 60 px box) still lies on it (TIDE's background
+    threshold 0.1); one 52 px off (IoU 0.07) lies on the background."""
+    truth = poi(row(0, "hazmat", 0.0, text="explosive"))
+    rec = FunnelRecorder([(0, "hazmat", "explosive", None)], load_config(), EX3)
+    x1, y1, x2, y2 = BOX
+    off = (x1 + shift_px, y1, x2 + shift_px, y2)
+    for k in range(3):
+        rec.on_frame([view(0)], 0.0, frame(k), result(k, [det("exit-sign", track=5, box=off)], [0]))
+    res = score(poi(row(1, "exit-sign", 0.0)), truth, EX3)
+    f = rec.funnel([snap(5, 1, "exit-sign")], res)
+    assert [(c.cause, c.points) for c in f.charges if c.report_line is not None] == [(cause, 1)]
+    assert f.check_ok
