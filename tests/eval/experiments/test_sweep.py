@@ -10,6 +10,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -26,6 +27,7 @@ from eval.experiments.sweep import (
     read_rows,
     run_sweep,
 )
+from poi.core.poi_file import read_poi_file
 
 TINY = str(Path(__file__).parent / "data" / "tiny_suite.yaml")
 RESULT_COLS = ["trial", "scenario", "seed", "score", "max_score", "fraction", "false_reports", "misses"]
@@ -160,6 +162,17 @@ def test_rows_and_aggregate_give_each_trials_cpu_seconds(tmp_path):
     assert ((sim_s > 3.8) & (sim_s < 4.01)).all(), sim_s
     assert agg.loc[0, "cpu_s_mean"] == pytest.approx(df["cpu_s"].mean(), abs=0.01)
     assert agg.loc[0, "cpu_s_per_sim_s_mean"] == pytest.approx(df["cpu_s_per_sim_s"].mean(), abs=1e-4)
+    # each row's funnel charges its lost points (max - score), and funnel.csv sums them per type
+    assert (df["funnel_check"] == "ok").all()
+    assert np.allclose(df["funnel_lost"], df["max_score"] - df["score"])
+    assert df["boxes_per_frame"].notna().all()
+    funnel = pd.read_csv(tmp_path / "funnel.csv")
+    causes = [c for c in funnel.columns if c.startswith(("not ", "false: ", "reported", "misplaced", "taken"))]
+    causes += ["autonomy withheld"]
+    assert funnel[causes].to_numpy().sum() == pytest.approx((df["max_score"] - df["score"]).sum())
+    assert funnel["objects"].sum() == len(df) * len(
+        read_poi_file(tmp_path / "trials" / df["trial"][0] / "truth.csv").rows
+    )
     # a trials.csv of other columns (an older poibench) is refused, not appended to
     header = (tmp_path / "trials.csv").read_text().splitlines()[0]
     (tmp_path / "trials.csv").write_text(header.replace(",cpu_s,cpu_s_per_sim_s", "") + "\n")
