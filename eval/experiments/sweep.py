@@ -170,8 +170,10 @@ def trial_id(scenario: str, settings: dict[str, str]) -> str:
 
 def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     """Grid x scenarios, settings outer, scenarios inner; scenario settings applied to the scenario."""
+    from eval.trial.run import refuse_detector_model
     from eval.trial.scenarios import split_settings
     from poi.config import ConfigError, apply_overrides, load_config
+    from poi.detectors import DetectorConfigError
     from sim.scenario import ScenarioError, apply_settings
 
     tasks = []
@@ -179,8 +181,9 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
         items = [f"{k}={v}" for k, v in combo.items()]
         sim_sets, pipe_sets = split_settings(items)
         try:
-            apply_overrides(load_config(), pipe_sets)
-        except ConfigError as e:
+            # a setting that cannot take effect in a trial is refused here, not recorded in every row
+            refuse_detector_model(apply_overrides(load_config(), pipe_sets))
+        except (ConfigError, DetectorConfigError) as e:
             raise SweepError(f"--set: {e}") from None
         for entry in suite.scenarios:
             sc = suite.build(entry)

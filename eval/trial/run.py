@@ -125,14 +125,38 @@ def onnx_settings_set(det_cfg) -> list[str]:
     ]
 
 
+def refuse_detector_model(cfg) -> None:
+    """Refuse a config that names ``detector.model``: a trial's (or replay's) detector is the
+    ``--detector`` choice, which also picks the label model, the calibration and the perception
+    cache's key, so the file ``detector.model`` names could never take effect."""
+    from poi.detectors import DetectorConfigError
+
+    model = cfg.detector.model
+    if model is not None:
+        raise DetectorConfigError(
+            f"detector.model={model}: a trial's detector is chosen with --detector FILE.onnx, not "
+            "detector.model (a sweep compares detectors by one run per --detector)"
+        )
+
+
+def check_trial_settings(pipeline_sets) -> None:
+    """Refuse, before a trial starts, pipeline ``--set`` items that cannot take effect in a
+    trial (``detector.model``: :func:`refuse_detector_model`)."""
+    from poi.config import apply_overrides, load_config
+
+    refuse_detector_model(apply_overrides(load_config(), list(pipeline_sets)))
+
+
 def make_detectors(choice: str, cfg, sim, notes: list[str]):
     """The detectors for a trial and the oracle (when used, it needs the truth of each frame).
 
     In a world with Landolt-C targets the oracle gives their boxes (their rings are read from
-    the pixels by the pipeline); any other detector runs with the Landolt-C finder beside it."""
+    the pixels by the pipeline); any other detector runs with the Landolt-C finder beside it.
+    A config naming ``detector.model`` is refused (:func:`refuse_detector_model`)."""
     from poi.detectors import build_detector, build_python_detector, is_team_detector
     from sim.oracle import oracle_for
 
+    refuse_detector_model(cfg)
     oracle = None
     dets = []
     if choice == "default" and not DEFAULT_MODEL.exists():
@@ -399,6 +423,9 @@ def run_trial(
     from poi.report import PoiWriter, ReportHeader
     from sim.simulator import Simulation
 
+    if max_frames is not None and max_frames < 1:
+        raise ValueError(f"run_trial: max_frames must be at least 1, got {max_frames}")
+    check_trial_settings(pipeline_sets)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     outputs = TrialOutputs(out)

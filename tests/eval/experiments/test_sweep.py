@@ -67,6 +67,16 @@ def test_cross_product_of_settings_and_scenarios(tmp_path):
         make_tasks(load_suite(TINY), SweepSpec(suite=TINY, grid=parse_grid(["tracker.nope=1"])), tmp_path)
 
 
+def test_a_sweep_over_detector_model_is_refused_before_any_trial(tmp_path):
+    # issue 60 edge 1: every row had the shipped detector's score under the team's model's name
+    grid = parse_grid(["detector.model=a.onnx,b.onnx"])
+    with pytest.raises(SweepError, match=r"^--set: detector.model=a.onnx: .*--detector FILE.onnx"):
+        make_tasks(load_suite(TINY), SweepSpec(suite=TINY, grid=grid), tmp_path)
+    with pytest.raises(SweepError, match="--detector FILE.onnx"):
+        run_sweep(SweepSpec(suite=TINY, grid=grid), tmp_path / "s")
+    assert not (tmp_path / "s" / "trials.csv").exists()
+
+
 def test_a_failing_trial_is_a_row_and_the_sweep_goes_on(tmp_path, monkeypatch):
     import eval.trial.run
 

@@ -89,6 +89,24 @@ def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
     assert f"{bad}:3: robot.speed_mps" in err
 
 
+def test_detector_model_is_refused_with_one_line_naming_detector(tmp_path, capsys):
+    # issue 60 edge 1: the trial ran the shipped detector while config.yaml recorded the team's model
+    out = tmp_path / "t"
+    assert main(["run", "--out", str(out), "--set", "detector.model=team.onnx", "--quiet", "--no-video"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("poibench run: error: detector.model=team.onnx: ") and "\n" not in err
+    assert "--detector FILE.onnx" in err
+    assert not out.exists()
+    # make_detectors (the trial's and the ROS replay's) refuses it too, before any detector is built
+    from eval.trial.run import make_detectors
+    from poi.config import apply_overrides, load_config
+    from poi.detectors import DetectorConfigError
+
+    cfg = apply_overrides(load_config(), ["detector.model=team.onnx"])
+    with pytest.raises(DetectorConfigError, match="--detector FILE.onnx"):
+        make_detectors("default", cfg, None, [])
+
+
 def test_oracle_trial_on_the_default_scenario_scores_every_point(tmp_path):
     """A perfect detector scores what a robot could see: the default tour shows every object
     (its QR codes whole and still), so the oracle, with its noise model, scores every point,
