@@ -19,6 +19,8 @@ What the reader accepts, because real teams write it:
 - CRLF or LF line ends, a UTF-8 byte order mark, spaces around any value;
   a file that is not UTF-8 is read as Latin-1, with a warning;
 - the columns in any order (named by the column line), trailing empty cells;
+- columns the format does not have (``confidence``, ``notes``): their cells are kept
+  aside in each row's ``extra``, not scored, with a warning naming the column and file;
 - type and hazmat label spellings with the aliases of :mod:`poi.core.names`.
 
 Choices the rules leave open, made here:
@@ -115,6 +117,8 @@ class PoiRow:
     robot: str
     mode: str
     type: str | None
+    # cells of columns the format does not have (``confidence``, ``notes``), by column name: kept, not scored
+    extra: dict[str, str] = field(default_factory=dict, compare=False, repr=False)
 
 
 @dataclass(kw_only=True)
@@ -212,6 +216,14 @@ def parse_poi_text(text: str, *, source: str = "<text>") -> PoiFile:
     column_cells = _cells(lines[column_index])
     if _is_column_line(column_cells):
         layout = _layout(column_cells, column_index + 1, source, header.version)
+        for name in dict.fromkeys(n for n in layout if n not in COLUMNS):
+            warnings.append(
+                Problem(
+                    line=column_index + 1,
+                    message=f"{source}: column {name!r} is not a POI column ({','.join(COLUMNS)}): "
+                    "its cells are kept aside, not scored",
+                )
+            )
     else:
         layout = _positional_layout_13(lines[column_index + 1 :])
     text_optional = layout == COLUMNS_13_TYPED and not _is_column_line(column_cells)
@@ -229,6 +241,8 @@ def parse_poi_text(text: str, *, source: str = "<text>") -> PoiFile:
             continue
         if text_optional and len(cells) == len(layout) - 1:
             cells.append("")  # a positional 1.3 row may leave out its text cell
+        if len(cells) < len(layout) and all(name not in COLUMNS for name in layout[len(cells) :]):
+            cells += [""] * (len(layout) - len(cells))  # trailing unknown columns left empty
         row = _parse_row(cells, layout, col, line_no, problems, warnings)
         if row is None:
             continue
@@ -265,16 +279,17 @@ def _is_column_line(cells: list[str]) -> bool:
 
 
 def _layout(cells: list[str], line_no: int, source: str, version: str) -> tuple[str, ...]:
-    """The column names of a column line, in file order; 1.3 may leave out type and text."""
+    """The column names of a column line, in file order; 1.3 may leave out type and text.
+    A column the format does not have is kept in the layout (its cells go to ``PoiRow.extra``);
+    a format column named twice is refused."""
     names = [c.lower() for c in cells]
     while names and names[-1] == "":
         names.pop()
     seen: set[str] = set()
     for name in names:
-        if name not in COLUMNS or name in seen:
+        if name in seen and name in COLUMNS:
             raise PoiFileError(
-                f"{source}: line {line_no}: column {name!r} is unknown or repeated; "
-                f"expected the columns {','.join(COLUMNS)}"
+                f"{source}: line {line_no}: column {name!r} is repeated; expected each of {','.join(COLUMNS)} once"
             )
         seen.add(name)
     required = COLUMNS_13 if version == "1.3" else COLUMNS
@@ -343,6 +358,7 @@ def _parse_row(
         )
         return None
     get = {name: cells[index] for name, index in col.items()}
+    extra = {name: value for name, value in get.items() if name not in COLUMNS}
     get.setdefault("text", "")
     reasons: list[str] = []
     type_ = canonical_type(get["type"]) if typed and get["type"] else None
@@ -397,6 +413,7 @@ def _parse_row(
         robot=get["robot"],
         mode=mode,
         type=type_,
+        extra=extra,
     )
 
 

@@ -202,6 +202,39 @@ def test_broken_rows_are_problems_with_line_numbers() -> None:
     assert f.problems[0].id == "1"
 
 
+def test_unknown_columns_are_kept_aside_with_a_warning_and_the_file_scores(tmp_path: Path) -> None:
+    # issue 60 edge 2: a team's extra column refused the whole file
+    from eval.scoring.rules import load_rules
+    from eval.scoring.scorer import score
+
+    head = SMALL.split("id,time")[0]  # 7 header lines: the column line is line 8
+    body = (
+        "id,time,text,confidence,x,y,z,robot,mode,type,notes\n"
+        "0,09:19:14,Chart M,0.93,0.548,-0.392,1.241,Arbie,T,QRCode,seen twice\n"
+        "1,09:19:29,infectious-substance,0.71,-0.007,0.478,1.289,Arbie,T,Hazmat\n"  # notes left out
+        "2,09:19:30,,0.5,0,0,0,Arbie,T\n"  # a format column (type) left out: still a problem
+    )
+    path = tmp_path / "team.csv"
+    path.write_text(head + body)
+    f = read_poi_file(path)
+    assert [(r.id, r.type, r.text, r.x) for r in f.rows] == [
+        (0, "qr", "Chart M", 0.548),
+        (1, "hazmat", "infectious-substance", -0.007),
+    ]
+    assert f.rows[0].extra == {"confidence": "0.93", "notes": "seen twice"}
+    assert f.rows[1].extra == {"confidence": "0.71", "notes": ""}
+    assert [p.line for p in f.problems] == [11]
+    warned = [w.message for w in f.warnings if "not a POI column" in w.message]
+    assert len(warned) == 2 and all(m.startswith(f"{path}: column '") for m in warned)
+    assert "'confidence'" in warned[0] and "'notes'" in warned[1]
+    assert {w.line for w in f.warnings if "not a POI column" in w.message} == {8}
+    truth = parse_poi_text(SMALL.replace(",T,", ",GT,"))
+    assert score(f, truth, load_rules("ex3")).total > 0
+    # a column of the format named twice is still refused
+    with pytest.raises(PoiFileError, match=r"line 8: column 'x' is repeated"):
+        parse_poi_text(head + "id,time,text,x,y,z,robot,mode,type,x\n", source="twice.csv")
+
+
 @pytest.mark.parametrize(
     ("content", "match"),
     [
