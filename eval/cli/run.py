@@ -8,7 +8,13 @@ import sys
 from datetime import timezone
 from pathlib import Path
 
-from eval.trial.scenarios import SettingError, resolve_scenario, split_settings
+from eval.trial.scenarios import (
+    SettingError,
+    UnknownScenarioError,
+    check_scenario_name,
+    resolve_scenario,
+    split_settings,
+)
 
 DEFAULT_RULES = "ex3"
 
@@ -96,6 +102,27 @@ def check_detector(choice: str) -> None:
     check_detector_choice(choice)
 
 
+def check_run_scenario(arg: str) -> None:
+    """Refuse a scenario argument that is no file and no shipped scenario, listing the shipped
+    scenarios, and naming the shipped suite it looks like (``rrl``, ``rrl-01``, ``rrl-1``):
+    suites have a command of their own."""
+    from eval.experiments.suites import load_suite, shipped_suites
+
+    try:
+        check_scenario_name(arg)
+    except UnknownScenarioError as e:
+        suites = [load_suite(name) for name in shipped_suites()]
+        exact = [x for x in suites if x.name == arg or any(entry.name == arg for entry in x.scenarios)]
+        prefix = sorted((x for x in suites if arg.startswith(x.name + "-")), key=lambda x: -len(x.name))
+        if not exact + prefix:
+            raise
+        suite = (exact + prefix)[0]
+        first, last = suite.scenarios[0].name, suite.scenarios[-1].name
+        raise UnknownScenarioError(
+            f"{e}; the suite {suite.name} (scenarios {first} to {last}) runs with poibench suite run {suite.name}"
+        ) from None
+
+
 def cmd_view(args) -> int:
     import time
 
@@ -142,6 +169,8 @@ def cmd_run(args) -> int:
         rules_name = rules_name or doc.rules
         max_frames = doc.max_frames if "max_frames" in given else max_frames
     else:
+        if args.scenario is not None:
+            check_run_scenario(args.scenario)
         sc = resolve_scenario(args.scenario, args.seed, args.set, args.noise)
     if rules_name is None:
         rules_name = sc.rules or DEFAULT_RULES

@@ -171,10 +171,10 @@ def trial_id(scenario: str, settings: dict[str, str]) -> str:
 def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     """Grid x scenarios, settings outer, scenarios inner; scenario settings applied to the scenario."""
     from eval.trial.run import refuse_detector_model
-    from eval.trial.scenarios import split_settings
+    from eval.trial.scenarios import SettingError, apply_scenario_settings, split_settings
     from poi.config import ConfigError, apply_overrides, load_config
     from poi.detectors import DetectorConfigError
-    from sim.scenario import ScenarioError, apply_settings
+    from sim.scenario import ScenarioError
 
     tasks = []
     for combo in combinations(spec.grid) or [{}]:
@@ -188,8 +188,8 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
         for entry in suite.scenarios:
             sc = suite.build(entry)
             try:
-                sc = apply_settings(sc, sim_sets) if sim_sets else sc
-            except ScenarioError as e:
+                sc = apply_scenario_settings(sc, sim_sets) if sim_sets else sc
+            except (ScenarioError, SettingError) as e:
                 raise SweepError(f"--set: {e}") from None
             tid = trial_id(entry.name, combo)
             tasks.append(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import fields
+from pathlib import Path
 
 from poi.core.loader import Source
 from sim.scenario import (
@@ -37,6 +38,48 @@ class SettingError(ValueError):
     """A ``--set`` key that is neither a scenario key nor a pipeline section (one line)."""
 
 
+class UnknownScenarioError(ValueError):
+    """A scenario argument that is neither a file nor a shipped scenario's name (one line)."""
+
+
+def shipped_scenarios() -> list[str]:
+    """The shipped scenarios' names (``maze_assets/scenarios/*.yaml``), sorted."""
+    from maze_assets import SCENARIOS_DIR
+
+    return sorted(p.stem for p in SCENARIOS_DIR.glob("*.yaml"))
+
+
+def check_scenario_name(arg: str) -> None:
+    """Refuse a scenario argument that names no file and no shipped scenario, listing the shipped names."""
+    p = Path(arg)
+    if p.exists() or (not p.suffix and arg in shipped_scenarios()):
+        return
+    raise UnknownScenarioError(
+        f"{arg}: no such scenario file or shipped scenario; shipped scenarios are "
+        f"{', '.join(shipped_scenarios())}, or give a scenario file"
+    )
+
+
+def apply_scenario_settings(sc: Scenario, sets: list[str]) -> Scenario:
+    """``sim.scenario.apply_settings`` with each key checked first: an unknown key at any level
+    is refused naming the keys valid there (as the pipeline's ``--set`` does)."""
+    data = sc.to_dict()
+    for item in sets:
+        key = item.split("=", 1)[0].strip()
+        node, path = data, []
+        for part in key.split("."):
+            if not isinstance(node, dict):
+                break  # a value, not a section: sim.scenario.apply_settings says so
+            if part not in node:
+                where = f"under {'.'.join(path)}" if path else "at the top"
+                raise SettingError(
+                    f"--set {key}: unknown scenario key {part!r}; expected one of {', '.join(node)} ({where})"
+                )
+            node = node[part]
+            path.append(part)
+    return apply_settings(sc, sets)
+
+
 def split_settings(sets: list[str]) -> tuple[list[str], list[str]]:
     """Split ``--set key=value`` items into scenario settings and pipeline settings.
 
@@ -68,12 +111,14 @@ def resolve_scenario(arg: str | None, seed: int | None, sets: list[str], noise: 
     if seed is not None and arg is None:
         sc = generated_scenario(seed)
     else:
+        if arg is not None:
+            check_scenario_name(arg)
         sc = load_scenario(arg or "default")
         if seed is not None:
             sc = apply_settings(sc, [f"seed={seed}"])
     sim_sets, _ = split_settings(sets)
     if sim_sets:
-        sc = apply_settings(sc, sim_sets)
+        sc = apply_scenario_settings(sc, sim_sets)
     if noise is not None:
         sc = with_noise(sc, noise == "on")
     return sc
