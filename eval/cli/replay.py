@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from eval.cli.args import positive_int
 from eval.trial.scenarios import split_settings
 
 
@@ -39,7 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--set", action="append", default=[], metavar="KEY=VALUE", help="a pipeline setting; repeatable"
     )
-    p.add_argument("--max-frames", type=int, help="stop after this many frames")
+    p.add_argument("--max-frames", type=positive_int, help="stop after this many frames (at least 1)")
     p.add_argument("--no-video", action="store_true", help="do not write trial.mp4")
     p.add_argument("--no-live-record", action="store_true", help="do not write live/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

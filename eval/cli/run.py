@@ -8,6 +8,7 @@ import sys
 from datetime import timezone
 from pathlib import Path
 
+from eval.cli.args import port, positive_int
 from eval.trial.scenarios import (
     SettingError,
     UnknownScenarioError,
@@ -59,7 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="POI file version to write (default 1.2; the same as --set report.poi_version='V')",
     )
     p.add_argument("--config", help="rerun a trial from its config.yaml")
-    p.add_argument("--max-frames", type=int, help="stop after this many frames")
+    p.add_argument("--max-frames", type=positive_int, help="stop after this many frames (at least 1)")
     p.add_argument("--no-video", action="store_true", help="do not write trial.mp4")
     p.add_argument(
         "--no-live-record",
@@ -82,13 +83,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", action="store_true", help="serve the live view on 127.0.0.1 while the trial runs")
-    p.add_argument("--port", type=int, default=0, help="live view port (default: a free one, printed)")
+    p.add_argument("--port", type=port, default=0, help="live view port, 0-65535 (default 0: a free one, printed)")
     p.set_defaults(func=cmd_run)
 
     v = sub.add_parser("view", help="replay a finished trial in the browser (time slider)")
     v.add_argument("trial_dir", help="a folder written by poibench run")
-    v.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (default: a free one, printed)")
+    v.add_argument(
+        "--port", type=port, default=0, help="port on 127.0.0.1, 0-65535 (default 0: a free one, printed)"
+    )
     v.set_defaults(func=cmd_view)
+
+
+def counted(n: int, noun: str, plural: str | None = None) -> str:
+    """``n`` and the noun in the number it takes.
+
+    >>> counted(1, "false report"), counted(3, "miss", "misses"), counted(0, "frame")
+    ('1 false report', '3 misses', '0 frames')
+    """
+    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
 
 
 def check_detector(choice: str) -> None:
@@ -231,20 +243,29 @@ def cmd_run(args) -> int:
         outcome = s.headline()
     else:
         frac = s.total / s.max_total if s.max_total else 0.0
-        outcome = f"{s.headline()} ({frac:.0%}), {s.false_reports} false reports, {s.misses} misses"
+        outcome = (
+            f"{s.headline()} ({frac:.0%}), {counted(s.false_reports, 'false report')}, "
+            f"{counted(s.misses, 'miss', 'misses')}"
+        )
+    if res.sim_duration_s > 0:
+        cost = (
+            f"{res.sim_duration_s:.0f} s simulated in {res.wall_s:.0f} s ({res.real_time_factor:.1f}x real time), "
+            f"{res.cpu_s:.0f} CPU s ({res.cpu_s_per_sim_s:.2f} per simulated s)"
+        )
+    else:  # one frame: no simulated time to divide by
+        cost = f"0 s simulated, {res.wall_s:.0f} s, {res.cpu_s:.0f} CPU s"
     print(
         f"\n{sc.name} (seed {sc.seed}), detector {res.detector}, rules {rules_name}: {outcome}; "
-        f"{res.n_frames} frames, {res.sim_duration_s:.0f} s simulated in {res.wall_s:.0f} s "
-        f"({res.real_time_factor:.1f}x real time), "
-        f"{res.cpu_s:.0f} CPU s ({res.cpu_s_per_sim_s:.2f} per simulated s)"
+        f"{counted(res.n_frames, 'frame')}, {cost}"
     )
     written = list(res.written)
     if log is not None:
         written.append(log.path.name + ("/" if log.path.is_dir() else ""))
         cpu, wait = log.caller_ms_per_frame
         print(
-            f"ROS log {log.path}: {log.stats.frames} frames, {log.cpu_ms_per_frame:.1f} ms CPU a frame on the "
-            f"writer thread; the trial's thread {cpu:.2f} ms CPU a frame, {wait:.2f} ms waiting for the writer"
+            f"ROS log {log.path}: {counted(log.stats.frames, 'frame')}, {log.cpu_ms_per_frame:.1f} ms CPU a "
+            f"frame on the writer thread; the trial's thread {cpu:.2f} ms CPU a frame, {wait:.2f} ms waiting "
+            "for the writer"
         )
     print(f"wrote {res.out_dir}/: {' '.join(written)}")
     return 0

@@ -8,9 +8,11 @@ import sys
 import tempfile
 from pathlib import Path
 
+from eval.cli.args import positive_int
+
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--workers", type=int, default=1, help="trials at once (default 1)")
+    p.add_argument("--workers", type=positive_int, default=1, help="trials at once (default 1)")
     p.add_argument("--backend", choices=["local", "ray"], default="local", help="process pool or Ray tasks")
     p.add_argument("--address", help="Ray cluster address (default: start a local Ray instance)")
     p.add_argument(
@@ -82,7 +84,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="KEY=KIND:...",
         help="float:LOW:HIGH, int:LOW:HIGH, log:LOW:HIGH or choice:A,B",
     )
-    t.add_argument("--trials", type=int, default=20, help="Optuna trials, each a whole suite run (default 20)")
+    t.add_argument(
+        "--trials", type=positive_int, default=20, help="Optuna trials, each a whole suite run (default 20)"
+    )
     t.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
     t.add_argument("--out", required=True, help="folder for study.csv, best.yaml, trials.csv and plots")
     _common(t)
@@ -185,6 +189,7 @@ def cmd_suite_run(args) -> int:
 
 
 def cmd_sweep(args) -> int:
+    from eval.cli.run import counted
     from eval.experiments.sweep import parse_grid
 
     grid = parse_grid(args.set)
@@ -192,7 +197,9 @@ def cmd_sweep(args) -> int:
     df, agg = _run(_spec(args, args.suite, grid), out, args.quiet)
     print(agg.to_string(index=False))
     failed = int((df["error"] != "").sum())
-    print(f"{len(df)} trials ({failed} failed): trials.csv, aggregate.csv, funnel.csv and plots in {out}")
+    print(
+        f"{counted(len(df), 'trial')} ({failed} failed): trials.csv, aggregate.csv, funnel.csv and plots in {out}"
+    )
     return 0
 
 

@@ -457,6 +457,8 @@ def run_sweep(
     """Run (or resume) a sweep; returns (rows, aggregate) DataFrames, also written to out_dir."""
     from eval.scoring.rules import load_rules
 
+    if spec.workers < 1:
+        raise SweepError(f"--workers must be at least 1, got {spec.workers}")
     out = Path(out_dir)
     suite = load_suite(spec.suite)
     if load_rules(spec.rules).scoring != "points":

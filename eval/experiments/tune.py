@@ -109,6 +109,8 @@ def run_tune(
         raise SweepError("poibench tune needs the 'tune' extra: pip install -e '.[tune]'") from None
     if n_trials < 1:
         raise SweepError(f"--trials must be at least 1, got {n_trials}")
+    if workers < 1:
+        raise SweepError(f"--workers must be at least 1, got {workers}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     suite = load_suite(suite_name)

@@ -99,7 +99,18 @@ def confirmed_rows(snaps) -> list[dict]:
 class LiveRecorder:
     """Frame messages and images for the live server, recorded for replay."""
 
-    def __init__(self, out_dir: Path, sim, *, title: str, score_fn=None, server=None, record: bool = True) -> None:
+    def __init__(
+        self,
+        out_dir: Path,
+        sim,
+        *,
+        title: str,
+        score_fn=None,
+        server=None,
+        record: bool = True,
+        n_frames: int | None = None,
+    ) -> None:
+        """``n_frames``: the frames the run will show (a trial's ``--max-frames``), else all of ``sim``'s."""
         self.out = Path(out_dir)
         self.server = server
         # () -> the running score of the confirmed objects so far (eval.scoring.report.live_summary), or None
@@ -113,7 +124,7 @@ class LiveRecorder:
         self.init = {
             "type": "init",
             "title": title,
-            "n_frames": int(sim.n_frames),
+            "n_frames": int(sim.n_frames if n_frames is None else n_frames),
             "walls": walls,
             "bounds": [min(xs) - 0.5, min(ys) - 0.5, max(xs) + 0.5, max(ys) + 0.5],
             "marker_colors": {t: _hex(MARKER_COLORS.get(t, DEFAULT_MARKER_COLOR)) for t in types},

@@ -180,6 +180,8 @@ class ReplaySource:
 
 class LiveServer:
     def __init__(self, port: int = 0, replay: ReplaySource | None = None) -> None:
+        if not 0 <= port <= 65535:  # asyncio's bind would raise OverflowError in the server thread
+            raise LiveError(f"live view: port {port}: expected 0 to 65535 (0: a free one)")
         self.port = port
         self.replay = replay
         self._init: dict | None = replay.init if replay else None
@@ -252,7 +254,7 @@ class LiveServer:
             sock = site._server.sockets[0]  # the bound port when 0 was asked for
             self.port = sock.getsockname()[1]
             self.url = f"http://127.0.0.1:{self.port}/"
-        except OSError as e:
+        except Exception as e:  # noqa: BLE001 (any failure to bind is start()'s one line, never a hang)
             self._error = e
             self._ready.set()
             return

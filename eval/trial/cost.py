@@ -12,6 +12,7 @@ which exit when their file is closed. ``cpu_children_s`` is that children's shar
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -39,15 +40,25 @@ class TrialCost:
     def real_time_factor(self) -> float:
         return self.sim_s / self.wall_s if self.wall_s > 0 else float("inf")
 
-    def to_dict(self) -> dict[str, float]:
-        """A trial's ``cost.json`` (rounded: seconds to the millisecond)."""
+    def to_dict(self) -> dict[str, float | None]:
+        """A trial's ``cost.json`` (rounded: seconds to the millisecond). A ratio that is not
+        defined (a one-frame trial simulates 0 s) is null: JSON has no NaN or infinity.
+
+        >>> TrialCost(wall_s=2.0, cpu_s=3.0, cpu_children_s=0.0, sim_s=0.0).to_dict()["cpu_s_per_sim_s"] is None
+        True
+        """
         return {
             "wall_s": round(self.wall_s, 3),
             "cpu_s": round(self.cpu_s, 3),
             "cpu_children_s": round(self.cpu_children_s, 3),
-            "cpu_s_per_sim_s": round(self.cpu_s_per_sim_s, 4),
-            "real_time_factor": round(self.real_time_factor, 3),
+            "cpu_s_per_sim_s": _finite(self.cpu_s_per_sim_s, 4),
+            "real_time_factor": _finite(self.real_time_factor, 3),
         }
+
+
+def _finite(value: float, digits: int) -> float | None:
+    """``value`` rounded, or None when it is NaN or infinite."""
+    return round(value, digits) if math.isfinite(value) else None
 
 
 @dataclass(frozen=True)

@@ -512,6 +512,7 @@ def run_trial(
                 score_fn=running_score,
                 server=live_server,
                 record=record_live,
+                n_frames=n,
             )
         try:
             for frame, truth, T_true, views, blur_px in tqdm(
@@ -592,7 +593,8 @@ def run_trial(
         # file of its own and score.json stays the same, byte for byte, for the same seed and config.
         cost_doc = clock.read(sim_duration).to_dict()
         outputs.write(
-            "cost.json", lambda path: path.write_text(json.dumps(cost_doc, indent=2) + "\n", encoding="utf-8")
+            "cost.json",
+            lambda path: path.write_text(json.dumps(cost_doc, indent=2, allow_nan=False) + "\n", encoding="utf-8"),
         )
         config = {
             "poibench_trial": 1,

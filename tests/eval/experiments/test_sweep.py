@@ -77,6 +77,19 @@ def test_a_sweep_over_detector_model_is_refused_before_any_trial(tmp_path):
     assert not (tmp_path / "s" / "trials.csv").exists()
 
 
+def test_workers_below_one_are_refused(tmp_path, capsys):
+    # issue 60 edge 12: --workers 0 was accepted
+    for cmd in (["suite", "run", TINY], ["sweep", "--suite", TINY, "--out", str(tmp_path / "w")]):
+        with pytest.raises(SystemExit) as info:
+            main([*cmd, "--workers", "0"])
+        assert info.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()[-1]
+        assert err.endswith("error: argument --workers: expected a whole number of at least 1, got 0")
+    with pytest.raises(SweepError, match="--workers must be at least 1, got 0"):
+        run_sweep(SweepSpec(suite=TINY, workers=0), tmp_path / "s")
+    assert not (tmp_path / "s").exists()
+
+
 def test_a_failing_trial_is_a_row_and_the_sweep_goes_on(tmp_path, monkeypatch):
     import eval.trial.run
 

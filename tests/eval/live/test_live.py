@@ -213,6 +213,21 @@ def test_live_port_in_use_is_a_clear_error():
         first.stop()
 
 
+@pytest.mark.parametrize("port", ["99999", "-1"])
+def test_a_port_out_of_range_is_one_line_at_parsing(port, tmp_path, capsys):
+    # issue 60 edge 8: an OverflowError traceback in the server thread, then the main thread waited forever
+    from eval.cli.main import main
+
+    expected = f"error: argument --port: expected a port from 0 to 65535 (0: a free one), got {port}"
+    for argv in (["run", "--live", "--out", str(tmp_path / "t")], ["view", str(tmp_path)]):
+        with pytest.raises(SystemExit) as info:
+            main([*argv, "--port", port])
+        assert info.value.code == 2
+        assert capsys.readouterr().err.strip().splitlines()[-1] == f"poibench {argv[0]}: {expected}"
+    with pytest.raises(LiveError, match=rf"port {port}: expected 0 to 65535"):
+        LiveServer(int(port))
+
+
 def test_an_over_long_url_is_refused_quietly():
     """A 20 kB path: 400 from the server, no aiohttp traceback on the trial's stderr, still serving."""
     script = (

@@ -107,6 +107,43 @@ def test_detector_model_is_refused_with_one_line_naming_detector(tmp_path, capsy
         make_detectors("default", cfg, None, [])
 
 
+def _no_nan(name: str):
+    raise ValueError(f"{name} is not JSON")
+
+
+def test_max_frames_below_one_is_refused_and_one_frame_writes_valid_json(tmp_path, capsys):
+    # issue 60 edge 12: --max-frames 0 or 1 wrote NaN into cost.json, -1 was accepted
+    for bad in ("0", "-1"):
+        with pytest.raises(SystemExit) as info:
+            main(["run", "--out", str(tmp_path / "n"), "--quiet", "--max-frames", bad])
+        assert info.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()[-1]
+        assert err.endswith(f"run: error: argument --max-frames: expected a whole number of at least 1, got {bad}")
+    assert not (tmp_path / "n").exists()
+    out = tmp_path / "one"
+    args = ["run", "--out", str(out), "--detector", "oracle", "--max-frames", "1", "--no-video", "--quiet", *SMALL]
+    assert main(args) == 0
+    cost = json.loads((out / "cost.json").read_text(), parse_constant=_no_nan)
+    assert cost["cpu_s_per_sim_s"] is None and cost["cpu_s"] > 0  # 0 s simulated: no ratio
+    json.loads((out / "score.json").read_text(), parse_constant=_no_nan)
+    assert "; 1 frame, 0 s simulated" in capsys.readouterr().out
+
+
+def test_counts_take_their_number_and_the_live_header_the_trials_frames(tmp_path, capsys):
+    # issue 60 edge 13: "1 false reports"; the live header said "/ 1191" frames under --max-frames 400
+    from eval.cli.run import counted
+
+    assert counted(1, "false report") == "1 false report" and counted(2, "false report") == "2 false reports"
+    assert counted(1, "miss", "misses") == "1 miss" and counted(0, "miss", "misses") == "0 misses"
+    out = tmp_path / "t"
+    args = ["run", "--out", str(out), "--detector", "oracle", "--max-frames", "3", "--no-video", "--quiet", *SMALL]
+    assert main(args) == 0
+    assert json.loads((out / "live" / "init.json").read_text())["n_frames"] == 3
+    assert len((out / "live" / "frames.jsonl").read_text().splitlines()) == 3
+    printed = capsys.readouterr().out
+    assert "0 false reports, 5 misses; 3 frames, " in printed
+
+
 def test_oracle_trial_on_the_default_scenario_scores_every_point(tmp_path):
     """A perfect detector scores what a robot could see: the default tour shows every object
     (its QR codes whole and still), so the oracle, with its noise model, scores every point,
