@@ -19,7 +19,10 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    whose support falls below ``drop_support``, or not seen for ``t_max`` s ([Bouda2025]_
    2.2.5), is deleted. Confirmed tracks are never deleted.
 5. A tentative track is confirmed once it has ``n_min`` detections and the largest
-   standard deviation of Sigma is at most ``settle_sigma_m`` (a QR or Landolt-C track also
+   standard deviation of its fresh part Sigma_w is at most ``settle_sigma_m``: what more
+   views of the object can still shrink; the shared part (the pose's error, which a long
+   run's drift grows) no view of the object removes, and a track waiting on it was never
+   reported (rrl-hard's longest maze lost 22 of 106 points so; a QR or Landolt-C track also
    once it has text, a Landolt-C one once its rings read include
    ``landolt_required_rings``); confirmed tracks get report ids 0, 1, 2, ... in
    confirmation order.
@@ -283,6 +286,11 @@ class Track:
         """sqrt of the largest eigenvalue of Sigma."""
         return float(np.sqrt(max(np.linalg.eigvalsh(self.Sigma)[-1], 0.0)))
 
+    @property
+    def max_fresh_std_m(self) -> float:
+        """sqrt of the largest eigenvalue of the fresh part Sigma_w (what more views shrink)."""
+        return float(np.sqrt(max(np.linalg.eigvalsh(self.Sigma_w)[-1], 0.0)))
+
     def snapshot(self) -> TrackSnapshot:
         return TrackSnapshot(
             track_id=self.track_id,
@@ -402,7 +410,7 @@ class Tracker:
         tr.last_seen_s = t
 
     def _ready(self, tr: Track) -> bool:
-        if tr.n_detections < self.cfg.n_min or tr.max_std_m > self.cfg.settle_sigma_m:
+        if tr.n_detections < self.cfg.n_min or tr.max_fresh_std_m > self.cfg.settle_sigma_m:
             return False
         if tr.type == "landolt-c" and not self._landolt_rings_read(tr):
             return False

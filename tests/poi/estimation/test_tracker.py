@@ -185,6 +185,28 @@ def test_confirmation_waits_for_the_position_to_settle():
     assert tr.tracks[0].Sigma == pytest.approx(np.eye(3) / 12)
 
 
+def test_a_shared_pose_error_does_not_hold_confirmation_back():
+    """Settling asks for the fresh part Sigma_w only: a track whose observations share a
+    0.5 m pose error (no view of the object removes it) is confirmed at n_min once its fresh
+    part is settled; with the same error fresh each frame it waits."""
+    fresh = 0.01 * np.eye(3)
+    pose = 0.25 * np.eye(3)  # 0.5 m std, shared by every observation of the track
+
+    def shared_obs():
+        o = obs([0, 0, 0], R=fresh + pose)
+        o.R_shared = pose
+        return o
+
+    tr = Tracker(cfg(n_min=3, settle_sigma_m=0.3))
+    got = [bool(tr.step([shared_obs()], 0.1 * n).newly_confirmed) for n in range(1, 5)]
+    assert got == [False, False, True, False]
+    assert tr.tracks[0].max_std_m > 0.3 >= tr.tracks[0].max_fresh_std_m
+    # all of it fresh: Sigma = 0.26 I / n settles (std <= 0.3) only from n = 3 on, as before
+    tr = Tracker(cfg(n_min=1, settle_sigma_m=0.3))
+    got = [bool(tr.step([obs([0, 0, 0], R=fresh + pose)], 0.1 * n).newly_confirmed) for n in range(1, 5)]
+    assert got == [False, False, True, False]
+
+
 def test_tentative_tracks_pruned_after_t_max_confirmed_kept():
     tr = Tracker(cfg(n_min=2, t_max=5.0))
     tr.step([obs([0, 0, 0]), obs([5, 0, 0], "valve")], 0.0)
