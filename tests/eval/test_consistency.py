@@ -412,9 +412,11 @@ def test_the_pipelines_r_and_track_sigma_hold_their_errors_in_a_simulated_run():
     inside its 99% interval. The same errors judged against R half its size (every NEES
     doubled) put the two most-seen types, QR codes and placards, over theirs."""
     from eval.consistency import run_consistency
-    from sim.scenario import load_scenario, with_noise
+    from sim.scenario import apply_settings, load_scenario, with_noise
 
-    result = run_consistency([with_noise(load_scenario("default"), True)], frames=150)
+    # the first 150 frames of the earlier sweeping tour (robot.pan.mode: sweep), which see the types below
+    sc = apply_settings(with_noise(load_scenario("default"), True), ["robot.pan.mode=sweep"])
+    result = run_consistency([sc], frames=150)
     rows = {r.quantity: r for r in result.rows}
     checked = [q for q in rows if q.startswith("R cam ") and " axis " not in q]
     checked += ["track Sigma confirm", "track Sigma end"]

@@ -9,14 +9,15 @@ import numpy as np
 import pytest
 
 from sim.render import SceneRenderer
-from sim.scenario import load_scenario
+from sim.scenario import apply_settings, load_scenario
 from sim.simulator import Simulation
 from sim.world import CAMERA_NAME
 
 
 @pytest.fixture(scope="module")
 def default_sim():
-    with Simulation(load_scenario("default")) as sim:
+    # the earlier sweeping tour (robot.pan.mode: sweep), whose frames these comparisons were built on
+    with Simulation(apply_settings(load_scenario("default"), ["robot.pan.mode=sweep"])) as sim:
         yield sim
 
 

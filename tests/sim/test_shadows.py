@@ -10,12 +10,13 @@ from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 from sim.world import SHADOW_MAP_PX
 
-FRAMES = (40, 120, 200, 330)  # frames of the default tour with walls and floor in view
+FRAMES = (40, 120, 200, 330)  # frames of the earlier sweeping tour with walls and floor in view
 
 
 def _raw_frames(lighting: str, shadows: bool) -> tuple[str, list[np.ndarray]]:
     sc = with_noise(load_scenario("default"), False)
-    sc = apply_settings(sc, [f"lighting={lighting}", f"shadows={str(shadows).lower()}", "robot.max_duration_s=40"])
+    sets = [f"lighting={lighting}", f"shadows={str(shadows).lower()}", "robot.max_duration_s=40"]
+    sc = apply_settings(sc, [*sets, "robot.pan.mode=sweep"])
     with Simulation(sc) as sim:
         rgb = [sim.on_gl_thread(sim._render_colour_depth, k).rgb.astype(np.int16) for k in FRAMES]
         return sim.world.xml, rgb

@@ -60,7 +60,8 @@ def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
     from poi.config import apply_overrides, load_config
 
     out = tmp_path / "c"
-    assert main(["consistency", "--frames", "4", "--runs", "1", "--fit-extents", "--out", str(out)]) == 0
+    sweep = ["--set", "robot.pan.mode=sweep"]  # the earlier tour: a 3-D object in its first 4 frames
+    assert main(["consistency", "--frames", "4", "--runs", "1", "--fit-extents", *sweep, "--out", str(out)]) == 0
     text = capsys.readouterr().out
     # the default maze's first frames see its valve (frame 0 is not observed: its pose is stale)
     assert "offset change (m)" in text and "\nvalve " in text

@@ -23,7 +23,15 @@ from eval.cli.main import main
 from eval.trial.run import MISSION_START
 
 DETECTORS = Path(__file__).resolve().parents[2] / "poi" / "detectors"  # red_detector.py
-SCENE = ["--set", "maze.file=rrl_small", "--set", "objects.generate.counts={fire-extinguisher: 2, valve: 1}"]
+# the earlier sweeping tour (robot.pan.mode: sweep): its first frames drive past the objects
+SCENE = [
+    "--set",
+    "maze.file=rrl_small",
+    "--set",
+    "objects.generate.counts={fire-extinguisher: 2, valve: 1}",
+    "--set",
+    "robot.pan.mode=sweep",
+]
 # T265 dropouts, so that some frames have no pose: no odometry for them. 90 a minute of
 # 0.1-0.2 s: about 6 in the 4 s (none with probability e^-6) covering about a quarter of
 # the frames, so the objects are still seen from posed frames
