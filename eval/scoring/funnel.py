@@ -290,11 +290,13 @@ def _perception_detail(cause: str, o: ObjectTrace) -> str:
         if o.type == "qr":
             ppm = o.px_per_module()
             at = "" if ppm is None else f", best {ppm:.1f} px a module"
-            whole = (
-                "none whole in the image and still: no decoder could read it there"
-                if not o.qr_clear_views
-                else f"{o.qr_clear_views} of them whole and still, {o.qr_clear_decoded} read right by the reader"
-            )
+            if not o.qr_views:
+                whole = "none of them"
+            elif not o.qr_clear_views:
+                whole = "none whole in the image and still: no decoder could read it there"
+            else:
+                whole = f"{o.qr_clear_views} of them whole and still, {o.qr_clear_decoded} read right by the reader"
+
             return (
                 f"localised {o.localised_frames} frames; {o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a "
                 f"module{at}, {whole}; the pipeline's reads: none right"
