@@ -295,7 +295,7 @@ def _perception_detail(cause: str, o: ObjectTrace) -> str:
             elif not o.qr_clear_views:
                 whole = "none whole in the image and still: no decoder could read it there"
             else:
-                whole = f"{o.qr_clear_views} of them whole and still, {o.qr_clear_decoded} read right by the reader"
+                whole = f"{o.qr_clear_views} of them whole and still, {o.qr_clear_decoded} read right there"
 
             return (
                 f"localised {o.localised_frames} frames; {o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a "
