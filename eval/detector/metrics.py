@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from poi.core.geometry import iou_matrix
+from poi.core.geometry import greedy_pairs, iou_matrix
 
 IOU_THRESHOLDS = np.round(np.arange(0.5, 0.951, 0.05), 2)
 RECALL_POINTS = np.linspace(0.0, 1.0, 101)
@@ -161,20 +161,7 @@ def mean_ap(metrics: list[ClassMetrics]) -> tuple[float, float]:
 
 def match_boxes(gt_boxes: np.ndarray, det_boxes: np.ndarray, iou_min: float = 0.5) -> list[tuple[int, int]]:
     """Class-agnostic one-to-one (gt, det) pairs with IoU >= ``iou_min``, greedily by IoU."""
-    ious = iou_matrix(gt_boxes, det_boxes)
-    pairs = []
-    if ious.size == 0:
-        return pairs
-    cand = np.argwhere(ious >= iou_min)
-    order = np.argsort(-ious[cand[:, 0], cand[:, 1]], kind="stable")
-    used_g, used_d = set(), set()
-    for g, d in cand[order]:
-        if g in used_g or d in used_d:
-            continue
-        used_g.add(int(g))
-        used_d.add(int(d))
-        pairs.append((int(g), int(d)))
-    return sorted(pairs)
+    return greedy_pairs(iou_matrix(gt_boxes, det_boxes), iou_min)
 
 
 def match_classes_first(

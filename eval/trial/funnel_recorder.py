@@ -48,7 +48,7 @@ from eval.scoring.funnel import (
 from eval.scoring.map_error import MapErrorResult
 from eval.scoring.rules import AnyRules
 from eval.scoring.scorer import ScoreResult
-from poi.core.geometry import iou_matrix
+from poi.core.geometry import greedy_pairs, iou_matrix
 from poi.core.types import Detection, Frame, TrackSnapshot
 from poi.estimation.localize import box_depth
 
@@ -57,36 +57,37 @@ from poi.estimation.localize import box_depth
 HELPER_SOURCES = frozenset({"thermal", "landolt", "qr"})
 
 
+def box_overlaps(dets: Sequence[Detection], views: Sequence[ObjectView]) -> np.ndarray:
+    """(detections, views) IoU of each detection's box with each view's box; for a point view (a
+    recording's) 1 where the box holds its point, else 0.
+
+    >>> v = [ObjectView(id=3, box_xyxy=(5, 5, 5, 5), visible_fraction=1.0, distance_m=1.0, point=True)]
+    >>> d = [Detection(class_name="qr", type="qr", text="", box_xyxy=(1, 1, 10, 10), confidence=0.9)]
+    >>> box_overlaps(d, v).tolist()
+    [[1.0]]
+    """
+    boxes = np.array([d.box_xyxy for d in dets], dtype=float).reshape(-1, 4)  # (n, 4)
+    iou = iou_matrix(boxes, np.array([v.box_xyxy for v in views], dtype=float).reshape(-1, 4))
+    for j, v in enumerate(views):
+        if v.point:  # a recording's view: the boxes that hold its point, each counted as a full overlap
+            u, w = v.box_xyxy[0], v.box_xyxy[1]
+            holds = (boxes[:, 0] <= u) & (u <= boxes[:, 2]) & (boxes[:, 1] <= w) & (w <= boxes[:, 3])
+            iou[:, j] = holds.astype(float)
+    return iou
+
+
 def match_boxes(
     dets: Sequence[Detection], views: Sequence[ObjectView], iou_min: float = BOX_IOU
 ) -> dict[int, int]:
-    """Detection index -> view index, one to one, greedily by IoU (highest first) at ``iou_min``.
+    """Detection index -> view index, one to one, greedily by IoU (highest first) at ``iou_min``
+    (:func:`poi.core.geometry.greedy_pairs` on :func:`box_overlaps`).
 
     >>> v = [ObjectView(id=3, box_xyxy=(0, 0, 10, 10), visible_fraction=1.0, distance_m=1.0)]
     >>> d = [Detection(class_name="qr", type="qr", text="", box_xyxy=(1, 1, 10, 10), confidence=0.9)]
     >>> match_boxes(d, v)
     {0: 0}
     """
-    if not dets or not views:
-        return {}
-    boxes = np.array([d.box_xyxy for d in dets], dtype=float)  # (n, 4)
-    iou = iou_matrix(boxes, np.array([v.box_xyxy for v in views]))
-    for j, v in enumerate(views):
-        if v.point:  # a recording's view: the boxes that hold its point, each counted as a full overlap
-            u, w = v.box_xyxy[0], v.box_xyxy[1]
-            holds = (boxes[:, 0] <= u) & (u <= boxes[:, 2]) & (boxes[:, 1] <= w) & (w <= boxes[:, 3])
-            iou[:, j] = holds.astype(float)
-    ks, js = np.nonzero(iou >= iou_min)
-    order = np.lexsort((js, ks, -iou[ks, js]))  # highest IoU first; ties by detection, then view
-    out: dict[int, int] = {}
-    taken: set[int] = set()
-    for i in order:
-        k, j = int(ks[i]), int(js[i])
-        if k in out or j in taken:
-            continue
-        out[k] = j
-        taken.add(j)
-    return out
+    return dict(greedy_pairs(box_overlaps(dets, views), iou_min))
 
 
 def projected_views(
@@ -205,7 +206,8 @@ class FunnelRecorder:
         self.activity.boxes += sum(d.source not in HELPER_SOURCES for d in dets)
         observed = set(res.observed)
         tried = set(res.qr_tried)
-        on = match_boxes(dets, views)
+        overlap = box_overlaps(dets, views)  # (detections, views), once a frame
+        on = dict(greedy_pairs(overlap, BOX_IOU))
         for k, j in on.items():
             det, v = dets[k], views[j]
             o = self.traces[v.id]
@@ -224,7 +226,7 @@ class FunnelRecorder:
             o.read_frames += self._same_identity(det, o)
             if det.track_id is not None:
                 o.tracks[det.track_id] += 1
-        near = self._nearest_views(dets, views)
+        near = self._nearest_views(overlap)
         for k in observed:
             tid = dets[k].track_id
             if tid is None:
@@ -238,14 +240,13 @@ class FunnelRecorder:
             t.observations_at_confirmation = snap.n_detections
 
     @staticmethod
-    def _nearest_views(dets: Sequence[Detection], views: Sequence[ObjectView]) -> dict[int, int]:
-        """Detection index -> the view it overlaps most, where that IoU is at least
-        ``BACKGROUND_IOU`` (a box below it on every object lies on the background)."""
-        if not dets or not views:
+    def _nearest_views(overlap: np.ndarray) -> dict[int, int]:
+        """Detection index -> the view it overlaps most (``overlap``, :func:`box_overlaps`), where
+        that IoU is at least ``BACKGROUND_IOU`` (a box below it on every object lies on the background)."""
+        if overlap.size == 0:
             return {}
-        iou = iou_matrix(np.array([d.box_xyxy for d in dets]), np.array([v.box_xyxy for v in views]))
-        best = np.argmax(iou, axis=1)
-        return {k: int(best[k]) for k in range(len(dets)) if iou[k, best[k]] >= BACKGROUND_IOU}
+        best = np.argmax(overlap, axis=1)
+        return {k: int(best[k]) for k in range(overlap.shape[0]) if overlap[k, best[k]] >= BACKGROUND_IOU}
 
     def _count_qr_view(
         self, o: ObjectTrace, v: ObjectView, det: Detection, tried: bool, blur_px: float | None, frame: Frame

@@ -111,3 +111,27 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
     union = area_a[:, None] + area_b[None, :] - inter
     return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
+
+
+def greedy_pairs(overlap: np.ndarray, min_overlap: float) -> list[tuple[int, int]]:
+    """One-to-one (row, column) pairs of ``overlap`` (n, m) at ``min_overlap`` or more, taken
+    greedily, largest overlap first, ties by row then column; sorted by row.
+
+    >>> greedy_pairs(np.array([[0.9, 0.6], [0.95, 0.1]]), 0.5)
+    [(0, 1), (1, 0)]
+    """
+    overlap = np.asarray(overlap, dtype=float)
+    if overlap.size == 0:
+        return []
+    cand = np.argwhere(overlap >= min_overlap)  # row-major: ties stay by row, then column
+    order = np.argsort(-overlap[cand[:, 0], cand[:, 1]], kind="stable")
+    used_r: set[int] = set()
+    used_c: set[int] = set()
+    pairs = []
+    for r, c in cand[order]:
+        if int(r) in used_r or int(c) in used_c:
+            continue
+        used_r.add(int(r))
+        used_c.add(int(c))
+        pairs.append((int(r), int(c)))
+    return sorted(pairs)
