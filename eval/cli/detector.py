@@ -90,13 +90,69 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="random: each image draws its colour camera from wide ranges (for training, default); "
         "trial: the trial's D435 defaults on a still camera (to compare renders with real photos)",
     )
+    d.add_argument(
+        "--floor-textures",
+        type=float,
+        default=DatasetSpec.floor_textures,
+        help=f"share of the scenarios with a terrazzo, concrete, carpet or glazed tile floor "
+        f"(default {DatasetSpec.floor_textures}; real photos show placards lying on such floors)",
+    )
+    d.add_argument(
+        "--print-saturation",
+        type=float,
+        nargs=2,
+        metavar=("MIN", "MAX"),
+        default=DatasetSpec.print_saturation,
+        help="fraction of a placard's colour saturation kept, drawn per placard (default %(default)s; "
+        "real crops' median saturation is 60 against 88 rendered)",
+    )
+    d.add_argument(
+        "--print-black",
+        type=float,
+        nargs=2,
+        metavar=("MIN", "MAX"),
+        default=DatasetSpec.print_black,
+        help="a placard's ink black level (0-255), drawn per placard (default %(default)s: deeper "
+        "and more washed out than the renders' own)",
+    )
+    d.add_argument(
+        "--glossy",
+        type=float,
+        default=DatasetSpec.glossy_fraction,
+        help=f"share of the placards on glossy paper (lamp highlights and glare; "
+        f"default {DatasetSpec.glossy_fraction})",
+    )
+    d.add_argument(
+        "--msaa",
+        type=int,
+        default=DatasetSpec.msaa,
+        help=f"MSAA samples of the renders, 0 2 4 or 8 (default {DatasetSpec.msaa}; trials render with 0)",
+    )
+    d.add_argument(
+        "--closeups",
+        type=float,
+        default=DatasetSpec.closeup_fraction,
+        help=f"share of the views that are close-ups, the target a third of the image high, with motion "
+        f"blur (default {DatasetSpec.closeup_fraction})",
+    )
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=cmd_dataset)
 
     t = sub.add_parser("train", help="train the YOLO detector on a dataset and export ONNX (extra 'train')")
     t.add_argument("--data", required=True, help="a dataset folder from 'poibench dataset' (or its data.yaml)")
     t.add_argument("--out", required=True, help="run folder: weights, plots, model.onnx (resumes if interrupted)")
-    t.add_argument("--model", default="yolo11n.yaml", help="Ultralytics model (default: yolo11n.yaml)")
+    t.add_argument(
+        "--model",
+        default="yolo11n.yaml",
+        help="yolo11n.yaml (from scratch, the default), a checkpoint .pt, or an exported .onnx "
+        "(e.g. poi/models/default.onnx: rebuilt into RUN/rebuilt.pt) to fine-tune",
+    )
+    t.add_argument(
+        "--lr0",
+        type=float,
+        help="AdamW learning rate (default: 2e-4 when fine-tuning a .pt or .onnx; "
+        "from scratch, Ultralytics' own choice)",
+    )
     t.add_argument("--epochs", type=int, default=60)
     t.add_argument("--imgsz", type=int, default=320, help="training and export input size (default 320)")
     t.add_argument("--batch", type=int, default=16)
@@ -285,6 +341,12 @@ def cmd_dataset(args) -> int:
         shadow_fraction=args.shadows,
         distance_draw=args.distance,
         free_roll=args.free_roll,
+        floor_textures=args.floor_textures,
+        print_saturation=tuple(args.print_saturation),
+        print_black=tuple(args.print_black),
+        glossy_fraction=args.glossy,
+        msaa=args.msaa,
+        closeup_fraction=args.closeups,
         **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),
     )
     with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:
@@ -316,10 +378,14 @@ def cmd_train(args) -> int:
             threads=args.threads,
             placards=args.placards,
             hours=args.hours,
+            lr0=args.lr0,
         )
     )
     print(f"model: {out}")
-    print("to make it the default detector: cp it to poi/models/default.onnx")
+    print(
+        f"to make it the default detector: cp it to poi/models/default.onnx, and {out.parent}/weights/best.pt to"
+    )
+    print("poi/models/default.pt (the checkpoint later training fine-tunes from)")
     return 0
 
 

@@ -1,0 +1,88 @@
+"""The checkpoint rebuilt from the shipped ONNX computes what onnxruntime computes."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eval.detector.rebuild import read_onnx
+from eval.detector.train import TrainError, TrainSpec
+
+SHIPPED = Path(__file__).resolve().parents[3] / "poi" / "models" / "default.onnx"
+
+
+def test_the_shipped_model_names_its_architecture_classes_and_size():
+    src = read_onnx(SHIPPED)
+    assert src.arch_yaml == "yolo11n.yaml"
+    assert src.imgsz == (320, 320)
+    assert src.names[0] == "hazmat" and len(src.names) == 9
+    # 88 convolutions, each a fused weight and bias, plus the head's strides
+    assert sum(k.endswith(".weight") for k in src.tensors) == 88
+
+
+def test_a_model_without_ultralytics_metadata_is_refused(tmp_path):
+    onnx = pytest.importorskip("onnx")
+    from onnx import TensorProto, helper
+
+    graph = helper.make_graph(
+        [helper.make_node("Relu", ["x"], ["y"])],
+        "g",
+        [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1])],
+    )
+    path = tmp_path / "relu.onnx"
+    onnx.save(helper.make_model(graph), str(path))
+    with pytest.raises(TrainError, match=r"relu\.onnx: metadata lacks description, names, imgsz"):
+        read_onnx(path)
+    (tmp_path / "junk.onnx").write_bytes(b"not a model")
+    with pytest.raises(TrainError, match=r"junk\.onnx: not an ONNX model"):
+        read_onnx(tmp_path / "junk.onnx")
+
+
+def test_fine_tuning_needs_the_checkpoint_and_a_sane_rate(tmp_path):
+    with pytest.raises(TrainError, match=r"--model .*missing\.onnx: no such file"):
+        TrainSpec(data="d", out="o", model=str(tmp_path / "missing.onnx"))
+    with pytest.raises(TrainError, match=r"--lr0 must be in \(0, 1\), got 0"):
+        TrainSpec(data="d", out="o", lr0=0)
+    assert TrainSpec(data="d", out="o", model=str(SHIPPED)).fine_tune
+    assert not TrainSpec(data="d", out="o").fine_tune
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    """Eight rendered training images (poibench dataset), the frames the models are fed."""
+    from eval.detector.dataset import DatasetSpec, write_dataset
+
+    out = tmp_path_factory.mktemp("ds")
+    write_dataset(DatasetSpec(images=8, seed=5, images_per_scenario=8), out)
+    return sorted((out / "images" / "train").glob("*.jpg"))
+
+
+def test_the_rebuilt_model_boxes_as_onnxruntime_does(rendered, tmp_path):
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("ultralytics")
+    import onnxruntime as ort
+
+    from eval.detector.rebuild import image_batches, rebuild, save_checkpoint
+
+    model, src = rebuild(SHIPPED, rendered)
+    x = next(image_batches(rendered, src.imgsz, batch=len(rendered)))  # (8, 3, 320, 320)
+    session = ort.InferenceSession(str(SHIPPED), providers=["CPUExecutionProvider"])
+    want = np.concatenate([session.run(None, {"images": x[i : i + 1].numpy()})[0] for i in range(len(x))])
+    with torch.no_grad():
+        got = model(x)[0].numpy()  # (8, 4 + 9, 2100): box centre and size in px, class scores
+    assert got.shape == want.shape
+    assert np.abs(got[:, :4] - want[:, :4]).max() < 1e-2  # px
+    assert np.abs(got[:, 4:] - want[:, 4:]).max() < 1e-4
+    # the BatchNorms carry the images' statistics, not the identity: training starts from there
+    bn = model.model[0].bn
+    assert not torch.allclose(bn.running_var, torch.ones_like(bn.running_var))
+    # and Ultralytics loads the checkpoint as the same function
+    from ultralytics import YOLO
+
+    path = save_checkpoint(model, src, tmp_path / "rebuilt.pt")
+    reloaded = YOLO(str(path)).model.eval()
+    with torch.no_grad():
+        again = reloaded(x)[0].numpy()
+    assert np.abs(again[:, :4] - want[:, :4]).max() < 1e-2
+    assert YOLO(str(path)).names == src.names
