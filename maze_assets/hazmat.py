@@ -699,6 +699,33 @@ def _print(img: np.ndarray, look: PrintLook, inside: np.ndarray) -> np.ndarray:
     return np.clip(out, 0, 255)
 
 
+def reprint(rgb: np.ndarray, saturation: float, black: float, ink_black: float) -> np.ndarray:
+    """A placard image as another printer put it out: colour saturation (HSV S) scaled by
+    ``saturation``, and its black ink (grey ``ink_black``, ``PrintLook.ink_black``) moved to
+    ``black``, the paper (the image's 99th-percentile grey p) kept: each pixel's grey g goes
+    to ``g' = p - (p - g) (p - black) / (p - ink_black)`` and its RGB is scaled by g' / g (hue
+    and saturation stay).
+
+    For training data (poibench dataset): real placard crops have median HSV saturation 60
+    against 88 rendered, and 5th-percentile grey 73 against 83 rendered (issue 58); a
+    ``black`` below the print's own deepens its blacks, above washes them out.
+
+    >>> im = np.zeros((8, 8, 3), np.uint8); im[:4] = (200, 30, 30); im[4:] = (250, 250, 250)
+    >>> out = reprint(im, 0.5, 60.0, 0.0)
+    >>> int(cv2.cvtColor(out, cv2.COLOR_RGB2HSV)[0, 0, 1]) < int(cv2.cvtColor(im, cv2.COLOR_RGB2HSV)[0, 0, 1])
+    True
+    """
+    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV).astype(np.float32)
+    hsv[..., 1] *= float(saturation)
+    out = cv2.cvtColor(np.clip(np.round(hsv), 0, 255).astype(np.uint8), cv2.COLOR_HSV2RGB).astype(np.float32)
+    grey = out.mean(axis=2)
+    b0, p = float(ink_black), float(np.percentile(grey, 99))
+    if p - b0 > 1.0:
+        g = p - (p - grey) * (p - float(black)) / (p - b0)
+        out = np.where(grey[..., None] >= 1.0, out * (g / np.maximum(grey, 1.0))[..., None], g[..., None])
+    return np.clip(np.round(out), 0, 255).astype(np.uint8)
+
+
 def _check_label(label: str) -> None:
     if label not in _CANONICAL:
         raise UnknownHazmatLabelError(

@@ -323,12 +323,17 @@ class _Body:
 # --- flat items ---------------------------------------------------------------------------
 
 
+def placard_key(obj: PlacedObject) -> str:
+    """The asset key of a placard with its own print (``objtex_{key}``, ``objmat_{key}``)."""
+    return f"hazmat_{obj.text}_{obj.look_seed}"
+
+
 def _flat_texture(obj: PlacedObject, assets: SceneAssets) -> tuple[str, float]:
     """Register (once) the texture and material for a flat item; (material, emission)."""
     glossy = False
     if obj.type == "hazmat" and obj.look_seed is not None:
         style = placard_style(obj.text, obj.look_seed)
-        key, glossy = f"hazmat_{obj.text}_{obj.look_seed}", style.look.laminated
+        key, glossy = placard_key(obj), style.look.laminated
         draw = lambda: draw_hazmat(obj.text, TEXTURE_PX, style)  # noqa: E731
     elif obj.type == "hazmat":
         key, draw = f"hazmat_{obj.text}", lambda: draw_hazmat(obj.text, TEXTURE_PX)

@@ -201,6 +201,103 @@ def draw_floor_kind(kind: str, size_px: int, rng: np.random.Generator) -> np.nda
     return np.clip(np.round(img), 0, 255).astype(np.uint8)
 
 
+# Floors of the halls and buildings real placard photos are taken in (issue 58: on real photos the
+# shipped detector missed most placards lying on textured floors seen from above); poibench dataset
+# lays them on ``floor_textures`` of its scenarios (sim/world.py SceneLooks), trials never.
+DATASET_FLOOR_KINDS = ("terrazzo", "concrete", "carpet", "tile")
+DATASET_FLOOR_PX = 512  # one tile of SHEET_M: 2.4 mm a texel, for placards seen from close above
+TERRAZZO_BASE_RGB = ((205, 200, 190), (180, 178, 172), (150, 140, 128), (215, 205, 185))
+TERRAZZO_CHIP_RGB = ((245, 245, 240), (30, 30, 32), (120, 120, 118), (160, 80, 60), (90, 110, 90), (200, 180, 150))
+CARPET_RGB = ((40, 50, 90), (90, 90, 92), (110, 80, 60), (120, 40, 45), (50, 80, 60), (150, 140, 120))
+TILE_RGB = ((235, 235, 230), (200, 195, 185), (120, 122, 125), (40, 40, 42), (170, 150, 120))
+
+
+def _terrazzo(n: int, rng: np.random.Generator) -> np.ndarray:
+    """Cement with marble chips (5-20 mm, several colours), polished."""
+    base = TERRAZZO_BASE_RGB[int(rng.integers(len(TERRAZZO_BASE_RGB)))]
+    mottle = _wrap_blur(rng.normal(0, 1, (n, n)).astype(np.float32), 1.0, 1.0) * 0.06
+    img = np.array(base, np.float32) * (1.0 + mottle)[..., None]
+    palette = [TERRAZZO_CHIP_RGB[int(i)] for i in rng.choice(len(TERRAZZO_CHIP_RGB), size=3, replace=False)]
+    px_m = n / SHEET_M
+    for _ in range(int(n * n / 60)):
+        c = rng.uniform(0, n, 2)
+        r = rng.uniform(0.002, 0.01) * px_m
+        k = int(rng.integers(6, 9))  # an angular chip: a polygon of k jittered corners
+        ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+        rad = r * rng.uniform(0.6, 1.3, k)
+        pts = np.stack([np.cos(ang) * rad, np.sin(ang) * rad], 1)
+        colour = np.array(palette[int(rng.integers(len(palette)))], np.float32) * rng.uniform(0.85, 1.1)
+        for ox in (-n, 0, n):  # drawn at the wrapped positions too: the texture tiles
+            for oy in (-n, 0, n):
+                poly = np.round((pts + c + (ox, oy)) * 16).astype(np.int32)  # 1/16 px: smooth edges
+                cv2.fillPoly(img, [poly], tuple(float(v) for v in colour), cv2.LINE_AA, shift=4)
+    return img
+
+
+def _concrete(n: int, rng: np.random.Generator) -> np.ndarray:
+    """Grey concrete: large blotches, fine grain, pores and a saw-cut joint."""
+    g = float(rng.uniform(110, 175))
+    blotch = _wrap_blur(rng.normal(0, 1, (n, n)).astype(np.float32), n / 12, n / 12) * 4.0
+    grain = _wrap_blur(rng.normal(0, 1, (n, n)).astype(np.float32), 0.7, 0.7) * 0.07
+    lum = 1.0 + np.clip(blotch, -0.25, 0.25) + grain
+    img = np.array((g, g * 0.99, g * 0.96), np.float32) * lum[..., None]
+    pores = rng.random((n, n)) < 0.004
+    img[pores] *= 0.55
+    img[:, :2] *= 0.5  # a joint along one edge: the slab's saw cut where tiles meet
+    return img
+
+
+def _carpet(n: int, rng: np.random.Generator) -> np.ndarray:
+    """Tufted carpet: strong fibre noise over a colour, with a faint woven pattern."""
+    base = np.array(CARPET_RGB[int(rng.integers(len(CARPET_RGB)))], np.float32) * rng.uniform(0.8, 1.15)
+    fibre = _wrap_blur(rng.normal(0, 1, (n, n)).astype(np.float32), 0.6, 0.6) * 0.35
+    tone = _wrap_blur(rng.normal(0, 1, (n, n)).astype(np.float32), n / 20, n / 20) * 2.0
+    period = int(rng.choice([16, 32, 64]))
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.float32)
+    weave = 0.06 * np.sign(np.sin(2 * np.pi * xx / period) * np.sin(2 * np.pi * yy / period))
+    return base * (1.0 + fibre + np.clip(tone, -0.15, 0.15) + weave)[..., None]
+
+
+def _tile(n: int, rng: np.random.Generator) -> np.ndarray:
+    """Glazed floor tiles (30 or 40 cm in the sheet's 1.22 m: 4 or 3 across) with grout lines;
+    sim/world.py gives the floor a glossy material with it."""
+    across = int(rng.choice([3, 4]))
+    base = np.array(TILE_RGB[int(rng.integers(len(TILE_RGB)))], np.float32)
+    img = np.empty((n, n, 3), np.float32)
+    step = n / across
+    for i in range(across):
+        for k in range(across):
+            shade = base * rng.uniform(0.93, 1.05)
+            img[int(i * step) : int((i + 1) * step), int(k * step) : int((k + 1) * step)] = shade
+    img *= (1.0 + _wrap_blur(rng.normal(0, 1, (n, n)).astype(np.float32), 1.5, 1.5) * 0.05)[..., None]
+    grout = np.array((150, 148, 142) if base.mean() < 100 else (95, 92, 88), np.float32)
+    w = max(1, int(round(0.004 * n / SHEET_M * 1.22)))
+    for i in range(across):
+        a = int(i * step)
+        img[a : a + w, :] = grout
+        img[:, a : a + w] = grout
+    return img
+
+
+def draw_dataset_floor(kind: str, size_px: int, rng: np.random.Generator) -> np.ndarray:
+    """A floor of ``DATASET_FLOOR_KINDS`` (terrazzo, concrete, carpet, glazed tile), RGB uint8
+    (size_px, size_px, 3), SHEET_M across, tileable; with the marks of use.
+
+    >>> im = draw_dataset_floor("tile", 64, np.random.default_rng(0))
+    >>> im.shape, bool(np.array_equal(im, draw_dataset_floor("tile", 64, np.random.default_rng(0))))
+    ((64, 64, 3), True)
+    """
+    n = _check("draw_dataset_floor", size_px)
+    draw = {"terrazzo": _terrazzo, "concrete": _concrete, "carpet": _carpet, "tile": _tile}.get(kind)
+    if draw is None:
+        raise SurfaceSizeError(
+            f"draw_dataset_floor: kind must be one of {', '.join(DATASET_FLOOR_KINDS)}, got {kind!r}"
+        )
+    img = draw(n, rng)
+    _marks(img, rng)
+    return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
 def draw_hall_wall(size_px: int, rng: np.random.Generator) -> np.ndarray:
     """A sports-hall wall seen past the arena: painted blockwork below a band of windows.
 

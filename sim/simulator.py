@@ -86,7 +86,7 @@ from sim.sensors.thermal import ThermalScene, ThermalView, make_thermal_scene, t
 from sim.sensors.tracking_conditions import drift_multiplier, scene_lux, texture_contrast
 from sim.sensors.wheel_odometry import simulate_wheel_odometry
 from sim.tour import plan_tour
-from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, World, build_world, door_gap_m, lux_of_decoded_one
+from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, SceneLooks, World, build_world, door_gap_m, lux_of_decoded_one
 
 SENSOR_STREAM = 1
 THERMAL_STREAM = 3  # the thermal camera's per-run draws: gradient direction, fixed patterns
@@ -180,7 +180,8 @@ def default_mast_height_m(cell_size_m: float) -> float:
 
 
 class Simulation:
-    def __init__(self, scenario: Scenario) -> None:
+    def __init__(self, scenario: Scenario, *, looks: SceneLooks | None = None) -> None:
+        """``looks``: a training scene's (sim.world.SceneLooks; poibench dataset), never a trial's."""
         self.scenario = sc = scenario
         rng = np.random.default_rng(sc.seed)
         self.arena: ArenaLayout | None = None
@@ -227,6 +228,7 @@ class Simulation:
             light_height_m=ARENA_LIGHT_HEIGHT_M if self.arena is not None else None,
             clutter_per_cell=sc.clutter_per_cell,
             shadows=sc.shadows,
+            looks=looks,
         )
 
         self.T_world_map = make_transform(rot_z(start_yaw), [float(start_xy[0]), float(start_xy[1]), 0.0])

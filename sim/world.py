@@ -20,12 +20,24 @@ import numpy as np
 
 import sim.gl  # noqa: F401  (must precede the mujoco import)
 from maze_assets.clutter import build_clutter, place_clutter  # noqa: E402
+from maze_assets.hazmat import placard_style, reprint  # noqa: E402
 from maze_assets.mjcf import SceneAssets, fmt  # noqa: E402
-from maze_assets.models import build_holder, build_object, build_page, door_frame_extent_m, frames_item  # noqa: E402
+from maze_assets.models import (  # noqa: E402
+    build_holder,
+    build_object,
+    build_page,
+    door_frame_extent_m,
+    frames_item,
+    placard_key,
+)
 from maze_assets.objects import PlacedObject  # noqa: E402
 from maze_assets.surfaces import (  # noqa: E402
+    DATASET_FLOOR_KINDS,
+    DATASET_FLOOR_PX,
     FLOOR_KINDS,
+    SHEET_M,
     WALL_KINDS,
+    draw_dataset_floor,
     draw_floor_kind,
     draw_hall_wall,
     draw_wall,
@@ -53,6 +65,63 @@ class World:
     # (ngeom,) the object id a box around the object takes each geom in with (truth boxes,
     # segmentation): geom_object_id but -1 for a flat item's backing (maze_assets.models.frames_item)
     geom_box_object_id: np.ndarray
+
+
+@dataclass(frozen=True, kw_only=True)
+class SceneLooks:
+    """What a training scene (poibench dataset, eval/detector/dataset.py) looks like beyond a
+    trial's: none of it is ever set in a trial, whose world is built as before.
+
+    ``floor``: one of ``maze_assets.surfaces.DATASET_FLOOR_KINDS`` in place of the arena's
+    floor (the tile glazed: a specular material). Per placard with its own print, from
+    ``SeedSequence([seed, id, 58])``: saturation kept drawn from ``print_saturation`` and
+    ink black from ``print_black`` (``maze_assets.hazmat.reprint``), and on ``glossy_share``
+    of them glossy paper (specular 0.7-1, shininess 0.3-0.9: lamps mirror in it as glare).
+    ``offsamples``: MSAA samples of the offscreen buffer (a trial: 0).
+    """
+
+    seed: int
+    floor: str | None = None
+    print_saturation: tuple[float, float] | None = None
+    print_black: tuple[float, float] | None = None
+    glossy_share: float = 0.0
+    offsamples: int = 0
+
+    def __post_init__(self) -> None:
+        if self.floor is not None and self.floor not in DATASET_FLOOR_KINDS:
+            raise ValueError(f"floor: expected one of {', '.join(DATASET_FLOOR_KINDS)}, got {self.floor!r}")
+        if self.offsamples < 0:
+            raise ValueError(f"offsamples must be >= 0, got {self.offsamples}")
+
+
+GLOSSY_TILE = {"specular": 0.6, "shininess": 0.8}  # glazed tile: lamps leave highlights on it
+
+
+def _reprint_placards(assets: SceneAssets, objects: list[PlacedObject], looks: SceneLooks) -> None:
+    """Each placard's own print reprinted and its paper made glossy per ``looks`` (in place)."""
+    done = set()
+    for o in objects:
+        if o.type != "hazmat" or o.look_seed is None or placard_key(o) in done:
+            continue
+        key = placard_key(o)
+        done.add(key)
+        rng = np.random.default_rng(np.random.SeedSequence([looks.seed, o.id, 58]))
+        sat = float(rng.uniform(*looks.print_saturation)) if looks.print_saturation else 1.0
+        black = float(rng.uniform(*looks.print_black)) if looks.print_black else None
+        glossy = rng.random() < looks.glossy_share
+        fname = f"objtex_{key}.png"
+        if fname in assets.files and (sat != 1.0 or black is not None):
+            import cv2
+
+            rgb = cv2.cvtColor(cv2.imdecode(np.frombuffer(assets.files[fname], np.uint8), 1), cv2.COLOR_BGR2RGB)
+            ink = placard_style(o.text, o.look_seed).look.ink_black
+            out = reprint(rgb, sat, ink if black is None else black, ink)
+            assets.files[fname] = cv2.imencode(".png", cv2.cvtColor(out, cv2.COLOR_RGB2BGR))[1].tobytes()
+        if glossy:
+            for el in assets.asset.iter("material"):
+                if el.get("name") == f"objmat_{key}":
+                    el.set("specular", fmt(rng.uniform(0.7, 1.0)))
+                    el.set("shininess", fmt(rng.uniform(0.3, 0.9)))
 
 
 # Illuminance of each lighting preset where its lamps light a surface fully, for the colour
@@ -232,12 +301,14 @@ def build_world_xml(
     light_height_m: float | None = None,
     clutter_per_cell: float = 0.0,
     shadows: bool = False,
+    looks: SceneLooks | None = None,
 ) -> tuple[str, dict[str, bytes]]:
     """The MJCF text and its in-memory assets (PNG textures).
 
     ``obstacles`` (the goal arena's cubes, not POIs) are plywood boxes named by their
     ``name``; ``light_height_m`` and ``shadows``: see :func:`_lights`; ``clutter_per_cell``:
-    distractors (``clutter_*`` geoms) a maze cell on average.
+    distractors (``clutter_*`` geoms) a maze cell on average; ``looks``: a training
+    scene's (:class:`SceneLooks`), drawn from its own seed (this ``rng``'s draws stay as they are).
     """
     root = ET.Element("mujoco", model="poibench")
     ET.SubElement(root, "compiler", angle="radian")
@@ -248,7 +319,10 @@ def build_world_xml(
     # render on llvmpipe (bench/bench_render_geoms.py: 39 against 182 us) and the default
     # frame's colour render about 17% less; a silhouette r pixels in radius moves by at most
     # r (1 - cos(pi / 12)), 3.4% of r (tests/sim/test_render.py; issue 18)
-    ET.SubElement(visual, "quality", offsamples="0", numslices=str(CURVE_SLICES), numstacks=str(CURVE_STACKS))
+    offsamples = "0" if looks is None else str(looks.offsamples)
+    ET.SubElement(
+        visual, "quality", offsamples=offsamples, numslices=str(CURVE_SLICES), numstacks=str(CURVE_STACKS)
+    )
     ET.SubElement(visual, "map", znear="0.005", zfar="60")
     assets = SceneAssets()
     root.append(assets.asset)
@@ -270,13 +344,17 @@ def build_world_xml(
     w, h = maze.size_m
     s = maze.settings
     floor_kind = FLOOR_KINDS[int(rng.choice(len(FLOOR_KINDS), p=FLOOR_KIND_SHARES))]
-    assets.texture("tex_floor", draw_floor_kind(floor_kind, TEXTURE_PX, rng))
-    assets.material(
-        "floor",
-        texture="tex_floor",
-        texrepeat=[max(1.0, w / 1.2), max(1.0, h / 1.2)],
-        texuniform=False,
-    )
+    floor_rgb = draw_floor_kind(floor_kind, TEXTURE_PX, rng)  # drawn always: rng's later draws stay
+    floor_kw = {"texrepeat": [max(1.0, w / 1.2), max(1.0, h / 1.2)], "texuniform": False}
+    if looks is not None and looks.floor is not None:
+        floor_rgb = draw_dataset_floor(looks.floor, DATASET_FLOOR_PX, np.random.default_rng([looks.seed, 581]))
+        # texuniform: repeats a metre, so one tile is SHEET_M whatever the maze's size (the
+        # trial's repeats over the whole plane make a small maze's floor tiles metres wide)
+        floor_kw = {"texrepeat": [1 / SHEET_M, 1 / SHEET_M], "texuniform": True}
+        if looks.floor == "tile":
+            floor_kw.update(GLOSSY_TILE)
+    assets.texture("tex_floor", floor_rgb)
+    assets.material("floor", texture="tex_floor", **floor_kw)
     ET.SubElement(
         world,
         "geom",
@@ -354,6 +432,8 @@ def build_world_xml(
         if holder is not None:
             world.append(holder)
 
+    if looks is not None:
+        _reprint_placards(assets, objects, looks)
     rig = ET.SubElement(world, "body", name=RIG_BODY, mocap="true", pos="0 0 1")
     ET.SubElement(rig, "camera", name=CAMERA_NAME, **mujoco_camera_attrs(intr))
     ET.indent(root)
@@ -371,6 +451,7 @@ def build_world(
     light_height_m: float | None = None,
     clutter_per_cell: float = 0.0,
     shadows: bool = False,
+    looks: SceneLooks | None = None,
 ) -> World:
     xml, files = build_world_xml(
         maze,
@@ -382,6 +463,7 @@ def build_world(
         light_height_m=light_height_m,
         clutter_per_cell=clutter_per_cell,
         shadows=shadows,
+        looks=looks,
     )
     model = mujoco.MjModel.from_xml_string(xml, files)
     data = mujoco.MjData(model)
