@@ -165,7 +165,7 @@ _CANONICAL: dict[str, PlacardStyle] = {
     "poison": PlacardStyle(("POISON",), "6"),
     "radioactive": PlacardStyle(("RADIOACTIVE",), "7"),
     "corrosive": PlacardStyle(("CORROSIVE",), "8"),
-    "infectious-substance": PlacardStyle(("INFECTIOUS", "SUBSTANCE"), "6"),
+    "infectious-substance": PlacardStyle(("INFECTIOUS SUBSTANCE",), "6"),
 }
 
 # Alternates seen on arena placards, beside the canonical words: (words, number) pairs.
@@ -326,8 +326,12 @@ EDGE = 0.015  # paper margin around the diamond's corners
 BORDER_INSET = 0.050  # the inner border line: 12.5 mm in from a 250 mm edge (172.519(c))
 BORDER_W = 0.010
 SYM_CX, SYM_BASE_Y, SYM_H = 0.5, 0.43, 0.27  # symbol box: bottom centre and height
-# the skull and the biohazard sign fill more of the top corner on printed placards
+# the skull fills more of the top corner on printed placards
 BIG_SYM_H = 0.33
+# The infectious-substance label's biohazard sign fills its upper half, over one line of
+# words (172.432's figure; so do the printed labels of the real photo set, where a label
+# drawn with a smaller sign over two lines of words was read right 58% of the time).
+INFECTIOUS_SYM_BASE, INFECTIOUS_SYM_H = 0.47, 0.37
 NUMBER_CY, NUMBER_CAP = 0.81, 0.125
 WORD_CAP = 0.106  # 41 mm on a 273 mm placard (172.519(c))
 MM = 1.0 / (273.0 * np.sqrt(2.0))  # one millimetre of a 273 mm placard, in texture units
@@ -602,7 +606,7 @@ def _draw_symbol(label: str, c: _Canvas, st: PlacardStyle) -> None:
         h = (INHALATION_POINT_Y - EDGE) * 0.47
         _skull(_Symbol(c, base=INHALATION_POINT_Y - 0.05, h=h), ink, BLACK)
     elif label == "infectious-substance":
-        _biohazard(_Symbol(c, base=SYM_BASE_Y + 0.02, h=BIG_SYM_H), ink, bg)
+        _biohazard(_Symbol(c, base=INFECTIOUS_SYM_BASE, h=INFECTIOUS_SYM_H), ink, bg)
     elif label == "radioactive":
         _trefoil(_Symbol(c, base=RADIOACTIVE_SPLIT_Y + 0.01, h=0.27), ink, YELLOW)
     elif label == "corrosive":
@@ -622,10 +626,14 @@ def _words_layout(label: str, st: PlacardStyle) -> tuple[float, float]:
         cy = 0.565
     if label == "inhalation-hazard":
         cy = 0.53 if lines == 2 else 0.50
+    if label == "infectious-substance" and lines == 1:  # under the large sign, the width's limit
+        cy, cap = 0.55, 0.06
     if label in ("explosive", "blasting-agent") and st.division in ("1.4", "1.5", "1.6"):
         cy, cap = (0.62, 0.075) if lines == 1 else (0.635, 0.07)
     if st.notice:  # words raised and smaller, the notice between them and the number
         cy, cap = 0.52, 0.08
+        if label == "infectious-substance" and lines == 1:
+            cy, cap = 0.53, 0.055
     return cy, cap
 
 

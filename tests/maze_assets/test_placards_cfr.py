@@ -213,3 +213,24 @@ def test_infectious_label_with_its_leakage_notice():
     band = b[int(0.62 * N) : int(0.73 * N), int(0.35 * N) : int(0.65 * N)].reshape(-1, 3)
     dark = band[band.max(axis=1) < 100]
     assert len(dark) > 50 and np.all(np.ptp(dark, axis=1) < 20)  # black ink, not coloured
+
+
+def test_the_biohazard_sign_fills_the_upper_half_over_one_line_of_words():
+    """172.432's figure and the printed labels: the sign spans the diamond's upper half,
+    the words run in one line under it, clear of the sign."""
+    st = canonical_style("infectious-substance")
+    full = draw_hazmat("infectious-substance", N, st).astype(int)
+
+    def mask(part: str) -> np.ndarray:  # (N, N) bool: the pixels the part changes
+        without = draw_hazmat("infectious-substance", N, replace(st, omit=st.omit | {part})).astype(int)
+        return np.abs(full - without).max(axis=2) > 60
+
+    sign = mask("symbol")
+    rows = np.flatnonzero(sign.any(axis=1)) / N
+    cols = np.flatnonzero(sign.any(axis=0)) / N
+    assert rows.max() - rows.min() >= 0.3 and rows.max() <= 0.5
+    assert cols.max() - cols.min() >= 0.3
+    words = mask("text")
+    word_rows = np.flatnonzero(words.any(axis=1)) / N
+    assert word_rows.min() > rows.max()  # under the sign
+    assert word_rows.max() - word_rows.min() < 0.09  # one line
