@@ -135,6 +135,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         help=f"share of the views that are close-ups, the target a third of the image high, with motion "
         f"blur (default {DatasetSpec.closeup_fraction})",
     )
+    d.add_argument(
+        "--landolt-targets",
+        type=int,
+        default=DatasetSpec.landolt_targets,
+        help=f"Landolt-C targets an RRL scenario, never labelled (no detector class; one on the placard board, "
+        f"the rest by themselves; default {DatasetSpec.landolt_targets})",
+    )
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=cmd_dataset)
 
@@ -347,6 +354,7 @@ def cmd_dataset(args) -> int:
         glossy_fraction=args.glossy,
         msaa=args.msaa,
         closeup_fraction=args.closeups,
+        landolt_targets=args.landolt_targets,
         **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),
     )
     with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:

@@ -57,6 +57,7 @@ RESCUE_CLASS_INDEX: dict[str, int] = {c: i for i, c in enumerate(RESCUE_CLASSES)
 DISTANCE_DRAWS = ("uniform", "log")
 VIEW_TRIES = 120  # viewpoint draws per image before the target is given up for another
 MSAA_SAMPLES = (0, 2, 4, 8)
+UNLABELLED_VIEW_SHARE = 0.05  # views aimed at an object of no detector class (a Landolt-C target)
 CLOSEUP_FILL = (0.28, 0.4)  # a close-up's target: this fraction of the image height (about a third)
 CLOSEUP_MAX_ANGLE_DEG = 35.0  # off the face normal
 CLOSEUP_MOTION_PX = (4.0, 16.0)  # a close-up's motion blur length (a hand-held or moving camera)
@@ -107,6 +108,10 @@ class DatasetSpec:
     # views of a close-up: the target a third of the image high, with motion blur (real photos
     # are often large close-ups with blur, which renders at 0.3-5 m never are)
     closeup_fraction: float = 0.1
+    # Landolt-C targets an RRL scenario (one on the placard board when hazmat_on_boards, the rest
+    # on walls by themselves), never labelled: no detector class; on real photos 22 of the shipped
+    # detector's 40 false detections on unlabelled things were Landolt rings called corrosive
+    landolt_targets: int = 2
     camera: CameraRandomisation | None = field(default_factory=lambda: CameraRandomisation())
     counts: dict[str, int] = field(default_factory=lambda: DatasetSpec.default_counts())
 
@@ -129,7 +134,13 @@ class DatasetSpec:
             raise DatasetError(f"--hazmat-on-floor must be in [0, 1], got {self.hazmat_on_floor}")
         if not 0.0 <= self.shadow_fraction <= 1.0:
             raise DatasetError(f"--shadows must be in [0, 1], got {self.shadow_fraction}")
-        for name in ("hazmat_on_doors", "hazmat_in_crates", "hazmat_on_ramps", "hazmat_on_boards"):
+        for name in (
+            "hazmat_on_doors",
+            "hazmat_in_crates",
+            "hazmat_on_ramps",
+            "hazmat_on_boards",
+            "landolt_targets",
+        ):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 0:
                 flag = "--" + name.replace("_", "-")
@@ -198,7 +209,8 @@ def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
         maze=MazeSpec(generate=MazeGenerate(rows=rows, cols=cols, preset=preset)),
         objects=ObjectsSpec(
             generate=ObjectsGenerate(
-                counts=dict(spec.counts),
+                # Landolt-C targets on walls need the RRL walls' heights (0.3-1 m): RRL mazes only
+                counts={**spec.counts, **({"landolt-c": spec.landolt_targets} if preset == "rrl" else {})},
                 labels=sorted(set(labels)) if n else None,
                 hazmat_on_floor=spec.hazmat_on_floor,
                 hazmat_on_doors=min(spec.hazmat_on_doors, 2 * spec.counts.get("door", 0)),
@@ -458,7 +470,9 @@ def yolo_labels(
             continue
         if (v.visible_fraction < spec.min_visible_fraction) != ignored:
             continue
-        cls = RESCUE_CLASS_INDEX[object_class(objects_by_id[v.id])]
+        cls = RESCUE_CLASS_INDEX.get(object_class(objects_by_id[v.id]))
+        if cls is None:  # no detector class (a Landolt-C target): neither labelled nor ignored
+            continue
         out.append((cls, (x1 + x2) / 2 / width, (y1 + y2) / 2 / height, (x2 - x1) / width, (y2 - y1) / height))
     return out
 
@@ -528,7 +542,8 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
             by_class: dict[str, list] = {}
             for o in sim.objects:
                 by_class.setdefault(object_class(o), []).append(o)
-            present = sorted(by_class)
+            present = sorted(c for c in by_class if c in RESCUE_CLASS_INDEX)
+            unlabelled = [o for c in sorted(by_class) if c not in RESCUE_CLASS_INDEX for o in by_class[c]]
             per_class: Counter[str] = Counter()
             for i in range(n_img):
                 rng = np.random.default_rng([spec.seed, j, i, 7])
@@ -536,9 +551,11 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                 # close-ups from their own stream: the other views' draws stay as they were
                 close_rng = np.random.default_rng([spec.seed, j, i, 8])
                 closeup = close_rng.random() < spec.closeup_fraction
+                if unlabelled and close_rng.random() < UNLABELLED_VIEW_SHARE:
+                    order = ["", *order]  # an unlabelled object first: a view of it, with what is near
                 view = None
                 for cls in order:
-                    cands = by_class[cls]
+                    cands = by_class[cls] if cls else unlabelled
                     target = cands[int(rng.integers(len(cands)))]
                     view = closeup_view(sim, target, close_rng) if closeup else None
                     if view is None:

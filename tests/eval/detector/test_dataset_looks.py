@@ -1,6 +1,7 @@
 """poibench dataset's training looks (issue 58): textured floors, print colour, glossy paper, MSAA
 and close-ups; none of them reaches a trial's world."""
 
+import csv
 import dataclasses
 import re
 
@@ -46,7 +47,7 @@ def test_floor_kinds_differ_and_are_deterministic():
 
 
 def _world(looks):
-    sc = scenario_for(DatasetSpec(images=1, seed=3), 0)
+    sc = scenario_for(DatasetSpec(images=1, seed=3), 1)  # an RRL maze
     with Simulation(sc) as sim:  # the maze and objects the dataset's scenario 0 has
         maze, objects, intr = sim.maze, sim.objects, sim.intrinsics
     return build_world_xml(maze, objects, intr, sc.lighting, np.random.default_rng(sc.seed), looks=looks)
@@ -136,10 +137,10 @@ def test_msaa_smooths_placard_edges_and_keeps_the_truth():
     """MSAA (offsamples 4) against none, on the same views: the truth boxes are the same, and the
     placard crops' Laplacian variance falls (aliased steps along the cut diamond's edges go)."""
     spec = DatasetSpec(images=1, seed=3)
-    sc = scenario_for(spec, 0)
+    sc = scenario_for(spec, 1)
     out = {}
     for msaa in (0, 4):
-        looks = dataclasses.replace(looks_for(spec, 0), offsamples=msaa)
+        looks = dataclasses.replace(looks_for(spec, 1), offsamples=msaa)
         with Simulation(sc, looks=looks) as sim:
             hz = [o for o in sim.objects if o.type == "hazmat"]
             rng = np.random.default_rng(4)
@@ -164,3 +165,25 @@ def test_msaa_smooths_placard_edges_and_keeps_the_truth():
         assert a[0].keys() == b[0].keys()
         for i in a[0]:  # an edge pixel may fall either way
             assert max(abs(p - q) for p, q in zip(a[0][i], b[0][i], strict=True)) <= 2
+
+
+def test_landolt_targets_appear_unlabelled_standalone_and_on_boards(tmp_path, monkeypatch):
+    """Landolt-C targets have no detector class: they stand in the scenes (one by itself on a wall,
+    one on the placard board) and are neither labelled nor ignored, so detections of them count
+    as false."""
+    spec = DatasetSpec(images=1, seed=3)
+    _, sim = _build(spec, 1)  # an RRL maze (an RMRC one has none: its walls are too low for them)
+    with sim:
+        rings = [o for o in sim.objects if o.type == "landolt-c"]
+        assert len(rings) == spec.landolt_targets == 2
+        assert {o.holder for o in rings} == {None, "board"}
+    with pytest.raises(DatasetError, match=r"^--landolt-targets must be a whole number >= 0, got -1$"):
+        DatasetSpec(images=1, landolt_targets=-1)
+    out = tmp_path / "ds"
+    import eval.detector.dataset as ds
+
+    monkeypatch.setattr(ds, "UNLABELLED_VIEW_SHARE", 0.5)  # 5% of views: too few in 12 images to test
+    ds.write_dataset(DatasetSpec(images=12, images_per_scenario=12, seed=1), out)  # an RRL maze
+    rows = list(csv.DictReader((out / "manifest.csv").read_text(encoding="utf-8").splitlines()))
+    aimed = [r for r in rows if r["target_class"] == "landolt-c"]
+    assert aimed and all("landolt" not in r["labels"] for r in rows)
