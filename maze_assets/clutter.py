@@ -160,3 +160,112 @@ def build_clutter(items: list[ClutterItem], assets: SceneAssets) -> list[ET.Elem
                     size=s / 2,
                 )
     return out
+
+
+# --- milk crates beside placards (training scenes only) ----------------------------------------
+# Real placard photos show placards among clutter, milk crates most of all (issue 58); poibench
+# dataset stands open plastic crates near its placards (sim.world.SceneLooks.milk_crates), trials
+# never. A crate is 33 x 33 x 28 cm, its sides an open grid of bars.
+MILK_CRATE_M = (0.33, 0.33, 0.28)
+MILK_CRATE_RGBA = (
+    (0.8, 0.1, 0.08, 1),
+    (0.1, 0.3, 0.75, 1),
+    (0.1, 0.55, 0.25, 1),
+    (0.95, 0.75, 0.1, 1),
+    (0.1, 0.1, 0.11, 1),
+    (0.6, 0.62, 0.64, 1),
+    (0.92, 0.92, 0.9, 1),
+)
+MILK_CRATE_BAR_M = 0.012  # half-thickness of a bar of the grid
+MILK_CRATE_NEAR_M = (0.25, 0.7)  # from the placard's foot
+
+
+def place_milk_crates(
+    maze, objects: list[PlacedObject], rng: np.random.Generator, count: int
+) -> list[ClutterItem]:
+    """``count`` crates each beside a placard (on the floor in front of or beside it), clear of
+    the walls and of every object by 5 cm; none in mazes with cells under ``MIN_CELL_M``."""
+    if count < 0:
+        raise ValueError(f"milk crates must be >= 0, got {count}")
+    placards = [o for o in objects if o.type == "hazmat"]
+    if count == 0 or not placards or maze.settings.cell_size_m < MIN_CELL_M:
+        return []
+    half = MILK_CRATE_M[0] / 2 * np.sqrt(2.0)  # the crate's corner radius: any yaw
+    segs = maze.wall_segments()
+    w, h = maze.size_m
+    items: list[ClutterItem] = []
+    for _ in range(count):
+        for _attempt in range(50):
+            p = placards[int(rng.integers(len(placards)))]
+            ang = float(p.yaw + rng.uniform(-1.2, 1.2))  # in front of it, or to a side
+            xy = p.position[:2] + float(rng.uniform(*MILK_CRATE_NEAR_M)) * np.array([np.cos(ang), np.sin(ang)])
+            if not (half < xy[0] < w - half and half < xy[1] < h - half):
+                continue
+            clear = True
+            for sg in segs:
+                a, b = np.array([sg.x0, sg.y0]), np.array([sg.x1, sg.y1])
+                t = np.clip(np.dot(xy - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+                if np.linalg.norm(xy - (a + t * (b - a))) < sg.thickness / 2 + half + 0.02:
+                    clear = False
+                    break
+            if not clear or any(np.hypot(*(o.position[:2] - xy)) < half + 0.05 + 0.5 * o.size_m for o in objects):
+                continue
+            if any(np.hypot(*(np.array(i.xy) - xy)) < 2 * half + 0.02 for i in items):
+                continue
+            yaw = float(rng.uniform(0, np.pi / 2))
+            items.append(
+                ClutterItem(
+                    kind="milk-crate",
+                    xy=(float(xy[0]), float(xy[1])),
+                    along=(float(np.cos(yaw)), float(np.sin(yaw))),
+                    out=(float(-np.sin(yaw)), float(np.cos(yaw))),
+                    seed=int(rng.integers(2**31)),
+                )
+            )
+            break
+    return items
+
+
+def build_milk_crates(items: list[ClutterItem], assets: SceneAssets) -> list[ET.Element]:
+    """Geoms ``milkcrate_{k}_{part}``: a floor plate and four sides of rim, posts and grid bars."""
+    out: list[ET.Element] = []
+    W, _, H = MILK_CRATE_M
+    t = MILK_CRATE_BAR_M
+    for k, it in enumerate(items):
+        rng = np.random.default_rng(it.seed)
+        i = int(rng.integers(len(MILK_CRATE_RGBA)))
+        mat = _material(assets, f"milk_crate_{i}", MILK_CRATE_RGBA[i])
+        x, y = it.xy
+        yaw = float(np.arctan2(it.along[1], it.along[0]))
+        c, s_ = np.cos(yaw), np.sin(yaw)
+
+        def box(part: str, local, size, k: int = k, x=x, y=y, c=c, s_=s_, yaw=yaw, mat=mat) -> None:
+            px, py, pz = local
+            pos = [x + c * px - s_ * py, y + s_ * px + c * py, pz]
+            out.append(
+                ET.Element(
+                    "geom",
+                    name=f"milkcrate_{k}_{part}",
+                    type="box",
+                    material=mat,
+                    pos=fmt(pos),
+                    euler=fmt([0, 0, yaw]),
+                    size=fmt(size),
+                    contype="0",
+                    conaffinity="0",
+                )
+            )
+
+        box("floor", (0, 0, t / 2), (W / 2, W / 2, t / 2))
+        for side, (ux, uy) in enumerate(((1, 0), (0, 1), (-1, 0), (0, -1))):
+            # a side facing (ux, uy): rim and foot bars along it, 3 grid bars across, 2 rails
+            along = (abs(uy) * W / 2, abs(ux) * W / 2)
+            cx, cy = ux * (W / 2 - t), uy * (W / 2 - t)
+            for j, z in enumerate((H - 1.5 * t, 1.5 * t, H * 0.38, H * 0.68)):
+                hz = 1.5 * t if j == 0 else t
+                box(f"s{side}_rail{j}", (cx, cy, z), (max(along[0], t), max(along[1], t), hz))
+            for j, f in enumerate((-1.0, -0.5, 0.0, 0.5, 1.0)):
+                off = f * (W / 2 - t)
+                px, py = (cx + abs(uy) * off, cy + abs(ux) * off)
+                box(f"s{side}_post{j}", (px, py, H / 2), (t, t, H / 2))
+    return out

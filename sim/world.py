@@ -19,7 +19,7 @@ import mujoco  # noqa: E402
 import numpy as np
 
 import sim.gl  # noqa: F401  (must precede the mujoco import)
-from maze_assets.clutter import build_clutter, place_clutter  # noqa: E402
+from maze_assets.clutter import build_clutter, build_milk_crates, place_clutter, place_milk_crates  # noqa: E402
 from maze_assets.hazmat import placard_style, reprint  # noqa: E402
 from maze_assets.mjcf import SceneAssets, fmt  # noqa: E402
 from maze_assets.models import (  # noqa: E402
@@ -77,7 +77,8 @@ class SceneLooks:
     ``SeedSequence([seed, id, 58])``: saturation kept drawn from ``print_saturation`` and
     ink black from ``print_black`` (``maze_assets.hazmat.reprint``), and on ``glossy_share``
     of them glossy paper (specular 0.7-1, shininess 0.3-0.9: lamps mirror in it as glare).
-    ``offsamples``: MSAA samples of the offscreen buffer (a trial: 0).
+    ``offsamples``: MSAA samples of the offscreen buffer (a trial: 0). ``milk_crates``: open
+    plastic crates standing near placards (``maze_assets.clutter.place_milk_crates``; unlabelled).
     """
 
     seed: int
@@ -86,6 +87,7 @@ class SceneLooks:
     print_black: tuple[float, float] | None = None
     glossy_share: float = 0.0
     offsamples: int = 0
+    milk_crates: int = 0
 
     def __post_init__(self) -> None:
         if self.floor is not None and self.floor not in DATASET_FLOOR_KINDS:
@@ -348,9 +350,9 @@ def build_world_xml(
     floor_kw = {"texrepeat": [max(1.0, w / 1.2), max(1.0, h / 1.2)], "texuniform": False}
     if looks is not None and looks.floor is not None:
         floor_rgb = draw_dataset_floor(looks.floor, DATASET_FLOOR_PX, np.random.default_rng([looks.seed, 581]))
-        # texuniform: repeats a metre, so one tile is SHEET_M whatever the maze's size (the
-        # trial's repeats over the whole plane make a small maze's floor tiles metres wide)
-        floor_kw = {"texrepeat": [1 / SHEET_M, 1 / SHEET_M], "texuniform": True}
+        # repeats over the whole plane (w + 2 by h + 2 m), so one tile is SHEET_M whatever the
+        # maze's size (the trial's w / 1.2 make a small maze's floor tiles metres wide)
+        floor_kw = {"texrepeat": [(w + 2.0) / SHEET_M, (h + 2.0) / SHEET_M], "texuniform": False}
         if looks.floor == "tile":
             floor_kw.update(GLOSSY_TILE)
     assets.texture("tex_floor", floor_rgb)
@@ -434,6 +436,9 @@ def build_world_xml(
 
     if looks is not None:
         _reprint_placards(assets, objects, looks)
+        crates = place_milk_crates(maze, objects, np.random.default_rng([looks.seed, 583]), looks.milk_crates)
+        for el in build_milk_crates(crates, assets):
+            world.append(el)
     rig = ET.SubElement(world, "body", name=RIG_BODY, mocap="true", pos="0 0 1")
     ET.SubElement(rig, "camera", name=CAMERA_NAME, **mujoco_camera_attrs(intr))
     ET.indent(root)

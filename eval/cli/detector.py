@@ -142,6 +142,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         help=f"Landolt-C targets an RRL scenario, never labelled (no detector class; one on the placard board, "
         f"the rest by themselves; default {DatasetSpec.landolt_targets})",
     )
+    d.add_argument(
+        "--milk-crates",
+        type=int,
+        default=DatasetSpec.milk_crates,
+        help=f"open plastic crates a scenario standing near placards, unlabelled (RRL mazes; "
+        f"default {DatasetSpec.milk_crates})",
+    )
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=cmd_dataset)
 
@@ -355,6 +362,7 @@ def cmd_dataset(args) -> int:
         msaa=args.msaa,
         closeup_fraction=args.closeups,
         landolt_targets=args.landolt_targets,
+        milk_crates=args.milk_crates,
         **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),
     )
     with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:

@@ -112,6 +112,9 @@ class DatasetSpec:
     # on walls by themselves), never labelled: no detector class; on real photos 22 of the shipped
     # detector's 40 false detections on unlabelled things were Landolt rings called corrosive
     landolt_targets: int = 2
+    # open plastic milk crates a scenario standing near placards, unlabelled (real placard photos
+    # show placards among crates, which the shipped detector missed or called placards)
+    milk_crates: int = 2
     camera: CameraRandomisation | None = field(default_factory=lambda: CameraRandomisation())
     counts: dict[str, int] = field(default_factory=lambda: DatasetSpec.default_counts())
 
@@ -241,6 +244,7 @@ def looks_for(spec: DatasetSpec, j: int, attempt: int = 0):
         print_black=spec.print_black,
         glossy_share=spec.glossy_fraction,
         offsamples=spec.msaa,
+        milk_crates=spec.milk_crates,
     )
 
 

@@ -187,3 +187,22 @@ def test_landolt_targets_appear_unlabelled_standalone_and_on_boards(tmp_path, mo
     rows = list(csv.DictReader((out / "manifest.csv").read_text(encoding="utf-8").splitlines()))
     aimed = [r for r in rows if r["target_class"] == "landolt-c"]
     assert aimed and all("landolt" not in r["labels"] for r in rows)
+
+
+def test_milk_crates_stand_near_placards_unlabelled():
+    spec = DatasetSpec(images=1, seed=3)
+    sc = scenario_for(spec, 1)  # an RRL maze: 1.2 m cells (RMRC lanes get no crates)
+    with Simulation(sc, looks=looks_for(spec, 1)) as sim:
+        m = sim.world.model
+        crates = {}
+        for g in range(m.ngeom):
+            name = m.geom(g).name
+            if name.startswith("milkcrate_"):
+                crates.setdefault(name.split("_")[1], []).append(g)
+                assert sim.world.geom_object_id[g] == -1  # no object: never labelled
+        assert len(crates) == spec.milk_crates
+        placards = np.array([o.position[:2] for o in sim.objects if o.type == "hazmat"])
+        for geoms in crates.values():
+            xy = m.geom_pos[geoms[0]][:2]  # the crate's floor plate, at its centre
+            # MILK_CRATE_NEAR_M: 0.25-0.7 m from a placard's reference point
+            assert np.min(np.linalg.norm(placards - xy, axis=1)) < 0.75
