@@ -192,7 +192,7 @@ class DatasetSpec:
         d["print_saturation"] = list(self.print_saturation)
         d["print_black"] = list(self.print_black)
         if d["camera"] is not None:
-            d["camera"] = {k: list(v) for k, v in d["camera"].items()}
+            d["camera"] = {k: list(v) if isinstance(v, tuple) else v for k, v in d["camera"].items()}
         return d
 
 
@@ -416,7 +416,12 @@ def closeup_view(sim, target, rng: np.random.Generator) -> tuple[np.ndarray, dic
 class CameraRandomisation:
     """Ranges the colour camera's settings are drawn from, per image, for the dataset (domain
     randomisation); wider than, and kept apart from, the trial defaults of
-    ``sim.scenario.ColourSpec``. Each value is drawn uniformly (log-uniformly for ``lux``)."""
+    ``sim.scenario.ColourSpec``. Each value is drawn uniformly (log-uniformly for ``lux``).
+
+    Motion blur is drawn on ``motion_blur_share`` of the images only, and defocus is at most
+    1 px: with a 0-20 px smear on every image and defocus up to 2 px, labelled placard crops
+    (short side >= 40 px) had a median Laplacian variance of 142 against 2434 in the real
+    photos (hazmat-photos-dev), and the trial camera dwells still at each pan step."""
 
     lux: tuple[float, float] = (30.0, 3000.0)  # scene illuminance: dark room to bright hall
     ae_target: tuple[float, float] = (0.4, 0.75)  # brightness the auto-exposure aims at
@@ -424,7 +429,8 @@ class CameraRandomisation:
     max_gain: tuple[float, float] = (4.0, 32.0)
     read_noise_e: tuple[float, float] = (1.0, 12.0)
     motion_blur_px: tuple[float, float] = (0.0, 20.0)  # length; direction uniform in [0, 180) deg
-    defocus_sigma_px: tuple[float, float] = (0.0, 2.0)
+    motion_blur_share: float = 0.4  # images with motion blur; the rest are taken still
+    defocus_sigma_px: tuple[float, float] = (0.0, 1.0)
     vignetting: tuple[float, float] = (0.0, 1.0)
     wb_gain: tuple[float, float] = (0.8, 1.25)  # red and blue, each, relative to green
     jpeg_quality: tuple[int, int] = (40, 95)
@@ -435,6 +441,8 @@ class CameraRandomisation:
 
         u = lambda r: float(rng.uniform(*r))  # noqa: E731
         length, angle = u(self.motion_blur_px), math.radians(u((0.0, 180.0)))
+        if rng.random() >= self.motion_blur_share:
+            length = 0.0
         spec = replace(
             base,
             lux=float(math.exp(rng.uniform(math.log(self.lux[0]), math.log(self.lux[1])))),

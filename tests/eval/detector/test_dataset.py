@@ -262,3 +262,18 @@ def test_crates_and_boards_reach_the_scenarios_and_views_stay_out_of_crates():
                 left, right, _, _ = o.holder_m
                 inside = cam @ n < o.size_m + 0.02 and abs(cam @ np.array([-n[1], n[0]])) < right + 0.02
                 assert not inside  # the crate is as deep as the placard's side
+
+
+def test_the_randomised_camera_blurs_a_share_of_the_images_and_defocuses_at_most_1_px():
+    import numpy as np
+
+    from eval.detector.dataset import CameraRandomisation
+    from sim.scenario import ColourSpec
+
+    rng = np.random.default_rng(0)
+    cam = CameraRandomisation()
+    draws = [cam.draw(ColourSpec(), rng) for _ in range(2000)]
+    smeared = np.mean([np.hypot(*blur) > 0 for _, blur in draws])
+    assert abs(smeared - cam.motion_blur_share) < 0.04
+    assert max(np.hypot(*blur) for _, blur in draws) <= 20.0
+    assert max(spec.defocus_sigma_px for spec, _ in draws) <= 1.0
