@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from collections import Counter
 from pathlib import Path
 
@@ -337,9 +336,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_dataset(args) -> int:
-    from tqdm import tqdm
-
     from eval.detector.dataset import DatasetSpec, write_dataset
+    from eval.progress import progress_bar
 
     spec = DatasetSpec(
         images=args.images,
@@ -365,7 +363,7 @@ def cmd_dataset(args) -> int:
         milk_crates=args.milk_crates,
         **({"camera": None, "blur_fraction": 0.0} if args.camera == "trial" else {}),
     )
-    with tqdm(total=spec.images, desc="dataset", unit="img", disable=args.quiet, file=sys.stderr) as bar:
+    with progress_bar(total=spec.images, desc="dataset", unit="img", quiet=args.quiet) as bar:
         summary = write_dataset(spec, args.out, progress=bar.update)
     n = summary["images"]
     inst = summary["instances"]
@@ -427,7 +425,6 @@ def cmd_train_labels(args) -> int:
 def cmd_evaluate_labels(args) -> int:
     """``poibench evaluate-labels``: eval.detector.label_eval on each --data folder, side by side."""
     import numpy as np
-    from tqdm import tqdm
 
     from eval.detector.label_eval import (
         accuracy_by_size,
@@ -441,6 +438,7 @@ def cmd_evaluate_labels(args) -> int:
     from eval.detector.quality import DetectorQualityError, _model_metadata, model_training_seeds
     from eval.detector.train import dataset_seed
     from eval.detector.train_labels import PATH_SEPARATOR, PHOTO_FOLDERS_METADATA_KEY
+    from eval.progress import progress_bar
     from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
 
     if args.min_px < 0:
@@ -463,7 +461,7 @@ def cmd_evaluate_labels(args) -> int:
         seed = dataset_seed(folder.root)
         if seed is not None and seed in seeds:
             print(f"note: {args.label_model} was trained on scenes of seed {seed}, as {folder.root} was rendered")
-        with tqdm(total=len(folder.images), desc=folder.name, unit="img", disable=args.quiet) as bar:
+        with progress_bar(total=len(folder.images), desc=folder.name, unit="img", quiet=args.quiet) as bar:
             by_size, conf_labels, small = label_confusion(classifier, folder.images, args.min_px, bar.update)
         conf = by_size.sum(axis=0)
         labels_only = fold_confusion(conf_labels, args.absent)
@@ -497,10 +495,9 @@ def cmd_evaluate_labels(args) -> int:
 
 def _labelled_images(args, work: Path):
     """The val split of --data, or fresh scenes rendered from --seed into ``work``."""
-    from tqdm import tqdm
-
     from eval.detector.dataset import DatasetSpec, write_dataset
     from eval.detector.quality import DetectorQualityError, load_split, model_training_seeds
+    from eval.progress import progress_bar
 
     if args.data:
         return load_split(args.data, "val")
@@ -514,17 +511,16 @@ def _labelled_images(args, work: Path):
                 f"{model} was trained on scenes from seed {args.seed}; evaluate on another --seed"
             )
     spec = DatasetSpec(images=args.images, seed=args.seed, val_every=1)
-    with tqdm(total=spec.images, desc="scenes", unit="img", disable=args.quiet, file=sys.stderr) as bar:
+    with progress_bar(total=spec.images, desc="scenes", unit="img", quiet=args.quiet) as bar:
         write_dataset(spec, work, progress=bar.update)
     return load_split(work, "val")
 
 
 def _detect(args, images, conf):
-    from tqdm import tqdm
-
     from eval.detector.quality import detect_all
+    from eval.progress import progress_bar
 
-    with tqdm(total=len(images), desc="detect", unit="img", disable=args.quiet, file=sys.stderr) as bar:
+    with progress_bar(total=len(images), desc="detect", unit="img", quiet=args.quiet) as bar:
         return detect_all(
             args.model,
             images,

@@ -82,8 +82,8 @@ def cmd_scenario_new(args) -> int:
 
 def cmd_render(args) -> int:
     import cv2
-    from tqdm import tqdm
 
+    from eval.progress import progress_bar
     from eval.scoring.truth import truth_rows, write_truth_csv
     from poi.core.depth_units import to_z16
     from sim.simulator import Simulation
@@ -99,7 +99,7 @@ def cmd_render(args) -> int:
         (out / "scenario.yaml").write_text(sc.to_yaml(), encoding="utf-8")
         (out / "intrinsics.json").write_text(json.dumps(sim.intrinsics.to_dict(), indent=2) + "\n")
         with open(out / "frames.jsonl", "w", encoding="utf-8") as f:
-            for k in tqdm(idx, desc="render", unit="frame", disable=None):
+            for k in progress_bar(idx, desc="render", unit="frame"):
                 frame, truth = sim.frame(int(k))
                 name = f"{k:06d}.png"
                 cv2.imwrite(str(out / "color" / name), cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2BGR))

@@ -112,11 +112,10 @@ def _spec(args, suite: str, grid):
 
 
 def _run(spec, out: Path, quiet: bool):
-    from tqdm import tqdm
-
     from eval.experiments.sweep import run_sweep
+    from eval.progress import progress_bar
 
-    bar = tqdm(desc="trials", unit="trial", disable=quiet, file=sys.stderr)
+    bar = progress_bar(desc="trials", unit="trial", quiet=quiet)
 
     def progress(n: int, total: int) -> None:
         bar.total = total
@@ -240,14 +239,13 @@ def cmd_regress(args) -> int:
 
 
 def cmd_tune(args) -> int:
-    from tqdm import tqdm
-
     from eval.cli.run import check_detector
     from eval.experiments.tune import parse_param, run_tune
+    from eval.progress import progress_bar
 
     params = [parse_param(p) for p in args.param]
     check_detector(args.detector)
-    with tqdm(total=args.trials, desc="tune", unit="study trial", disable=args.quiet, file=sys.stderr) as bar:
+    with progress_bar(total=args.trials, desc="tune", unit="study trial", quiet=args.quiet) as bar:
         res = run_tune(
             args.suite,
             params,

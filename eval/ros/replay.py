@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -129,9 +128,8 @@ def replay(
     max_frames: int | None = None,
 ) -> ReplayResult:
     """Run the pipeline over ``rec`` and write the outputs in ``out_dir``."""
-    from tqdm import tqdm
-
     from eval.live.record import LiveRecorder
+    from eval.progress import progress_bar
     from eval.scoring.funnel import funnel_json
     from eval.trial.funnel_recorder import FunnelRecorder, projected_views
     from eval.trial.run import detector_label, funnel_objects, make_detectors, write_funnel_csv
@@ -180,7 +178,7 @@ def replay(
     k = 0
     try:
         frames = rec.frames()
-        for frame in tqdm(frames, total=n, desc="replay", unit="frame", disable=not progress, file=sys.stderr):
+        for frame in progress_bar(frames, total=n, desc="replay", unit="frame", quiet=not progress):
             if k >= n:
                 break
             res = pipe.process(frame)

@@ -26,7 +26,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
-import sys
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -35,6 +34,7 @@ import numpy as np
 import yaml
 
 from eval.live.video import H264Writer
+from eval.progress import progress_bar
 from eval.scoring.funnel import Funnel, ObjectView, funnel_json, funnel_rows
 from eval.scoring.map_error import MapErrorResult
 from eval.scoring.map_plot import draw_map, score_layers
@@ -415,7 +415,6 @@ def run_trial(
     ``interrupt`` (an :class:`eval.trial.interrupt.DeferredInterrupt`) is checked after each
     frame, so a Ctrl-C ends the trial between frames (``poibench run``).
     """
-    from tqdm import tqdm
 
     from poi.annotate import annotate
     from poi.config import apply_overrides, config_to_dict, load_config
@@ -515,13 +514,8 @@ def run_trial(
                 n_frames=n,
             )
         try:
-            for frame, truth, T_true, views, blur_px in tqdm(
-                frames,
-                total=n,
-                desc="trial",
-                unit="frame",
-                disable=not progress,
-                file=sys.stderr,
+            for frame, truth, T_true, views, blur_px in progress_bar(
+                frames, total=n, desc="trial", unit="frame", quiet=not progress
             ):
                 if oracle is not None:
                     oracle.set_truth(truth)
