@@ -71,7 +71,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--log",
         choices=["mcap", "bag"],
         help="also write the trial as a ROS log: mcap (a rosbag2 folder trial_mcap/, for ros2 bag play and "
-        "Foxglove) or bag (a ROS 1 trial.bag, for rosbag play)",
+        "Foxglove) or bag (a ROS 1 trial.bag, for rosbag play); either is about 1.6 MB a frame at 640x480 "
+        "(colour, depth and thermal images uncompressed): 1.9 GB for the default trial's 1191 frames",
     )
     p.add_argument(
         "--log-topic",
