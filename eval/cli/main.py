@@ -56,7 +56,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         _check_out(args)
-        return int(args.func(args) or 0)
+        with _hold_out(args):
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print(f"poibench {args.command}: interrupted", file=sys.stderr)
         return 130
@@ -76,6 +77,18 @@ def _check_out(args: argparse.Namespace) -> None:
     out = getattr(args, "out", None)
     if out is not None:
         (check_output_file if getattr(args, "out_is_file", False) else check_output_folder)(out)
+
+
+def _hold_out(args: argparse.Namespace):
+    """The lock on ``--out`` for the commands that set ``locks_out`` (those that write a trial's
+    files: a second run into the same folder is refused while the first runs)."""
+    import contextlib
+
+    from eval.cli.output import hold_output_folder
+
+    if getattr(args, "locks_out", False) and getattr(args, "out", None) is not None:
+        return hold_output_folder(args.out)
+    return contextlib.nullcontext()
 
 
 def _is_user_error(e: BaseException) -> bool:

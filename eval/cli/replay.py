@@ -44,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-video", action="store_true", help="do not write trial.mp4")
     p.add_argument("--no-live-record", action="store_true", help="do not write live/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=cmd_replay)
+    p.set_defaults(func=cmd_replay, locks_out=True)
 
 
 def cmd_replay(args) -> int:

@@ -85,7 +85,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", action="store_true", help="serve the live view on 127.0.0.1 while the trial runs")
     p.add_argument("--port", type=port, default=0, help="live view port, 0-65535 (default 0: a free one, printed)")
-    p.set_defaults(func=cmd_run)
+    p.set_defaults(func=cmd_run, locks_out=True)
 
     v = sub.add_parser("view", help="replay a finished trial in the browser (time slider)")
     v.add_argument("trial_dir", help="a folder written by poibench run")
@@ -141,7 +141,10 @@ def cmd_view(args) -> int:
 
     from eval.live.server import LiveServer, ReplaySource
 
-    server = LiveServer(args.port, replay=ReplaySource(args.trial_dir))
+    source = ReplaySource(args.trial_dir)
+    if source.warning:
+        print(f"warning: {source.warning}", file=sys.stderr)
+    server = LiveServer(args.port, replay=source)
     url = server.start()
     print(f"replay of {args.trial_dir}: {url}  (Ctrl-C to stop)", flush=True)
     try:

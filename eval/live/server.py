@@ -132,8 +132,56 @@ def read_truth(trial_dir: str | Path) -> list[dict]:
     ]
 
 
+def read_frames(path: Path) -> tuple[list[dict], str | None]:
+    """The frame messages of a ``frames.jsonl`` up to its first line that is not one, and a
+    one-line warning naming that line (None when every line is whole).
+
+    A record cut short (a killed run, a full disk) ends in a torn line; two runs into one
+    folder interleave theirs. The replay stops at the first such line: the frames after it
+    would no longer match the video's frames by index.
+    """
+    frames: list[dict] = []
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for i, line in enumerate(f, 1):
+            if not line.strip():
+                continue
+            try:
+                msg = json.loads(line)
+            except ValueError:
+                msg = None
+            if not isinstance(msg, dict) or msg.get("type") != "frame":
+                return frames, (
+                    f"{path} line {i} is not a whole frame message (a torn or mixed record): "
+                    f"replaying the {len(frames)} frames before it"
+                )
+            frames.append(msg)
+    return frames, None
+
+
+def seek_index(data: str | bytes, n_frames: int) -> int | None:
+    """The frame a replay page asks for (``{"seek": K}``), within ``0 .. n_frames - 1``; None
+    for a message that is not a seek to a finite number.
+
+    >>> seek_index('{"seek": 12}', 100), seek_index('{"seek": 1e400}', 100), seek_index('{"seek": -3}', 100)
+    (12, None, 0)
+    >>> seek_index('{"seek": 1' + '0' * 400 + '}', 100), seek_index('[1]', 100), seek_index('{"seek": "2"}', 100)
+    (99, None, None)
+    """
+    try:
+        msg = json.loads(data)
+    except ValueError:
+        return None
+    k = msg.get("seek", 0) if isinstance(msg, dict) else None
+    if isinstance(k, bool) or not isinstance(k, int | float) or (isinstance(k, float) and not math.isfinite(k)):
+        return None  # 1e400 reads as inf: int() of it raised OverflowError in the server
+    return int(min(max(k, 0), n_frames - 1))  # compared before int(): a float of 1e308 stays a float
+
+
 class ReplaySource:
-    """A finished trial's record: messages from live/frames.jsonl, images from the videos."""
+    """A finished trial's record: messages from live/frames.jsonl, images from the videos.
+
+    ``warning``: one line when the record had a torn line (:func:`read_frames`), else None.
+    """
 
     def __init__(self, trial_dir: str | Path) -> None:
         d = Path(trial_dir)
@@ -143,8 +191,15 @@ class ReplaySource:
                 f"{d}: no live record (live/init.json, live/frames.jsonl); "
                 "run the trial with poibench run, without --no-live-record"
             )
-        self.init = json.loads(init_path.read_text(encoding="utf-8"))
-        self.frames = [json.loads(line) for line in frames_path.read_text(encoding="utf-8").splitlines() if line]
+        try:
+            self.init = json.loads(init_path.read_text(encoding="utf-8"))
+        except ValueError:
+            self.init = None
+        if not isinstance(self.init, dict):
+            raise LiveError(f"{init_path}: not a whole JSON object (a torn record); rerun the trial")
+        self.frames, self.warning = read_frames(frames_path)
+        if not self.frames:
+            raise LiveError(f"{frames_path}: no whole frame message to replay; rerun the trial")
         self.init["n_frames"] = len(self.frames)
         self.init["replay"] = True
         self.init["funnel"] = read_funnel(d)
@@ -306,9 +361,8 @@ class LiveServer:
         async for m in ws:
             if m.type != WSMsgType.TEXT:
                 continue
-            try:
-                k = int(json.loads(m.data).get("seek", 0))
-            except (ValueError, TypeError, AttributeError):
+            k = seek_index(m.data, len(self.replay.frames))
+            if k is None:
                 continue
             msg, images = await loop.run_in_executor(None, self.replay.frame, k)
             await ws.send_str(json.dumps({**msg, "images": images}))
