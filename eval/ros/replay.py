@@ -208,15 +208,15 @@ def replay(
             k += 1
     finally:
         if vid is not None:
-            outputs.write("trial.mp4", lambda _: vid.close())
+            outputs.write("trial.mp4", lambda _: vid.close(), atomic=False)
         if record_live:
-            outputs.write("live/", lambda _: live.close())
+            outputs.write("live/", lambda _: live.close(), atomic=False)
         else:
             live.close()
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0  # all threads of the process (the encoder's ffmpeg is a child: not counted)
     final = pipe.confirmed()
-    outputs.write("pois.csv", lambda _: writer.finalize(final))
+    outputs.write("pois.csv", lambda _: writer.finalize(final), atomic=False)
     result = funnel = None
     if truth_file is not None:
         result = score(read_poi_file(out / "pois.csv"), truth_file, rules)

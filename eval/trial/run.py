@@ -550,14 +550,14 @@ def run_trial(
                     interrupt.check()
         finally:
             if vid is not None:
-                outputs.write("trial.mp4", lambda _: vid.close())
+                outputs.write("trial.mp4", lambda _: vid.close(), atomic=False)
             if live is not None and record_live:
-                outputs.write("live/", lambda _: live.close())
+                outputs.write("live/", lambda _: live.close(), atomic=False)
             elif live is not None:
                 live.close()
         final = pipe.confirmed() + pipe.landmarks()
         # the file as it is on disk is scored (if this rewrite failed: the rows streamed so far)
-        outputs.write("pois.csv", lambda _: writer.finalize(final))
+        outputs.write("pois.csv", lambda _: writer.finalize(final), atomic=False)
         times_s = sim.times_s if record is None else record.times_s
         sim_duration = float(times_s[n - 1]) if n else 0.0
         result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
