@@ -54,6 +54,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
     _common(r)
     r.set_defaults(func=cmd_suite_run)
+    c = ssub.add_parser(
+        "compare",
+        help="rank finished suite runs (detectors or settings) on the same mazes, with intervals",
+        description="Rank the --out folders of finished suite runs of one suite: mean score fraction "
+        "with its 95%% bootstrap interval over the mazes, the paired difference to the first, and the "
+        "points each lost per type; writes compare.csv.",
+    )
+    c.add_argument("runs", nargs="+", metavar="RUN", help="a finished suite run's --out folder (two or more)")
+    c.add_argument("--out", default="compare.csv", help="the table as CSV (default compare.csv)")
+    c.set_defaults(func=cmd_suite_compare, out_is_file=True)
 
     w = sub.add_parser("sweep", help="settings grid x suite scenarios, one row per trial")
     w.add_argument("--suite", required=True, help="shipped suite name or suite file")
@@ -127,10 +137,6 @@ def _run(spec, out: Path, quiet: bool):
         bar.close()
 
 
-def _table(df, cols: list[str]) -> str:
-    return df[cols].to_string(index=False)
-
-
 def print_funnel(ok, per_type: dict) -> None:
     """The funnel summed over a run's trials (``per_type``, eval.experiments.sweep.summed_funnel)
     and its check: each trial's lost points add up to its max minus score (eval.scoring.funnel)."""
@@ -154,37 +160,70 @@ def cmd_suite_list(args) -> int:
     return 0
 
 
+# suite run's table: a format a column, decimals by unit (eval.experiments.table.format_table)
+SUITE_RUN_FORMATS = {
+    "scenario": "s",
+    "seed": "d",
+    "score": "g",
+    "max_score": "g",
+    "fraction": ".3f",
+    "false_reports": "d",
+    "misses": "d",
+    "loc_err_median_m": ".3f",
+    "pose_err_median_m": ".3f",
+    "boxes_per_frame": ".2f",
+    "wall_s": ".1f",
+    "cpu_s_per_sim_s": ".3f",
+    "error": "s",
+}
+
+
+def mean_line(ok, n_trials: int) -> str:
+    """The mean score fraction of a run's finished trials with its 95% interval over the mazes
+    (eval.experiments.sweep.mean_interval)."""
+    import numpy as np
+
+    from eval.experiments.sweep import BOOTSTRAP_SEED, mean_interval
+    from eval.experiments.table import interval_text
+
+    f = ok["fraction"].astype(float).to_numpy()
+    if not len(f):
+        return f"mean score fraction -: no trial of {n_trials} finished"
+    lo, hi = mean_interval(f, rng=np.random.default_rng(BOOTSTRAP_SEED))
+    interval = interval_text(lo, hi)
+    how = "no interval from one maze" if interval == "-" else f"95% interval {interval}, bootstrap over the mazes"
+    return f"mean score fraction {f.mean():.3f} ({how}) over {len(f)} of {n_trials} trials"
+
+
 def cmd_suite_run(args) -> int:
     from eval.experiments.suites import load_suite
     from eval.experiments.sweep import summed_funnel
+    from eval.experiments.table import format_table
 
     suite = load_suite(args.name)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.out) if args.out else Path(tmp)
         df, _ = _run(_spec(args, args.name, []), out, args.quiet)
         print(f"suite {suite.name} v{suite.version}: {suite.description}")
-        cols = [
-            "scenario",
-            "seed",
-            "score",
-            "max_score",
-            "fraction",
-            "false_reports",
-            "misses",
-            "loc_err_median_m",
-            "pose_err_median_m",
-            "boxes_per_frame",
-            "wall_s",
-            "cpu_s_per_sim_s",
-            "error",
-        ]
-        print(_table(df, cols))
+        print(format_table(df, SUITE_RUN_FORMATS))
         ok = df[df["error"] == ""]
-        print(f"mean score fraction {ok['fraction'].mean():.4f} over {len(ok)} of {len(df)} trials")
+        print(mean_line(ok, len(df)))
         print_funnel(ok, summed_funnel(ok, out))
         if args.out:
-            print(f"trials.csv and each trial's files in {out}")
+            print(f"trials.csv and each trial's files in {out}; rank runs with poibench suite compare {out} OTHER")
     return 0 if (df["error"] == "").all() else 1
+
+
+def cmd_suite_compare(args) -> int:
+    from eval.experiments.compare import compare_runs, format_compare
+
+    table = compare_runs(args.runs)
+    print(format_compare(table))
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out, index=False)
+    print(f"the table: {out}")
+    return 0
 
 
 def cmd_sweep(args) -> int:

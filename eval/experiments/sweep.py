@@ -14,12 +14,12 @@ every trial replays it (:mod:`eval.trial.perception_cache`): the same rows, a fr
 of the CPU.
 
 The aggregate (``aggregate.csv``) has, per setting combination, the number of
-trials, the mean score fraction with its 95% confidence interval (Student t
-over scenarios), and the means of false reports, misses, localisation
-errors and of the trials' CPU seconds (per simulated second too: a trial's own,
-``eval.trial.cost``; ``wall_s`` is the worker's wall time for the trial); with
-one swept parameter a plot of the fraction against it, with two a
-heatmap.
+trials, the mean score fraction with its 95% interval (:func:`mean_interval`: a bootstrap
+percentile interval over the scenarios, so it stays within [0, 1]), and the means of
+false reports, misses, localisation errors and of the trials' CPU seconds (per simulated
+second too: a trial's own, ``eval.trial.cost``; ``wall_s`` is the worker's wall time for
+the trial); with one swept parameter a plot of the fraction against it, with two a
+heatmap, each numeric axis in numeric order.
 """
 
 from __future__ import annotations
@@ -29,7 +29,6 @@ import hashlib
 import io
 import itertools
 import json
-import math
 import os
 import sys
 import time
@@ -581,14 +580,47 @@ def funnel_table(df, keys: list[str], out_dir: Path):
     return pd.DataFrame(out)
 
 
-def t_quantile_975(dof: int) -> float:
-    from scipy.stats import t
+BOOTSTRAP_RESAMPLES = 10_000
+# The resampling's own seed: every interval draws from a fresh generator of it, so the same
+# values give the same interval whatever else a command computes.
+BOOTSTRAP_SEED = 0
 
-    return float(t.ppf(0.975, dof))
+
+def mean_interval(
+    values, *, rng: np.random.Generator, level: float = 0.95, resamples: int = BOOTSTRAP_RESAMPLES
+) -> tuple[float, float]:
+    """The bootstrap percentile interval of the mean of ``values``, one value a maze (B. Efron
+    and R. Tibshirani, "An Introduction to the Bootstrap", 1993, section 13.3).
+
+    Draw the mazes with replacement ``resamples`` times, take each draw's mean, and return the
+    (1 - level) / 2 and (1 + level) / 2 quantiles of those means. Each end is a mean of some of
+    the values, so the interval lies within [min(values), max(values)]: a score fraction's
+    within [0, 1], a paired difference of two fractions within [-1, 1] (a Student t interval,
+    used before, gave [-1.06, 2.54] for two mazes). The maze is the unit resampled because a
+    fraction is a ratio of points, not a count of independent successes (which Wilson's
+    interval assumes). With few mazes it is narrower than its level says (with two it is at
+    most [min, max]); (nan, nan) for fewer than two values.
+
+    >>> mean_interval([0.0, 1.0], rng=np.random.default_rng(BOOTSTRAP_SEED))
+    (0.0, 1.0)
+    >>> mean_interval([0.4, 0.4, 0.4], rng=np.random.default_rng(BOOTSTRAP_SEED))
+    (0.4, 0.4)
+    """
+    x = np.asarray(values, dtype=float).ravel()  # (n,)
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must lie in (0, 1), got {level}")
+    if x.size < 2:
+        return float("nan"), float("nan")
+    draws = rng.integers(0, x.size, size=(resamples, x.size))  # (resamples, n) maze indices
+    means = x[draws].mean(axis=1)  # (resamples,)
+    lo, hi = np.quantile(means, [(1.0 - level) / 2.0, (1.0 + level) / 2.0])
+    # a mean of equal values can differ from them in the last bit: keep the ends within the values
+    return float(np.clip(lo, x.min(), x.max())), float(np.clip(hi, x.min(), x.max()))
 
 
 def aggregate(df, keys: list[str]):
-    """Per setting combination: trials, failures, mean fraction and its 95% t interval, means."""
+    """Per setting combination: trials, failures, mean fraction and its 95% interval
+    (:func:`mean_interval`), means."""
     import pandas as pd
 
     if not len(df):
@@ -599,7 +631,7 @@ def aggregate(df, keys: list[str]):
         f = ok["fraction"].astype(float).to_numpy()
         n = len(f)
         mean = float(np.mean(f)) if n else float("nan")
-        half = t_quantile_975(n - 1) * float(np.std(f, ddof=1)) / math.sqrt(n) if n > 1 else float("nan")
+        lo, hi = mean_interval(f, rng=np.random.default_rng(BOOTSTRAP_SEED))
 
         def mean_of(col: str, digits: int, ok=ok) -> float:
             # the mean of the trials that have a value (a trial that located nothing has no
@@ -612,8 +644,8 @@ def aggregate(df, keys: list[str]):
             trials=len(g),
             failed=int((g["error"] != "").sum()),
             fraction_mean=round(mean, 4),
-            fraction_ci95_low=round(mean - half, 4) if n > 1 else float("nan"),
-            fraction_ci95_high=round(mean + half, 4) if n > 1 else float("nan"),
+            fraction_ci95_low=round(lo, 4),
+            fraction_ci95_high=round(hi, 4),
             score_mean=mean_of("score", 3),
             false_reports_mean=mean_of("false_reports", 3),
             misses_mean=mean_of("misses", 3),
@@ -636,38 +668,54 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def plot_sweep(out: Path, agg, keys: list[str]) -> None:
-    """score.png (one parameter: fraction with its 95% interval) or heatmap.png (two)."""
-    if not len(agg) or not keys or len(keys) > 2:
-        return
-    import matplotlib
+def axis_order(values: Iterable) -> list[str]:
+    """A swept setting's values as an axis shows them: numbers in numeric order, anything
+    else in the order first given (``--set``'s), each once.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    >>> axis_order(["16", "4", "9", "4"]), axis_order(["slam", "t265"]), axis_order(["1e-3", "0.01"])
+    (['4', '9', '16'], ['slam', 't265'], ['1e-3', '0.01'])
+    """
+    seen = list(dict.fromkeys(str(v) for v in values))
+    return sorted(seen, key=float) if all(_is_number(v) for v in seen) else seen
+
+
+def sweep_figure(agg, keys: list[str]):
+    """(file name, matplotlib Figure) of a sweep's aggregate: ``score.png`` for one swept
+    parameter (the fraction with its 95% interval), ``heatmap.png`` for two, each axis in
+    :func:`axis_order`; None for none or more than two."""
+    if not len(agg) or not keys or len(keys) > 2:
+        return None
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     cols = [SET_PREFIX + k for k in keys]
+    a = agg.assign(**{c: agg[c].astype(str) for c in cols})
     if len(keys) == 1:
-        x = agg[cols[0]].astype(str).tolist()
-        y = agg["fraction_mean"].to_numpy(float)
-        lo = y - agg["fraction_ci95_low"].to_numpy(float)
-        hi = agg["fraction_ci95_high"].to_numpy(float) - y
+        a = a.set_index(cols[0]).loc[axis_order(a[cols[0]])]
+        x = a.index.tolist()
+        y = a["fraction_mean"].to_numpy(float)
+        lo = y - a["fraction_ci95_low"].to_numpy(float)
+        hi = a["fraction_ci95_high"].to_numpy(float) - y
         numeric = all(_is_number(v) for v in x)
-        fig, ax = plt.subplots(figsize=(6, 4))
+        fig = Figure(figsize=(6, 4))
+        FigureCanvasAgg(fig)
+        ax = fig.add_subplot()
         # a line joins numeric settings only; categories (t265, slam) stand apart
         fmt = "o-" if numeric else "o"
         ax.errorbar(range(len(x)), y, yerr=[np.nan_to_num(lo), np.nan_to_num(hi)], fmt=fmt, capsize=4)
         ax.set_xticks(range(len(x)), x)
         ax.set_xlabel(keys[0])
-        ax.set_ylabel("score / max (mean, 95% interval)")
+        ax.set_ylabel("score / max (mean, 95% bootstrap interval)")
         ax.grid(alpha=0.3)
         fig.tight_layout()
-        fig.savefig(out / "score.png", dpi=100)
-        plt.close(fig)
-        return
-    a = agg.assign(**{c: agg[c].astype(str) for c in cols})
+        return "score.png", fig
     table = a.pivot(index=cols[0], columns=cols[1], values="fraction_mean")
-    fig, ax = plt.subplots(figsize=(1.2 * table.shape[1] + 3, 0.8 * table.shape[0] + 2.5))
-    im = ax.imshow(table.to_numpy(float), cmap="viridis", vmin=0, vmax=1)
+    table = table.reindex(index=axis_order(a[cols[0]]), columns=axis_order(a[cols[1]]))  # (rows, cols)
+    fig = Figure(figsize=(1.2 * table.shape[1] + 3, 0.8 * table.shape[0] + 2.5))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    # origin "lower": the first row at the bottom, so a numeric y axis grows upwards
+    im = ax.imshow(table.to_numpy(float), cmap="viridis", vmin=0, vmax=1, origin="lower")
     for i in range(table.shape[0]):
         for j in range(table.shape[1]):
             ax.text(j, i, f"{table.iat[i, j]:.2f}", ha="center", va="center", color="w", fontsize=9)
@@ -677,5 +725,12 @@ def plot_sweep(out: Path, agg, keys: list[str]) -> None:
     ax.set_ylabel(keys[0])
     fig.colorbar(im, ax=ax, label="score / max (mean)")
     fig.tight_layout()
-    fig.savefig(out / "heatmap.png", dpi=100)
-    plt.close(fig)
+    return "heatmap.png", fig
+
+
+def plot_sweep(out: Path, agg, keys: list[str]) -> None:
+    """score.png (one parameter) or heatmap.png (two) in ``out`` (:func:`sweep_figure`)."""
+    made = sweep_figure(agg, keys)
+    if made is not None:
+        name, fig = made
+        fig.savefig(Path(out) / name, dpi=100)
