@@ -88,6 +88,11 @@ from poi.detectors.qr import attach_qr_text
 
 PAD_VALUE = 114  # Ultralytics' letterbox grey
 DEFAULT_IMGSZ_PX = 640
+# the largest input side taken: a declared 20000x20000 input ran out of memory, a metadata imgsz of
+# 100000 made OpenCV allocate 22.5 GB for the letterbox (a 4096x4096 float32 input is 201 MB)
+MAX_INPUT_PX = 4096
+# the input element types taken: an image scaled to 0..1 (an int8 input was an onnxruntime traceback)
+INPUT_TYPES = {"tensor(float)": np.float32, "tensor(float16)": np.float16}
 DEFAULT_STRIDE_PX = 32  # YOLO's largest stride; Ultralytics writes it as metadata 'stride'
 LAYOUTS = ("auto", "yolov5", "yolov8", "end2end")
 LETTERBOXES = ("square", "rect")
@@ -250,6 +255,8 @@ def _as_size_hw(value: Any, where: str) -> tuple[int, int]:
         raise DetectorConfigError(f"{where}: expected an int or [h, w], got {value!r}")
     if hw[0] <= 0 or hw[1] <= 0:
         raise DetectorConfigError(f"{where}: sizes must be positive, got {hw}")
+    if max(hw) > MAX_INPUT_PX:
+        raise DetectorConfigError(f"{where}: {hw[0]}x{hw[1]}; expected at most {MAX_INPUT_PX} px a side")
     return hw
 
 
@@ -471,12 +478,20 @@ class OnnxYoloDetector:
             raise OnnxModelError(f"{path}: expected one input image, found {len(inputs)} inputs")
         inp = inputs[0]
         self._input_name = inp.name
-        self._input_dtype = np.float16 if inp.type == "tensor(float16)" else np.float32
+        if inp.type not in INPUT_TYPES:
+            raise OnnxModelError(
+                f"{path}: input is {inp.type}; expected an image as tensor(float) or tensor(float16), 0..1"
+            )
+        self._input_dtype = INPUT_TYPES[inp.type]
         shape = list(inp.shape)
         if len(shape) != 4 or (isinstance(shape[1], int) and shape[1] != 3):
             raise OnnxModelError(f"{path}: input has shape {shape}; expected (1, 3, H, W)")
         H, W = shape[2], shape[3]
         static = isinstance(H, int) and isinstance(W, int) and H > 0 and W > 0
+        if static and max(H, W) > MAX_INPUT_PX:
+            raise OnnxModelError(
+                f"{path}: input has shape {shape}; expected (1, 3, H, W) with H and W at most {MAX_INPUT_PX}"
+            )
         if self.letterbox == "rect":
             if static:
                 raise DetectorConfigError(
