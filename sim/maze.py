@@ -62,6 +62,9 @@ from maze_assets import MAZES_DIR
 
 FORMAT_HEADER = "# poibench maze v1"
 MAZE_SUFFIX = ".maze"
+# rows and cols of a maze, drawn in a file or generated: set-up grows with the cells (its route, the
+# tracker's drift), a 64 x 64 maze takes about 2 minutes and its route hours of simulated time
+MAX_MAZE_SIDE = 64
 
 # Direction name -> (d_row, d_col) in the grid; north is row - 1 (up the drawing).
 DIRECTIONS: dict[str, tuple[int, int]] = {"n": (-1, 0), "e": (0, 1), "s": (1, 0), "w": (0, -1)}
@@ -622,6 +625,13 @@ class _Parser:
                 width + 1,
                 f"first drawing line is {width} characters wide; expected 4 * cols + 1 "
                 "(a '+' every 4 characters, at least one cell)",
+            )
+        rows, cols = (len(drawing) - 1) // 2, (width - 1) // 4
+        if rows > MAX_MAZE_SIDE or cols > MAX_MAZE_SIDE:
+            raise self.error(
+                first_line,
+                1,
+                f"the maze is {rows}x{cols} cells; expected at most {MAX_MAZE_SIDE}x{MAX_MAZE_SIDE}",
             )
         for k, (line, text) in enumerate(drawing):
             if k % 2 == 1 and len(text) < width and (len(text) - 1) % 4 == 0:

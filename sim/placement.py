@@ -25,6 +25,7 @@ Full entries in docs/SOURCES.md.
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -795,7 +796,10 @@ def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedOb
     # doors first: they need a whole inner wall piece, with a cell on each side
     n_doors = counts.pop("door", 0)
     if n_doors:
-        inner = [seg for seg in maze.wall_segments() if sum(f.wall == seg.name for f in faces) == 2]
+        # faces counted once per wall (a count per wall piece over all faces grew with the square of
+        # the maze: a 64 x 64 maze had not set up after 200 s)
+        faces_per_wall = Counter(f.wall for f in faces)
+        inner = [seg for seg in maze.wall_segments() if faces_per_wall[seg.name] == 2]
         inner.sort(key=lambda seg: seg.name)
         picks = rng.permutation(len(inner))
         placed = 0

@@ -45,10 +45,10 @@ import yaml
 from poi.core.landolt import DEFAULT_N_RINGS, parse_orientation_text
 from poi.core.loader import LoadError, number, safe_load
 from poi.core.names import MAPPING_TYPES, RESCUE_TYPES, TARGET_TYPES, TYPES
+from sim.maze import MAX_MAZE_SIDE
 from sim.schema import SchemaError, Source, build, convert, load_yaml, load_yaml_file, to_plain
 
 SCENARIO_VERSION = 1
-MAX_MAZE_SIDE = 64  # rows and cols of a generated maze: 4096 cells at most (100000 x 100000 hangs)
 MAX_IMAGE_PX = 4096  # a camera image's width and height (the D435 colour imager tops out at 1920 x 1080)
 
 
