@@ -223,7 +223,8 @@ def tables(cls: type, yaml_comments: dict[str, str] | None = None, top: str = "(
             continue
         out.append(f"### `{section}`\n" if section else f"### {top}\n")
         intro = yaml_comments.get(section, "") if section else ""
-        doc = inspect.getdoc(sub) or ""
+        doc = (inspect.getdoc(sub) or "").split("\nReferences\n", 1)[0]  # numpydoc's citations list: not here
+        doc = "\n".join(line for line in doc.splitlines() if not re.fullmatch(r"\s*[-=]{3,}\s*", line))
         if doc and not doc.startswith(sub.__name__ + "("):  # a dataclass's generated signature is no docstring
             intro = " ".join(t for t in (intro, doc) if t)
         if intro:
