@@ -29,6 +29,7 @@ from poi.core.types import Detection, TrackSnapshot
 
 # RGB colours per type (orange for hazards, blue for QR codes, red for victims, as the
 # competition map colours in docs/FACTS.md "Competition map conventions"; the rest chosen to be told apart).
+# The one table of type colours: the boxes here, the live view and map.png (eval/scoring/map_plot.py).
 TYPE_COLORS_RGB: dict[str, tuple[int, int, int]] = {
     "hazmat": (255, 100, 30),
     "qr": (10, 10, 240),
@@ -44,6 +45,7 @@ TYPE_COLORS_RGB: dict[str, tuple[int, int, int]] = {
     "pillar-red": (255, 0, 160),
     "pillar-green": (170, 255, 0),
     "ball": (120, 60, 255),
+    "landolt-c": (0, 140, 120),  # a teal the other types do not use
 }
 DEFAULT_COLOR_RGB = (200, 200, 200)
 FONT = cv2.FONT_HERSHEY_SIMPLEX

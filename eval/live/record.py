@@ -21,7 +21,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from eval.scoring.map_plot import ARENA_RGB
+from eval.scoring.map_plot import ARENA_RGB, style_of
 from poi.annotate import DEFAULT_COLOR_RGB, TYPE_COLORS_RGB
 from poi.core.geometry import planar_pose
 from poi.core.names import display_name
@@ -29,11 +29,8 @@ from poi.core.names import display_name
 INSET_W, INSET_H = 160, 120
 THERMAL_RANGE_C = (15.0, 80.0)
 DEPTH_RANGE_M = (0.0, 6.0)
-# the competition map's marker shapes (docs/FACTS.md): victims and QR codes circles, the rest diamonds;
-# the goal arena's pillars and ball circles in their paint colours (as eval/map_plot.py draws them)
-MARKER_SHAPES = {"baby-doll": "circle", "qr": "circle", **{t: "circle" for t in ARENA_RGB}}
-MARKER_COLORS = {"baby-doll": (240, 10, 10), "qr": (10, 10, 240), **ARENA_RGB}
-DEFAULT_MARKER_COLOR = (255, 100, 30)
+# the map's markers are map.png's (eval.scoring.map_plot.style_of): the competition's shapes in the
+# one table of type colours (poi.annotate.TYPE_COLORS_RGB), the goal arena's objects in their paint
 
 
 def _hex(rgb) -> str:
@@ -120,15 +117,15 @@ class LiveRecorder:
         walls = [[round(a[0], 3), round(a[1], 3), round(b[0], 3), round(b[1], 3)] for a, b in sim.walls_in_map()]
         xs = [v for w in walls for v in (w[0], w[2])] or [0.0]
         ys = [v for w in walls for v in (w[1], w[3])] or [0.0]
-        types = sorted(set(TYPE_COLORS_RGB) | set(MARKER_COLORS))
+        types = sorted(set(TYPE_COLORS_RGB) | set(ARENA_RGB))
         self.init = {
             "type": "init",
             "title": title,
             "n_frames": int(sim.n_frames if n_frames is None else n_frames),
             "walls": walls,
             "bounds": [min(xs) - 0.5, min(ys) - 0.5, max(xs) + 0.5, max(ys) + 0.5],
-            "marker_colors": {t: _hex(MARKER_COLORS.get(t, DEFAULT_MARKER_COLOR)) for t in types},
-            "marker_shapes": {t: MARKER_SHAPES.get(t, "diamond") for t in types},
+            "marker_colors": {t: _hex(style_of(t)[1]) for t in types},
+            "marker_shapes": {t: style_of(t)[0] for t in types},
             "box_colors": {t: _hex(TYPE_COLORS_RGB.get(t, DEFAULT_COLOR_RGB)) for t in types},
             "path": [],
         }

@@ -4,15 +4,31 @@ conventions").
 A 1 m checkerboard background (226,226,227)/(237,237,238) with grid lines every
 0.5 m (190,190,191); walls as occupied cells (0,40,120); the robot path
 (120,0,240), 3 px, with an arrow at the start; each report a filled marker of
-radius 0.175 m with its id in white: victims (baby dolls) a red circle
-(240,10,10), QR codes a blue circle (10,10,240), hazards and other objects an
-orange diamond (255,100,30), and (not in the conventions) Landolt-C targets a teal
-square (0,140,120). On top of the conventions, for scoring: ground
-truth as outlines of the same shapes with a 1 m circle (the locate radius of
-ex3) around each, false reports crossed with a black X and labelled ``false``,
-missed objects with a dashed outline labelled ``miss``, and reports identified
-but not located edged in black. Everything is in the map frame, metres, equal
-aspect. Drawing uses matplotlib's Agg canvas directly (no pyplot state).
+radius 0.175 m with its id: victims (baby dolls) and QR codes circles, hazards and other
+objects diamonds, Landolt-C targets squares, as the conventions shape them. Each is in its
+type's colour from the one table of type colours (``poi.annotate.TYPE_COLORS_RGB``, the
+live view's too): the conventions' red victims (240,10,10), blue QR codes (10,10,240) and
+orange hazmat placards (255,100,30), and the other types (doors, valves, signs, fire
+extinguishers, heat sources), which the conventions draw as one orange diamond, in colours
+of their own, with a legend entry a type. Light colours (white heat sources, yellow
+extinguishers) are edged in a darker shade of themselves so they show on the light floor.
+
+On top of the conventions, for scoring: ground truth as outlines of the same shapes; false
+reports crossed with a black X and labelled ``false``; missed objects with a dashed outline
+labelled ``miss``; reports identified but not located edged in black. The 1 m circle (the
+locate radius of ex3) is drawn, thin and light, only round an object no report of its type
+located while one that located nothing (false, or identified only) came within twice the
+radius (:func:`circled`): there it shows by how much the report missed.
+Round every object, the circles of a 4 x 4 m maze's ten or so objects overlapped into a web;
+round a located object the circle only repeats what its filled marker says, and round an
+object nothing came near it says nothing at all.
+
+A false report and its X lie under the other reports' markers, so the X never hides a
+marker; every label (ids, ``false``, ``miss``) is placed where it overlaps no other label
+nor a marker (:class:`_Labeller`: the first free place of a few round its anchor, in its
+rendered size), an id in its own marker when that is free, else beside it in black.
+Everything is in the map frame, metres, equal aspect. Drawing uses matplotlib's Agg canvas
+directly (no pyplot state).
 
 RMRC mapping fiducials (``fiducial``, [RMRC2025]_; docs/RULES.md "QR mapping by fiducials") are
 landmarks, not scored objects: the true ones are drawn as what the rule asks a map to show,
@@ -49,10 +65,14 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Polygon, Wedge
+from matplotlib.text import Text
+from matplotlib.transforms import Bbox
 
 from eval.scoring.map_error import STATUS_PAIRED, MapErrorResult
 from eval.scoring.scorer import STATUS_FALSE, STATUS_IGNORED, STATUS_LOCATED, ScoreResult
 from maze_assets.objects import fiducial_diameter_m
+from poi.annotate import DEFAULT_COLOR_RGB, TYPE_COLORS_RGB
+from poi.core.names import TYPES, display_name
 
 CELL_SIZE_M = 1.0
 GRID_STEP_M = 0.5
@@ -65,12 +85,15 @@ CHECKER_RGB = ((226, 226, 227), (237, 237, 238))
 GRID_RGB = (190, 190, 191)
 WALL_RGB = (0, 40, 120)
 PATH_RGB = (120, 0, 240)
-VICTIM_RGB = (240, 10, 10)
-QR_RGB = (10, 10, 240)
-HAZARD_RGB = (255, 100, 30)
 FALSE_RGB = (0, 0, 0)
-LANDOLT_RGB = (0, 140, 120)  # Landolt-C targets: not in the competition's conventions, a teal square
-# The goal arena's objects: circles in the colours they are painted (maze_assets/models.py).
+# The conventions' shapes: victims and QR codes circles, Landolt-C targets (not in the conventions)
+# squares, every other type a diamond; the colours are the type table's (module docstring).
+MARKER_SHAPES = {"baby-doll": "circle", "qr": "circle", "landolt-c": "square"}
+LIGHT_LUMINANCE = 180  # an edge or outline of a colour lighter than this is drawn darker (INK_SHADE)
+INK_SHADE = 0.6
+# The goal arena's objects: circles in the colours they are painted (maze_assets/models.py), not the
+# type table's, which picks a hue that contrasts with the paint so a box shows on the camera image;
+# a map has no paint to contrast with, and a red pillar drawn magenta would mislead.
 ARENA_RGB: dict[str, tuple[int, int, int]] = {
     "pillar-blue": (20, 60, 220),
     "pillar-red": (220, 30, 20),
@@ -180,26 +203,63 @@ def score_layers(result: ScoreResult | MapErrorResult) -> dict[str, Any]:
 
 
 def style_of(type_: str | None) -> tuple[str, tuple[int, int, int]]:
-    """(shape, RGB) of a type: ('circle', red) victims, ('circle', blue) QR, else diamond.
+    """(shape, RGB) of a type: the conventions' shape in the type table's colour
+    (``poi.annotate.TYPE_COLORS_RGB``); the goal arena's objects circles in their paint.
 
-    >>> style_of("baby-doll"), style_of("qr"), style_of("valve")
+    >>> style_of("baby-doll"), style_of("qr"), style_of("hazmat")
     (('circle', (240, 10, 10)), ('circle', (10, 10, 240)), ('diamond', (255, 100, 30)))
-    >>> style_of("ball"), style_of("landolt-c")
-    (('circle', (245, 210, 10)), ('square', (0, 140, 120)))
+    >>> style_of("valve"), style_of("ball"), style_of("landolt-c")
+    (('diamond', (220, 0, 220)), ('circle', (245, 210, 10)), ('square', (0, 140, 120)))
+    >>> style_of(None)
+    ('diamond', (200, 200, 200))
     """
     if type_ in ARENA_RGB:
         return "circle", ARENA_RGB[type_]
-    if type_ == "landolt-c":
-        return "square", LANDOLT_RGB
-    if type_ == "baby-doll":
-        return "circle", VICTIM_RGB
-    if type_ == "qr":
-        return "circle", QR_RGB
-    return "diamond", HAZARD_RGB
+    rgb = TYPE_COLORS_RGB.get(type_, DEFAULT_COLOR_RGB) if type_ is not None else DEFAULT_COLOR_RGB
+    return MARKER_SHAPES.get(type_ or "", "diamond"), rgb
 
 
-def draw_map(
-    path_png: str | Path,
+def ink(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
+    """The colour of a type's edges and outlines: its own, or a darker shade of a light one.
+
+    >>> ink((10, 10, 240)), ink((255, 255, 255))
+    ((10, 10, 240), (153, 153, 153))
+    """
+    if 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2] <= LIGHT_LUMINANCE:
+        return rgb
+    return (round(rgb[0] * INK_SHADE), round(rgb[1] * INK_SHADE), round(rgb[2] * INK_SHADE))
+
+
+def circled(objs: Sequence[MapTruth], reps: Sequence[MapReport], circle_m: float) -> list[bool]:
+    """Which objects get the locate circle: those no report of their type located (none within
+    ``circle_m``) while a report of their type that located nothing (false, or identified
+    only) lies within twice that (module docstring). A located report belongs to its own
+    object, so it puts no circle round a neighbour.
+
+    >>> objs = [MapTruth(x=0, y=0, type="qr", found=False), MapTruth(x=5, y=0, type="qr", found=True)]
+    >>> circled(objs, [MapReport(id=1, type="qr", x=1.4, y=0, status="false"),
+    ...                MapReport(id=2, type="qr", x=5.1, y=0, status="located")], 1.0)
+    [True, False]
+    """
+    out = []
+    for o in objs:
+        near = [(math.hypot(r.x - o.x, r.y - o.y), r.status) for r in reps if r.type == o.type]
+        located = any(d <= circle_m for d, _ in near)
+        missed_by = [d for d, status in near if status != STATUS_LOCATED and d <= 2.0 * circle_m]
+        out.append(not located and bool(missed_by))
+    return out
+
+
+def draw_map(path_png: str | Path, **kw: Any) -> Path:
+    """Draw the map (:func:`map_figure`, the same keywords) and write it as a PNG of exactly
+    ``size_px`` (width, height) pixels."""
+    path_png = Path(path_png)
+    fig = map_figure(**kw)
+    fig.savefig(path_png, dpi=fig.dpi, format="png")
+    return path_png
+
+
+def map_figure(
     *,
     walls: Iterable[Segment],
     robot_path: np.ndarray | Sequence[Sequence[float]],
@@ -211,14 +271,15 @@ def draw_map(
     truth_circle_m: float = LOCATE_CIRCLE_M,
     goal: MapGoal | None = None,
     fiducials: Iterable[MapFiducial] = (),
-) -> Path:
-    """Draw the map and write it as a PNG of exactly ``size_px`` (width, height) pixels.
+) -> Figure:
+    """The map as a matplotlib Figure of ``size_px`` (width, height) pixels at ``dpi``.
 
     ``walls`` are ((x0, y0), (x1, y1)) segments and ``robot_path`` an (N, 2) array,
     both in the map frame (metres). ``reports`` and ``truth`` are :class:`MapReport` /
     :class:`MapTruth` records or mappings with the same keys. ``truth_circle_m`` is the
-    radius of the circle round each truth object; ``goal`` draws the goal arena's goal;
-    ``fiducials`` the mapping fiducials as half-discs against their nearest wall.
+    radius of the circle round a truth object (drawn where :func:`circled` says); ``goal``
+    draws the goal arena's goal; ``fiducials`` the mapping fiducials as half-discs against
+    their nearest wall.
     """
     fids = list(fiducials)
     width_px, height_px = int(size_px[0]), int(size_px[1])
@@ -264,35 +325,115 @@ def draw_map(
         )
     for f, facing in zip(fids, fiducial_facings(fids, segs), strict=True):
         _draw_fiducial(ax, f, facing, pt_per_px)
-    for o in objs:
-        _draw_truth(ax, o, pt_per_px, px_per_m, truth_circle_m)
+    for o, ring in zip(objs, circled(objs, reps, truth_circle_m), strict=True):
+        _draw_truth(ax, o, pt_per_px, truth_circle_m if ring else None)
     if goal is not None:
         _draw_goal(ax, goal, pt_per_px)
     if len(path_xy):
         _draw_path(ax, path_xy, pt_per_px, px_per_m)
-    font_pt = float(np.clip(0.9 * MARKER_RADIUS_M * px_per_m * pt_per_px, 4.0, 12.0))
     for r in reps:
-        _draw_report(ax, r, pt_per_px, font_pt)
+        _draw_report(ax, r, pt_per_px)
+
+    # Labels last, each where it overlaps no other label nor a marker (module docstring).
+    ax.apply_aspect()
+    labels = _Labeller(ax, fig.canvas.get_renderer(), MARKER_RADIUS_M * px_per_m)
+    for r in reps:
+        labels.block_marker(r.x, r.y)
+    font_pt = float(np.clip(0.9 * MARKER_RADIUS_M * px_per_m * pt_per_px, 4.0, 12.0))
+    # ids of the markers on top first (a false report's lies under the others, _draw_report)
+    for r in sorted(reps, key=lambda r: r.status == STATUS_FALSE):
+        if r.id is not None:
+            rgb = style_of(r.type)[1]
+            light = 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2] > 170  # the yellow ball: dark digits
+            labels.place_id(r.x, r.y, str(r.id), "black" if light else "white", fontsize=font_pt)
+    for r in reps:
+        if r.status == STATUS_FALSE:
+            labels.place_beside(r.x, r.y, "false", fontsize=8)
+    for o in objs:
+        if not o.found:
+            labels.place_beside(o.x, o.y, "miss", fontsize=8, first="below")
 
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     if title:
         ax.set_title(title)
-    types = {*(r.type for r in reps), *(o.type for o in objs)}
-    arena = sorted(t for t in types if t in ARENA_RGB)
+    types = {*(r.type for r in reps), *(o.type for o in objs)} - {None, "fiducial"}
     ax.legend(
-        handles=_legend_handles(
-            pt_per_px, truth_circle_m, arena, goal is not None, bool(fids), "landolt-c" in types
-        ),
+        handles=_legend_handles(pt_per_px, truth_circle_m, types, goal is not None, bool(fids)),
         loc="upper left",
         bbox_to_anchor=(1.02, 1.0),
         borderaxespad=0.0,
         fontsize=8,
         framealpha=1.0,
     )
-    path_png = Path(path_png)
-    fig.savefig(path_png, dpi=dpi, format="png")
-    return path_png
+    return fig
+
+
+class _Labeller:
+    """Places text labels where they overlap no label placed before and no blocked marker:
+    the first free one of a few places round the anchor (8 directions, then twice as far),
+    measured in the text's rendered size; the first place when none is free."""
+
+    # (dx, dy) directions, the first the preferred; a label's near edge is beside the marker
+    _AROUND = ((1, 1), (1, -1), (-1, 1), (-1, -1), (1, 0), (-1, 0), (0, 1), (0, -1))
+    _FIRST = {"upper right": (1, 1), "below": (0, -1)}
+
+    def __init__(self, ax: Any, renderer: Any, marker_px: float) -> None:
+        self.ax, self.renderer, self.marker_px = ax, renderer, marker_px
+        self.labels: list[Bbox] = []
+        self.markers: list[tuple[float, float, Bbox]] = []  # (x, y) in metres, box in pixels
+
+    def block_marker(self, x: float, y: float) -> None:
+        cx, cy = self.ax.transData.transform((x, y))
+        r = self.marker_px
+        self.markers.append((x, y, Bbox.from_extents(cx - r, cy - r, cx + r, cy + r)))
+
+    def _free(self, box: Bbox, own: tuple[float, float]) -> bool:
+        """Whether ``box`` overlaps no placed label and no marker but the one at ``own``."""
+        shrunk = box.expanded(0.98, 0.9)  # glyph boxes carry some empty margin: touching is not overlapping
+        if any(shrunk.overlaps(b) for b in self.labels):
+            return False
+        return not any(shrunk.overlaps(b) for x, y, b in self.markers if (x, y) != own)
+
+    def _text(self, x: float, y: float, s: str, **kw: Any) -> Text:
+        return self.ax.text(x, y, s, zorder=8, **kw)
+
+    def place_id(self, x: float, y: float, s: str, colour: str, fontsize: float) -> None:
+        """An id in its marker when no other label or marker is there, else beside it in black."""
+        t = self._text(x, y, s, color=colour, fontsize=fontsize, fontweight="bold", ha="center", va="center")
+        box = t.get_window_extent(self.renderer)
+        if self._free(box, own=(x, y)):
+            self.labels.append(box)
+            return
+        t.remove()
+        self.place_beside(x, y, s, fontsize=fontsize, fontweight="bold")
+
+    def place_beside(self, x: float, y: float, s: str, first: str = "upper right", **kw: Any) -> None:
+        """A label next to the marker at (x, y), at the first free place round it."""
+        dirs = [self._FIRST[first], *(d for d in self._AROUND if d != self._FIRST[first])]
+        ax = self.ax
+        t = self._text(x, y, s, color="black", **kw)
+        cx, cy = ax.transData.transform((x, y))
+        tried: list[tuple[tuple[float, float], str, str, Bbox]] = []
+        for reach in (1.25, 2.5):
+            for dx, dy in dirs:
+                gap = reach * self.marker_px
+                pos = ax.transData.inverted().transform((cx + dx * gap, cy + dy * gap))
+                ha = {1: "left", -1: "right", 0: "center"}[dx]
+                va = {1: "bottom", -1: "top", 0: "center"}[dy]
+                t.set_position((float(pos[0]), float(pos[1])))
+                t.set_ha(ha)
+                t.set_va(va)
+                box = t.get_window_extent(self.renderer)
+                tried.append(((float(pos[0]), float(pos[1])), ha, va, box))
+                if self._free(box, own=(x, y)):
+                    self.labels.append(box)
+                    return
+        pos, ha, va, box = tried[0]  # nowhere free: the preferred place
+        t.set_position(pos)
+        t.set_ha(ha)
+        t.set_va(va)
+        self.labels.append(box)
 
 
 def _as_report(row: MapReport | Mapping[str, Any]) -> MapReport:
@@ -380,24 +521,25 @@ def _marker(shape: str, x: float, y: float, r: float, **kw: Any) -> Any:
     return Polygon([(x + r, y), (x, y + r), (x - r, y), (x, y - r)], closed=True, **kw)
 
 
-def _draw_truth(
-    ax: Any, o: MapTruth, pt_per_px: float, px_per_m: float, circle_m: float = LOCATE_CIRCLE_M
-) -> None:
+def _draw_truth(ax: Any, o: MapTruth, pt_per_px: float, circle_m: float | None) -> None:
+    """A truth object's outline, dashed when missed, and its locate circle when ``circle_m``."""
     shape, rgb = style_of(o.type)
-    colour = _rgb(rgb)
+    colour = _rgb(ink(rgb))
     style = "solid" if o.found else (0, (4, 3))
-    ax.add_patch(
-        Circle(
-            (o.x, o.y),
-            circle_m,
-            fill=False,
-            edgecolor=colour,
-            alpha=0.55,
-            linewidth=1.0 * pt_per_px,
-            linestyle=style,
-            zorder=3,
+    if circle_m is not None:
+        # thin and light: it shows where a report fell short, and should not hide the floor's grid
+        ax.add_patch(
+            Circle(
+                (o.x, o.y),
+                circle_m,
+                fill=False,
+                edgecolor=colour,
+                alpha=0.4,
+                linewidth=0.8 * pt_per_px,
+                linestyle=style,
+                zorder=3,
+            )
         )
-    )
     ax.add_patch(
         _marker(
             shape,
@@ -411,17 +553,6 @@ def _draw_truth(
             zorder=3,
         )
     )
-    if not o.found:
-        ax.text(
-            o.x,
-            o.y - MARKER_RADIUS_M * 1.5,
-            "miss",
-            color="black",
-            fontsize=8,
-            ha="center",
-            va="top",
-            zorder=6,
-        )
 
 
 def _diameter(text: str) -> float:
@@ -531,9 +662,13 @@ def _draw_path(ax: Any, path_xy: np.ndarray, pt_per_px: float, px_per_m: float) 
         )
 
 
-def _draw_report(ax: Any, r: MapReport, pt_per_px: float, font_pt: float) -> None:
+def _draw_report(ax: Any, r: MapReport, pt_per_px: float) -> None:
+    """A report's filled marker (its id is placed with the other labels); a false one with its X,
+    both under every other report's marker (zorder 4.6 and 4.7 against 5), so no X hides one."""
     shape, rgb = style_of(r.type)
-    edge = "black" if r.status not in (STATUS_LOCATED, STATUS_FALSE) else _rgb(rgb)
+    false = r.status == STATUS_FALSE
+    edge = "black" if r.status != STATUS_LOCATED and not false else _rgb(ink(rgb))
+    z = 4.6 if false else 5.0
     ax.add_patch(
         _marker(
             shape,
@@ -542,51 +677,25 @@ def _draw_report(ax: Any, r: MapReport, pt_per_px: float, font_pt: float) -> Non
             MARKER_RADIUS_M,
             facecolor=_rgb(rgb),
             edgecolor=edge,
-            linewidth=1.0 * pt_per_px,
-            zorder=5,
+            linewidth=(1.0 if edge != "black" else 1.5) * pt_per_px,
+            zorder=z,
         )
     )
-    if r.id is not None:
-        light = 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2] > 170  # the yellow ball: dark digits
-        ax.text(
-            r.x,
-            r.y,
-            str(r.id),
-            color="black" if light else "white",
-            fontsize=font_pt,
-            fontweight="bold",
-            ha="center",
-            va="center",
-            zorder=6,
-        )
-    if r.status == STATUS_FALSE:
+    if false:
         d = MARKER_RADIUS_M * 1.2
-        ax.plot(
-            [r.x - d, r.x + d],
-            [r.y - d, r.y + d],
-            color=_rgb(FALSE_RGB),
-            linewidth=2.0 * pt_per_px,
-            zorder=7,
-        )
-        ax.plot(
-            [r.x - d, r.x + d],
-            [r.y + d, r.y - d],
-            color=_rgb(FALSE_RGB),
-            linewidth=2.0 * pt_per_px,
-            zorder=7,
-        )
-        ax.text(r.x + d, r.y + d, "false", color="black", fontsize=8, ha="left", va="bottom", zorder=7)
+        for ys in ((r.y - d, r.y + d), (r.y + d, r.y - d)):
+            ax.plot([r.x - d, r.x + d], ys, color=_rgb(FALSE_RGB), linewidth=2.0 * pt_per_px, zorder=z + 0.1)
 
 
 def _legend_handles(
     pt_per_px: float,
     circle_m: float = LOCATE_CIRCLE_M,
-    arena: Sequence[str] = (),
+    types: Iterable[str] = (),
     goal: bool = False,
     fiducials: bool = False,
-    landolt: bool = False,
 ) -> list[Line2D]:
-    """The legend: the competition's markers, or the arena's types when ``arena`` lists any."""
+    """The legend: the path and walls, an entry a type on the map (in the type table's order,
+    its shape and colour, :func:`style_of`), then what outlines, crosses and circles mean."""
 
     def h(label: str, **kw: Any) -> Line2D:
         return Line2D([], [], label=label, **kw)
@@ -596,12 +705,15 @@ def _legend_handles(
         h("robot path", color=_rgb(PATH_RGB), linewidth=PATH_WIDTH_PX * pt_per_px),
         h("wall", color=_rgb(WALL_RGB), linewidth=4 * pt_per_px),
     ]
-    if arena:
-        kinds = [_swatch(h, ARENA_LABELS.get(t, t), ARENA_RGB[t], ms) for t in arena]
-    else:
-        kinds = _competition_handles(h, ms)
-    if landolt:
-        kinds.append(_swatch(h, "Landolt-C target", LANDOLT_RGB, ms * 0.9, marker="s"))
+    present = set(types)
+    ordered = [t for t in TYPES if t in present] + sorted(present - set(TYPES))
+    marker_of = {"circle": "o", "square": "s", "diamond": "D"}
+    kinds = []
+    for t in ordered:
+        shape, rgb = style_of(t)
+        label = ARENA_LABELS.get(t, "victim (baby doll)" if t == "baby-doll" else display_name(t))
+        kinds.append(_swatch(h, label, rgb, ms * (1.0 if shape == "circle" else 0.85), marker=marker_of[shape]))
+    arena = any(t in ARENA_RGB for t in present)
     tail = [
         h(
             "identified, not located",
@@ -629,12 +741,12 @@ def _legend_handles(
             markeredgewidth=1.5,
         ),
         h(
-            f"{circle_m:g} m around truth",
+            f"{circle_m:g} m: a report just missed",
             marker="o",
             linestyle="",
             markersize=ms * 1.6,
             markerfacecolor="none",
-            markeredgecolor="0.5",
+            markeredgecolor="0.6",
             markeredgewidth=0.8,
         ),
         h("missed object (dashed)", color="0.3", linestyle=(0, (4, 3)), linewidth=1.5),
@@ -664,18 +776,16 @@ def _legend_handles(
     return head + kinds + tail
 
 
-def _competition_handles(h: Any, ms: float) -> list[Line2D]:
-    return [
-        _swatch(h, "victim (baby doll)", VICTIM_RGB, ms),
-        _swatch(h, "QR code", QR_RGB, ms),
-        _swatch(h, "hazard / other object", HAZARD_RGB, ms * 0.8, marker="D"),
-    ]
-
-
 def _swatch(h: Any, label: str, rgb: tuple[int, int, int], ms: float, marker: str = "o") -> Line2D:
-    """A legend entry: a marker filled and edged in ``rgb``."""
-    c = _rgb(rgb)
-    return h(label, marker=marker, linestyle="", markersize=ms, markerfacecolor=c, markeredgecolor=c)
+    """A legend entry: a marker filled in ``rgb`` and edged in its :func:`ink`."""
+    return h(
+        label,
+        marker=marker,
+        linestyle="",
+        markersize=ms,
+        markerfacecolor=_rgb(rgb),
+        markeredgecolor=_rgb(ink(rgb)),
+    )
 
 
 def _rgb(rgb: tuple[int, int, int]) -> tuple[float, float, float]:
