@@ -41,10 +41,12 @@ from pathlib import Path
 
 import numpy as np
 
-from eval.detector.train import TrainError
-
 ARCH_PATTERN = re.compile(r"YOLO(\w+?)([nslmx])\b", re.IGNORECASE)  # "YOLO11n" in the description
 STATS_IMAGES = 96  # sample images for the BatchNorm statistics (section above)
+
+
+class RebuildError(ValueError):
+    """An exported model cannot be rebuilt (one line, names the file and what was expected)."""
 
 
 @dataclass(frozen=True)
@@ -65,20 +67,20 @@ def read_onnx(path: str | Path) -> OnnxYolo:
 
     p = Path(path)
     if not p.exists():
-        raise TrainError(f"{p}: no such file")
+        raise RebuildError(f"{p}: no such file")
     try:
         model = onnx.load(str(p))
     except Exception as e:  # onnx raises DecodeError and others for a file that is not a model
-        raise TrainError(f"{p}: not an ONNX model ({type(e).__name__})") from None
+        raise RebuildError(f"{p}: not an ONNX model ({type(e).__name__})") from None
     meta = {m.key: m.value for m in model.metadata_props}
     missing = [k for k in ("description", "names", "imgsz") if k not in meta]
     if missing:
-        raise TrainError(
+        raise RebuildError(
             f"{p}: metadata lacks {', '.join(missing)}; only a model exported by Ultralytics can be rebuilt"
         )
     m = ARCH_PATTERN.search(meta["description"])
     if m is None:
-        raise TrainError(f"{p}: description {meta['description']!r} names no YOLO architecture (e.g. YOLO11n)")
+        raise RebuildError(f"{p}: description {meta['description']!r} names no YOLO architecture (e.g. YOLO11n)")
     names = {int(k): str(v) for k, v in ast.literal_eval(meta["names"]).items()}
     imgsz = tuple(int(v) for v in ast.literal_eval(meta["imgsz"]))
     tensors = {t.name: numpy_helper.to_array(t) for t in model.graph.initializer if t.name.startswith("model.")}
@@ -117,9 +119,9 @@ def load_fused(model, tensors: dict[str, np.ndarray], where: Path) -> None:
         for name, (conv, bn) in blocks.items():
             w, b = tensors.get(f"{name}.conv.weight"), tensors.get(f"{name}.conv.bias")
             if w is None or b is None:
-                raise TrainError(f"{where}: no fused weights for {name} (expected {name}.conv.weight and .bias)")
+                raise RebuildError(f"{where}: no fused weights for {name} (expected {name}.conv.weight and .bias)")
             if tuple(w.shape) != tuple(conv.weight.shape):
-                raise TrainError(
+                raise RebuildError(
                     f"{where}: {name}.conv.weight is {tuple(w.shape)}, the architecture expects "
                     f"{tuple(conv.weight.shape)}"
                 )
@@ -134,12 +136,12 @@ def load_fused(model, tensors: dict[str, np.ndarray], where: Path) -> None:
                 continue
             if key.endswith(".strides"):  # the head's stride per anchor, exported as a constant
                 if set(np.unique(value).tolist()) != set(model.stride.tolist()):
-                    raise TrainError(f"{where}: strides {np.unique(value)} differ from the architecture's")
+                    raise RebuildError(f"{where}: strides {np.unique(value)} differ from the architecture's")
                 continue
             if key not in state:
-                raise TrainError(f"{where}: tensor {key} has no place in the architecture")
+                raise RebuildError(f"{where}: tensor {key} has no place in the architecture")
             if tuple(value.shape) != tuple(state[key].shape):
-                raise TrainError(f"{where}: {key} is {tuple(value.shape)}, expected {tuple(state[key].shape)}")
+                raise RebuildError(f"{where}: {key} is {tuple(value.shape)}, expected {tuple(state[key].shape)}")
             state[key].copy_(torch.from_numpy(value))
             given.add(key)
     fused_bn = {f"{n}.bn.{s}" for n in blocks for s in ("weight", "bias", "running_mean", "running_var")}
@@ -148,7 +150,7 @@ def load_fused(model, tensors: dict[str, np.ndarray], where: Path) -> None:
     }
     left = sorted(k for k in learnt - fused_bn - given if not k.endswith(".dfl.conv.weight"))
     if left:
-        raise TrainError(f"{where}: the export gives no value for {len(left)} weights, e.g. {left[0]}")
+        raise RebuildError(f"{where}: the export gives no value for {len(left)} weights, e.g. {left[0]}")
 
 
 def estimate_batchnorm(model, batches: Iterable) -> int:
@@ -181,7 +183,7 @@ def estimate_batchnorm(model, batches: Iterable) -> int:
         for h in hooks:
             h.remove()
     if not seen:
-        raise TrainError("no images to estimate the BatchNorm statistics from")
+        raise RebuildError("no images to estimate the BatchNorm statistics from")
     with torch.no_grad():
         for name, (_conv, bn) in blocks.items():
             s1, s2, n = sums[name]
@@ -208,7 +210,7 @@ def image_batches(images: list[Path], imgsz: tuple[int, int], batch: int = 16):
         for p in images[i : i + batch]:
             bgr = cv2.imread(str(p), cv2.IMREAD_COLOR)
             if bgr is None:
-                raise TrainError(f"{p}: not an image")
+                raise RebuildError(f"{p}: not an image")
             img, _, _ = letterbox(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), imgsz)
             xs.append(img.transpose(2, 0, 1))
         yield torch.from_numpy(np.stack(xs)).float() / 255.0

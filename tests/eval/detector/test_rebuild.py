@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eval.detector.rebuild import read_onnx
+from eval.detector.rebuild import RebuildError, read_onnx
 from eval.detector.train import TrainError, TrainSpec
 
 SHIPPED = Path(__file__).resolve().parents[3] / "poi" / "models" / "default.onnx"
@@ -32,10 +32,10 @@ def test_a_model_without_ultralytics_metadata_is_refused(tmp_path):
     )
     path = tmp_path / "relu.onnx"
     onnx.save(helper.make_model(graph), str(path))
-    with pytest.raises(TrainError, match=r"relu\.onnx: metadata lacks description, names, imgsz"):
+    with pytest.raises(RebuildError, match=r"relu\.onnx: metadata lacks description, names, imgsz"):
         read_onnx(path)
     (tmp_path / "junk.onnx").write_bytes(b"not a model")
-    with pytest.raises(TrainError, match=r"junk\.onnx: not an ONNX model"):
+    with pytest.raises(RebuildError, match=r"junk\.onnx: not an ONNX model"):
         read_onnx(tmp_path / "junk.onnx")
 
 
