@@ -510,7 +510,7 @@ def _labelled_images(args, work: Path):
             raise DetectorQualityError(
                 f"{model} was trained on scenes from seed {args.seed}; evaluate on another --seed"
             )
-    spec = DatasetSpec(images=args.images, seed=args.seed, val_every=1)
+    spec = DatasetSpec.trial_looks(images=args.images, seed=args.seed, val_every=1)
     with progress_bar(total=spec.images, desc="scenes", unit="img", quiet=args.quiet) as bar:
         write_dataset(spec, work, progress=bar.update)
     return load_split(work, "val")

@@ -101,8 +101,8 @@ class DatasetSpec:
     # crops of 120 images (seed 31, camera randomised): median saturation 82 with the prints'
     # own colour, 62 with these defaults; median 5th-percentile grey 81 own, 75 with every
     # black at 0, 81 with 0-30, 86 with 0-60, 88 with 0-90 (the camera sets most of it)
-    print_saturation: tuple[float, float] = (0.45, 1.0)
-    print_black: tuple[float, float] = (0.0, 60.0)
+    print_saturation: tuple[float, float] | None = (0.45, 1.0)  # None: the prints' own colour
+    print_black: tuple[float, float] | None = (0.0, 60.0)  # None: the prints' own black
     # glossy paper on this share of the placards: lamps mirror in it (highlights, glare)
     glossy_fraction: float = 0.3
     # MSAA samples (sim/world.py's offscreen buffer; trials: 0): real crops' Laplacian variance is
@@ -120,6 +120,15 @@ class DatasetSpec:
     milk_crates: int = 2
     camera: CameraRandomisation | None = field(default_factory=lambda: CameraRandomisation())
     counts: dict[str, int] = field(default_factory=lambda: DatasetSpec.default_counts())
+
+    @classmethod
+    def trial_looks(cls, **kw) -> DatasetSpec:
+        """A spec whose scenes look as a trial's do: none of the training looks above (floors,
+        reprints, gloss, MSAA, close-ups, Landolt-C targets, milk crates), the colour camera still
+        randomised. ``evaluate-detector`` and ``calibrate`` score on these, what the pipeline sees."""
+        off = dict(floor_textures=0.0, print_saturation=None, print_black=None, glossy_fraction=0.0, msaa=0)
+        off |= dict(closeup_fraction=0.0, landolt_targets=0, milk_crates=0)
+        return cls(**(off | kw))
 
     @staticmethod
     def default_counts() -> dict[str, int]:
@@ -161,10 +170,10 @@ class DatasetSpec:
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
                 raise DatasetError(f"--{name.replace('_', '-')} must be in [0, 1], got {v}")
-        lo, hi = self.print_saturation
+        lo, hi = self.print_saturation or (1.0, 1.0)
         if not 0.0 <= lo <= hi <= 1.0:
             raise DatasetError(f"--print-saturation must be 0 <= min <= max <= 1, got {self.print_saturation}")
-        lo, hi = self.print_black
+        lo, hi = self.print_black or (0.0, 0.0)
         if not 0.0 <= lo <= hi <= 200.0:
             raise DatasetError(f"--print-black must be 0 <= min <= max <= 200, got {self.print_black}")
         if self.msaa not in MSAA_SAMPLES:
@@ -189,8 +198,8 @@ class DatasetSpec:
         d = asdict(self)
         d["distance_m"] = list(self.distance_m)
         d["maze_cells"] = list(self.maze_cells)
-        d["print_saturation"] = list(self.print_saturation)
-        d["print_black"] = list(self.print_black)
+        d["print_saturation"] = None if self.print_saturation is None else list(self.print_saturation)
+        d["print_black"] = None if self.print_black is None else list(self.print_black)
         if d["camera"] is not None:
             d["camera"] = {k: list(v) if isinstance(v, tuple) else v for k, v in d["camera"].items()}
         return d

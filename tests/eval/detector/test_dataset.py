@@ -277,3 +277,17 @@ def test_the_randomised_camera_blurs_a_share_of_the_images_and_defocuses_at_most
     assert abs(smeared - cam.motion_blur_share) < 0.04
     assert max(np.hypot(*blur) for _, blur in draws) <= 20.0
     assert max(spec.defocus_sigma_px for spec, _ in draws) <= 1.0
+
+
+def test_evaluation_scenes_look_as_a_trial_does():
+    """evaluate-detector and calibrate score on scenes without the training looks."""
+    from eval.detector.dataset import DatasetSpec, looks_for
+
+    spec = DatasetSpec.trial_looks(images=40, seed=3)
+    assert spec.images == 40 and spec.seed == 3
+    for j in range(8):
+        looks = looks_for(spec, j)
+        assert looks.floor is None and looks.offsamples == 0 and looks.milk_crates == 0
+        assert looks.print_saturation is None and looks.print_black is None and looks.glossy_share == 0.0
+    assert spec.closeup_fraction == 0.0 and spec.landolt_targets == 0
+    assert DatasetSpec(images=1).msaa == 4  # the training defaults keep them
