@@ -151,8 +151,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=cmd_dataset)
 
+    rf = sub.add_parser(
+        "route-frames", help="training frames from the robot's tours through generated mazes, truth-labelled"
+    )
+    rf.add_argument("--out", required=True, help="output folder (a rerun with the same settings resumes)")
+    rf.add_argument("--mazes", type=int, required=True, help="generated RRL mazes to tour")
+    rf.add_argument("--every", type=int, default=10, help="one frame in this many (default 10: one a second)")
+    rf.add_argument("--seed", type=int, default=0, help="seed of the mazes (default 0)")
+    rf.add_argument("--quiet", action="store_true", help="no progress bar")
+    rf.set_defaults(func=cmd_route_frames)
+
     t = sub.add_parser("train", help="train the YOLO detector on a dataset and export ONNX (extra 'train')")
-    t.add_argument("--data", required=True, help="a dataset folder from 'poibench dataset' (or its data.yaml)")
+    t.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        help="dataset folders ('poibench dataset', 'poibench route-frames') or their data.yaml, trained on as one",
+    )
     t.add_argument("--out", required=True, help="run folder: weights, plots, model.onnx (resumes if interrupted)")
     t.add_argument(
         "--model",
@@ -372,6 +387,20 @@ def cmd_dataset(args) -> int:
     for c in inst["train"]:
         print(f"{c:26s} {inst['train'][c]:6d} {inst['val'][c]:6d}")
     print(f"data.yaml, manifest.csv and classes.png in {args.out}")
+    return 0
+
+
+def cmd_route_frames(args) -> int:
+    from eval.detector.route_frames import RouteFramesSpec, write_route_frames
+    from eval.progress import progress_bar
+
+    spec = RouteFramesSpec(mazes=args.mazes, seed=args.seed, every=args.every)
+    with progress_bar(desc="frames", unit="frame", quiet=args.quiet) as bar:
+        summary = write_route_frames(spec, args.out, progress=bar.update)
+    print(
+        f"{args.out}: {summary['frames']} frames of {spec.mazes} tours, {summary['frames_with_labels']} "
+        f"with a labelled object ({summary['boxes']} boxes)"
+    )
     return 0
 
 

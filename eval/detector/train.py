@@ -55,7 +55,7 @@ class TrainError(ValueError):
 
 @dataclass(kw_only=True)
 class TrainSpec:
-    data: str
+    data: str | list[str]  # one dataset folder, or several trained on together
     out: str
     model: str = "yolo11n.yaml"
     epochs: int = 60
@@ -109,48 +109,62 @@ def data_yaml(data: str | Path) -> Path:
 
 
 def placard_dataset(data: Path, dst: Path) -> Path:
-    """A copy of dataset ``data`` (its data.yaml) with the 16 hazmat labels as one class.
+    """A copy of dataset ``data`` (its data.yaml) with the 16 hazmat labels as one class
+    (:func:`training_dataset` of one source)."""
+    return training_dataset([data], dst, placards="one")
 
-    Class k < 16 becomes 0 (``hazmat``), class k >= 16 becomes k - 15; the images are hard
-    links to the source's (copies across file systems). Labels are rewritten on every call
-    (cheap), so they follow the source. Returns the new data.yaml.
-    """
+
+def training_dataset(sources: list[Path], dst: Path, placards: str = "named") -> Path:
+    """One dataset in ``dst`` from the data.yaml files ``sources`` (``poibench dataset`` and
+    ``poibench route-frames`` folders): their images hard-linked (copied across file systems),
+    those of the i-th source after the first named ``i-NAME``; with ``placards="one"`` the 16
+    hazmat labels become one class: class k < 16 becomes 0 (``hazmat``), k >= 16 becomes
+    k - 15. Labels are rewritten on every call (cheap), so they follow the sources. Returns the
+    new data.yaml."""
     import yaml
 
-    src = data.parent
     n = len(HAZMAT_LABELS)
-    names = [PLACARD_CLASS, *RESCUE_CLASSES[n:]]
-    for split in ("train", "val"):
-        images = src / "images" / split
-        if not images.is_dir():
-            raise TrainError(f"{images}: no such folder; give a folder written by 'poibench dataset'")
-        linked = dst / "images" / split
-        linked.mkdir(parents=True, exist_ok=True)
-        for img in sorted(images.iterdir()):
-            if img.is_file() and not (linked / img.name).exists():
-                # a hard link (a copy across file systems): Ultralytics resolves folder links and
-                # would read the source's labels beside the source's images
-                try:
-                    os.link(img, linked / img.name)
-                except OSError:
-                    shutil.copy2(img, linked / img.name)
-        out = dst / "labels" / split
-        out.mkdir(parents=True, exist_ok=True)
-        for f in sorted((src / "labels" / split).glob("*.txt")):
-            rows = []
-            for lineno, line in enumerate(f.read_text().splitlines(), 1):
-                parts = line.split()
-                if not parts:
-                    continue
-                try:
-                    k = int(parts[0])
-                except ValueError:
-                    raise TrainError(f"{f}:{lineno}: class index {parts[0]!r} is not an integer") from None
-                if not 0 <= k < len(RESCUE_CLASSES):
-                    raise TrainError(f"{f}:{lineno}: class index {k} is not in 0..{len(RESCUE_CLASSES) - 1}")
-                rows.append(" ".join([str(0 if k < n else k - n + 1), *parts[1:]]))
-            (out / f.name).write_text("".join(r + "\n" for r in rows))
-        (out.parent / f"{split}.cache").unlink(missing_ok=True)  # Ultralytics' label cache
+    one = placards == "one"
+    names = [PLACARD_CLASS, *RESCUE_CLASSES[n:]] if one else list(RESCUE_CLASSES)
+    for i, data in enumerate(sources):
+        src = data.parent
+        prefix = f"{i}-" if i else ""
+        for split in ("train", "val"):
+            images = src / "images" / split
+            if not images.is_dir():
+                if split == "val" and i:
+                    continue  # route frames train only
+                raise TrainError(f"{images}: no such folder; give a folder written by 'poibench dataset'")
+            linked = dst / "images" / split
+            linked.mkdir(parents=True, exist_ok=True)
+            for img in sorted(images.iterdir()):
+                target = linked / f"{prefix}{img.name}"
+                if img.is_file() and not target.exists():
+                    # a hard link (a copy across file systems): Ultralytics resolves folder links and
+                    # would read the source's labels beside the source's images
+                    try:
+                        os.link(img, target)
+                    except OSError:
+                        shutil.copy2(img, target)
+            out = dst / "labels" / split
+            out.mkdir(parents=True, exist_ok=True)
+            for f in sorted((src / "labels" / split).glob("*.txt")):
+                rows = []
+                for lineno, line in enumerate(f.read_text().splitlines(), 1):
+                    parts = line.split()
+                    if not parts:
+                        continue
+                    try:
+                        k = int(parts[0])
+                    except ValueError:
+                        raise TrainError(f"{f}:{lineno}: class index {parts[0]!r} is not an integer") from None
+                    if not 0 <= k < len(RESCUE_CLASSES):
+                        raise TrainError(f"{f}:{lineno}: class index {k} is not in 0..{len(RESCUE_CLASSES) - 1}")
+                    if one:
+                        k = 0 if k < n else k - n + 1
+                    rows.append(" ".join([str(k), *parts[1:]]))
+                (out / f"{prefix}{f.name}").write_text("".join(r + "\n" for r in rows))
+            (out.parent / f"{split}.cache").unlink(missing_ok=True)  # Ultralytics' label cache
     doc = {"path": str(dst.resolve()), "train": "images/train", "val": "images/val", "nc": len(names)}
     doc["names"] = dict(enumerate(names))
     target = dst / "data.yaml"
@@ -217,12 +231,14 @@ def _check_classes(model: Path, names: list[str], data: Path) -> None:
 
 def train(spec: TrainSpec) -> Path:
     """Train (or resume) and export; returns the path of ``model.onnx``."""
-    data = data_yaml(spec.data)
+    sources = [data_yaml(d) for d in ([spec.data] if isinstance(spec.data, str) else spec.data)]
     ul = _ultralytics()
     out = Path(spec.out).resolve()
-    source = data
+    source = data = sources[0]
     if spec.placards == "one":
-        data = placard_dataset(data, out / "data-placards")
+        data = training_dataset(sources, out / "data-placards", placards="one")
+    elif len(sources) > 1:
+        data = training_dataset(sources, out / "data-merged")
     onnx_path = out / "model.onnx"
     if onnx_path.exists():
         return onnx_path

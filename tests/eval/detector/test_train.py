@@ -61,3 +61,19 @@ def test_hours_must_be_positive():
 def test_placards_mode_is_checked():
     with pytest.raises(TrainError, match="--placards must be one of named, one, got 'some'"):
         TrainSpec(data="d", out="o", placards="some")
+
+
+def test_two_datasets_train_as_one_with_the_second_ones_files_prefixed(tmp_path):
+    from eval.detector.train import training_dataset
+
+    ox, door = CLASS_INDEX["oxidizer"], CLASS_INDEX["door"]
+    a = _dataset(tmp_path / "a", {"s0000_i000": [f"{ox} 0.5 0.5 0.1 0.2"]})
+    b = _dataset(tmp_path / "b", {"s0000_i000": [f"{door} 0.2 0.3 0.1 0.4"]})  # the same image name
+    out = training_dataset([a, b], tmp_path / "run" / "data-placards", placards="one")
+    labels = out.parent / "labels" / "train"
+    assert sorted(p.name for p in labels.iterdir()) == ["1-s0000_i000.txt", "s0000_i000.txt"]
+    assert (labels / "s0000_i000.txt").read_text() == "0 0.5 0.5 0.1 0.2\n"
+    assert (labels / "1-s0000_i000.txt").read_text() == "2 0.2 0.3 0.1 0.4\n"
+    assert (out.parent / "images" / "train" / "1-s0000_i000.png").exists()
+    named = training_dataset([a, b], tmp_path / "run" / "data-merged")
+    assert (named.parent / "labels" / "train" / "1-s0000_i000.txt").read_text() == f"{door} 0.2 0.3 0.1 0.4\n"
