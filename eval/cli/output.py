@@ -106,6 +106,7 @@ def hold_output_folder(path: str | Path, option: str = "--out") -> Iterator[Path
     half-written one; on a file system without hard links the folder is not locked.
     """
     folder = Path(path)
+    made = not folder.exists()  # made here: removed again if the run leaves nothing in it
     folder.mkdir(parents=True, exist_ok=True)
     lock = folder / LOCK_NAME
     me = os.getpid()
@@ -140,3 +141,6 @@ def hold_output_folder(path: str | Path, option: str = "--out") -> Iterator[Path
             with contextlib.suppress(OSError, ValueError):
                 if int(lock.read_text(encoding="utf-8").split()[0]) == me:
                     lock.unlink()
+        if made:
+            with contextlib.suppress(OSError):  # not empty: the run's outputs stay
+                folder.rmdir()

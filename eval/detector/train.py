@@ -220,9 +220,7 @@ def start_model(spec: TrainSpec, data: Path, out: Path) -> str:
 
 
 def _check_classes(model: Path, names: list[str], data: Path) -> None:
-    import yaml
-
-    want = yaml.safe_load(data.read_text())["names"]
+    want = safe_load_file(data, error=TrainError)["names"]
     want = [want[k] for k in sorted(want)] if isinstance(want, dict) else list(want)
     if names != want:
         hint = " (--placards one trains hazmat plus the other types)" if names[:1] == [PLACARD_CLASS] else ""

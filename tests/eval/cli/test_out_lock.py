@@ -53,7 +53,11 @@ def test_the_lock_is_held_while_the_command_runs_and_gone_after(tmp_path, monkey
     )
     assert main(["run", "--out", str(folder)]) == 0
     assert seen == [str(os.getpid())]
-    assert sorted(p.name for p in folder.iterdir()) == []  # nothing left: no lock, no temporary file
+    # nothing left: no lock, no temporary file, and the folder the lock made is gone again
+    assert not folder.exists()
+    folder.mkdir()
+    assert main(["run", "--out", str(folder)]) == 0
+    assert sorted(p.name for p in folder.iterdir()) == []  # a folder that was there stays
 
 
 def test_a_lock_of_a_process_that_has_ended_is_taken_over(tmp_path):
