@@ -17,7 +17,8 @@ Per frame (:meth:`Pipeline.process`):
    that have no text yet and do not fall in the gate of a track whose text is
    settled (``qr.settled_votes`` reads);
 5. tracks whose centre is in view (poi.estimation.visibility) are passed to the tracker for the
-   negative update, and the tracker steps ([Avevor2022]_ 2.4);
+   negative update, and the tracker steps ([Avevor2022]_ 2.4); each paired update's
+   innovation, S and NIS come back in ``FrameResult.innovations``;
 6. with ``fiducials.enabled``, the frame's depth feeds the fiducial mapper
    (poi.estimation.fiducials), whose fiducials :meth:`Pipeline.landmarks` gives at the end.
 
@@ -48,7 +49,7 @@ from poi.estimation.covariance import Calibration, load_calibration
 from poi.estimation.fiducials import FiducialMapper
 from poi.estimation.localize import localize
 from poi.estimation.slam_localizer import SlamLocalizer
-from poi.estimation.tracker import Tracker
+from poi.estimation.tracker import Innovation, Tracker
 from poi.estimation.visibility import in_view
 
 QR_MODULE = "poi.detectors.qr"
@@ -69,6 +70,9 @@ class FrameResult:
     # reader was given this frame (a funnel tells a code not read from one never tried)
     observed: list[int] = field(default_factory=list)
     qr_tried: list[int] = field(default_factory=list)
+    # the tracker's paired updates: each one's innovation, S and NIS (poi.estimation.tracker.Innovation;
+    # its obs_index indexes ``observations``)
+    innovations: list[Innovation] = field(default_factory=list)
 
 
 def _find_qr_reader() -> tuple[Callable | None, str | None]:
@@ -258,6 +262,7 @@ class Pipeline:
             pose_map=np.asarray(frame.pose, dtype=float),
             observed=list(det_of_obs),
             qr_tried=[det_of_obs[i] for i in todo],
+            innovations=step.innovations,
         )
 
     def confirmed(self) -> list[TrackSnapshot]:
