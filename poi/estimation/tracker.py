@@ -116,7 +116,8 @@ def kalman_update(
     :func:`shared_error_update` needs one) is applied by hand.
     """
     if K is None:
-        mu_new, Sigma_new = filterpy_update(mu, Sigma, o, R, H=IDENTITY3)
+        updated = filterpy_update(mu, Sigma, o, R, H=IDENTITY3)  # (x, P): without return_all
+        mu_new, Sigma_new = updated[0], updated[1]
     else:
         A = IDENTITY3 - K
         mu_new, Sigma_new = mu + K @ (o - mu), A @ Sigma @ A.T + K @ R @ K.T
@@ -535,5 +536,5 @@ class Tracker:
         """All tracks (or the confirmed ones, by report id) as snapshots."""
         trs = [t for t in self.tracks.values() if t.confirmed or not confirmed_only]
         if confirmed_only:
-            trs.sort(key=lambda t: t.report_id)
+            trs.sort(key=lambda t: -1 if t.report_id is None else t.report_id)  # a confirmed one has one
         return [t.snapshot() for t in trs]
