@@ -17,7 +17,8 @@ Per frame (:meth:`Pipeline.process`):
    that have no text yet and do not fall in the gate of a track whose text is
    settled (``qr.settled_votes`` reads);
 5. tracks whose centre is in view (poi.estimation.visibility) are passed to the tracker for the
-   negative update, and the tracker steps ([Avevor2022]_ 2.4);
+   negative update, and the tracker steps ([Avevor2022]_ 2.4); each paired update's
+   innovation, S and NIS come back in ``FrameResult.innovations``;
 6. with ``fiducials.enabled``, the frame's depth feeds the fiducial mapper
    (poi.estimation.fiducials), whose fiducials :meth:`Pipeline.landmarks` gives at the end.
 
@@ -48,7 +49,7 @@ from poi.estimation.covariance import Calibration, load_calibration
 from poi.estimation.fiducials import FiducialMapper
 from poi.estimation.localize import localize
 from poi.estimation.slam_localizer import SlamLocalizer
-from poi.estimation.tracker import Tracker
+from poi.estimation.tracker import Innovation, Tracker
 from poi.estimation.visibility import in_view
 
 QR_MODULE = "poi.detectors.qr"
@@ -69,6 +70,9 @@ class FrameResult:
     # reader was given this frame (a funnel tells a code not read from one never tried)
     observed: list[int] = field(default_factory=list)
     qr_tried: list[int] = field(default_factory=list)
+    # the tracker's paired updates: each one's innovation, S and NIS (poi.estimation.tracker.Innovation;
+    # its obs_index indexes ``observations``)
+    innovations: list[Innovation] = field(default_factory=list)
 
 
 def _find_qr_reader() -> tuple[Callable | None, str | None]:
@@ -156,11 +160,15 @@ class Pipeline:
         ]
         return bool(settled) and bool(np.isfinite(self.tracker.distances([obs], settled)).any())
 
-    def _read_qr(self, rgb: np.ndarray, detections: list[Detection], todo: list[int]) -> list[Detection]:
-        """Decode the text of detections ``todo`` (qr ones without text) in a copy of ``detections``."""
+    @staticmethod
+    def _read_qr(
+        reader: Callable, rgb: np.ndarray, detections: list[Detection], todo: list[int]
+    ) -> list[Detection]:
+        """Decode with ``reader`` the text of detections ``todo`` (qr ones without text) in a copy
+        of ``detections``."""
         if not todo:
             return detections
-        read = list(self._qr_reader(rgb, [detections[k] for k in todo]))
+        read = list(reader(rgb, [detections[k] for k in todo]))
         if len(read) != len(todo):
             raise RuntimeError(f"{QR_MODULE}.{QR_FUNCTION} returned {len(read)} detections for {len(todo)}")
         out = list(detections)
@@ -184,16 +192,17 @@ class Pipeline:
         t1 = time.perf_counter()
         timing["detect"] = 1e3 * (t1 - t0)
         reason = None
-        if frame.pose is None:
+        pose = frame.pose
+        if pose is None:
             reason = "no pose"
         elif frame.depth_m is None:
             reason = "no depth"
-        elif not np.all(np.isfinite(frame.pose)):
+        elif not np.all(np.isfinite(pose)):
             reason = "pose not finite"
-        if reason is not None:
+        if reason is not None or pose is None:
             qr_tried = self._unread_qr(detections) if self._qr_reader is not None else []
             if self._qr_reader is not None:
-                detections = self._read_qr(frame.rgb, detections, qr_tried)
+                detections = self._read_qr(self._qr_reader, frame.rgb, detections, qr_tried)
             timing["qr"] = 1e3 * (time.perf_counter() - t1)
             return FrameResult(
                 frame_index=frame.index,
@@ -216,7 +225,7 @@ class Pipeline:
         t2 = time.perf_counter()
         timing["localize"] = 1e3 * (t2 - t1)
         if self.slam is not None:
-            corrected = self.slam.step(frame.pose, observations, frame.timestamp_s, frame.pose_relocalised)
+            corrected = self.slam.step(pose, observations, frame.timestamp_s, frame.pose_relocalised)
             # a stale pose (frame 0 with a latency): R does not hold its error, the
             # observations are dropped (poi.estimation.slam_localizer, step 1)
             observations = corrected.observations
@@ -231,7 +240,7 @@ class Pipeline:
         if self._qr_reader is not None:
             unread = set(self._unread_qr(detections))
             todo = [i for i, k in enumerate(det_of_obs) if k in unread and not self._settled_qr(observations[i])]
-            read = self._read_qr(frame.rgb, detections, [det_of_obs[i] for i in todo])
+            read = self._read_qr(self._qr_reader, frame.rgb, detections, [det_of_obs[i] for i in todo])
             for i in todo:
                 observations[i] = dataclasses.replace(observations[i], detection=read[det_of_obs[i]])
             detections = read
@@ -258,6 +267,7 @@ class Pipeline:
             pose_map=np.asarray(frame.pose, dtype=float),
             observed=list(det_of_obs),
             qr_tried=[det_of_obs[i] for i in todo],
+            innovations=step.innovations,
         )
 
     def confirmed(self) -> list[TrackSnapshot]:

@@ -19,6 +19,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 from pathlib import Path
+from typing import TextIO
 
 from poi.core.names import TYPES
 from poi.core.poi_file import (
@@ -81,10 +82,12 @@ class PoiWriter:
         self.header = header
         self.robot = robot
         self.mode = mode
-        self._fh = open(self.path, "w", encoding="utf-8", newline="")  # noqa: SIM115 (kept open)
+        self._fh: TextIO | None = open(self.path, "w", encoding="utf-8", newline="")  # noqa: SIM115 (kept open)
         self._write(format_header_text(header.poi_header()))
 
     def _write(self, text: str) -> None:
+        if self._fh is None:
+            raise ReportError(f"{self.path}: already finalized")
         self._fh.write(text)
         self._fh.flush()
         os.fsync(self._fh.fileno())

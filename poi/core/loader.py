@@ -58,6 +58,8 @@ from pathlib import Path
 from typing import Any, Literal, get_args, get_origin
 
 import yaml
+from yaml.composer import ComposerError
+from yaml.scanner import ScannerError
 
 MAX_BYTES = 256 * 1024  # larger files are refused unread; at the cap a file parses in under 1.5 s CPU (libyaml)
 MAX_DEPTH = 64  # nested mappings/lists deeper than this are refused while composing
@@ -151,13 +153,13 @@ class _BoundedLoader(yaml.SafeLoader):
     limit itself, before the composer sees a single event.
     """
 
-    def _too_deep(self) -> yaml.scanner.ScannerError:
-        return yaml.scanner.ScannerError(None, None, f"nested more than {MAX_DEPTH} levels deep", self.get_mark())
+    def _too_deep(self) -> ScannerError:
+        return ScannerError(None, None, f"nested more than {MAX_DEPTH} levels deep", self.get_mark())
 
-    def fetch_flow_collection_start(self, token_class: Any) -> None:
+    def fetch_flow_collection_start(self, TokenClass: Any) -> None:  # the base's parameter name
         if self.flow_level >= MAX_DEPTH:
             raise self._too_deep()
-        super().fetch_flow_collection_start(token_class)
+        super().fetch_flow_collection_start(TokenClass)
 
     def add_indent(self, column: int) -> bool:
         if len(self.indents) >= MAX_DEPTH:
@@ -169,8 +171,15 @@ class _BoundedLoader(yaml.SafeLoader):
 _PARSER: type = getattr(yaml, "CSafeLoader", _BoundedLoader) if yaml.__with_libyaml__ else _BoundedLoader
 
 
-def _refuse(msg: str, mark: Any) -> yaml.composer.ComposerError:
-    return yaml.composer.ComposerError(None, None, msg, mark)
+def _refuse(msg: str, mark: Any) -> ComposerError:
+    return ComposerError(None, None, msg, mark)
+
+
+# the node a collection's start event opens
+_COLLECTIONS: dict[type, type[yaml.SequenceNode] | type[yaml.MappingNode]] = {
+    yaml.SequenceStartEvent: yaml.SequenceNode,
+    yaml.MappingStartEvent: yaml.MappingNode,
+}
 
 
 def _compose_events(loader: Any) -> yaml.Node | None:
@@ -199,18 +208,16 @@ def _compose_events(loader: Any) -> yaml.Node | None:
                 raise _refuse("anchors (&name) are not allowed", event.start_mark)
             if len(stack) >= MAX_DEPTH:
                 raise _refuse(f"nested more than {MAX_DEPTH} levels deep", event.start_mark)
-            kind = {
-                yaml.ScalarEvent: yaml.ScalarNode,
-                yaml.SequenceStartEvent: yaml.SequenceNode,
-                yaml.MappingStartEvent: yaml.MappingNode,
-            }[type(event)]
+            scalar = isinstance(event, yaml.ScalarEvent)
+            collection = None if scalar else _COLLECTIONS[type(event)]
+            kind = yaml.ScalarNode if collection is None else collection
             tag = event.tag
             if tag is None or tag == "!":
-                tag = loader.resolve(kind, event.value if kind is yaml.ScalarNode else None, event.implicit)
-            if kind is yaml.ScalarNode:
+                tag = loader.resolve(kind, event.value if scalar else None, event.implicit)
+            if collection is None:
                 node = yaml.ScalarNode(tag, event.value, event.start_mark, event.end_mark, style=event.style)
             else:
-                stack.append(kind(tag, [], event.start_mark, None, flow_style=event.flow_style))
+                stack.append(collection(tag, [], event.start_mark, None, flow_style=event.flow_style))
                 keys.append(None)
                 continue
         if not stack:
@@ -225,7 +232,7 @@ def _compose_events(loader: Any) -> yaml.Node | None:
     loader.get_event()  # DocumentEnd
     if not loader.check_event(yaml.StreamEndEvent):
         event = loader.get_event()
-        raise yaml.composer.ComposerError(
+        raise ComposerError(
             "expected a single document in the stream",
             root.start_mark,
             "but found another document",
@@ -270,7 +277,7 @@ def _to_data(
 ) -> Any:
     """Plain Python data from a composed node (depth <= MAX_DEPTH), recording each key's line."""
 
-    def fail(n: yaml.Node, msg: str) -> LoadError:
+    def fail(n: yaml.Node, msg: str) -> ValueError:
         return error(f"{name}:{n.start_mark.line + 1}: {path or '(top)'}: {msg}")
 
     if isinstance(node, yaml.ScalarNode):
@@ -477,7 +484,7 @@ def _convert(tp: Any, value: Any, src: Source, path: str) -> Any:
                 raise _fail(src, sub, f"expected a string key, got {show(k)}")
             out_d[_convert(kt, k, src, sub)] = _convert(vt, v, src, sub)
         return out_d
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return _build(tp, value, src, path)
     if tp is bool:
         if not isinstance(value, bool):

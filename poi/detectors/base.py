@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -80,7 +80,7 @@ class ProviderChoice:
     note: str
 
 
-def choose_providers(requested: list[str] | tuple[str, ...] | None, error: type[Exception]) -> ProviderChoice:
+def choose_providers(requested: Sequence[str] | None, error: type[Exception]) -> ProviderChoice:
     """The requested providers this onnxruntime has, in order, CPU last as the fallback.
 
     A name onnxruntime does not know at all (``ort.get_all_providers()``) raises ``error``; one
@@ -252,11 +252,12 @@ def make_detection(
     if identity is None:
         raise ValueError(f"class {class_name!r} is not in poi.core.names.CLASSES")
     type_, label = identity
+    x1, y1, x2, y2 = (float(c) for c in box_xyxy)
     return Detection(
         class_name=class_name,
         type=type_,
         text=label if text is None else text,
-        box_xyxy=tuple(float(v) for v in box_xyxy),
+        box_xyxy=(x1, y1, x2, y2),
         confidence=float(confidence),
         source=source,
         class_probs=class_probs,

@@ -408,7 +408,8 @@ class OnnxYoloDetector:
     @property
     def known_types(self) -> frozenset[str]:
         """The object types (poi.core.names.TYPES) this model can report."""
-        return frozenset(class_to_identity(CLASSES[int(m)])[0] for m in self._class_to_ours if m >= 0)
+        identities = (class_to_identity(CLASSES[int(m)]) for m in self._class_to_ours if m >= 0)
+        return frozenset(identity[0] for identity in identities if identity is not None)
 
     def _read_names(self, path: Path, metadata: Mapping[str, str]) -> list[str]:
         if self.names is not None:
@@ -621,7 +622,7 @@ class OnnxYoloDetector:
         probs = self._class_probs(scores[order], classes)  # (K, len(CLASSES))
         if self._labeler is not None:
             t0 = time.perf_counter()
-            classes, conf, probs = self._name_placards(rgb, xyxy[order], classes, conf, probs)
+            classes, conf, probs = self._name_placards(self._labeler, rgb, xyxy[order], classes, conf, probs)
             self.last_timing_ms["labels"] = (time.perf_counter() - t0) * 1e3
             named = np.flatnonzero(conf >= self.conf)
             named = named[np.argsort(-conf[named], kind="stable")]
@@ -639,9 +640,15 @@ class OnnxYoloDetector:
         ]
 
     def _name_placards(
-        self, rgb: np.ndarray, boxes: np.ndarray, classes: np.ndarray, conf: np.ndarray, probs: np.ndarray
+        self,
+        labeler: HazmatLabelClassifier,
+        rgb: np.ndarray,
+        boxes: np.ndarray,
+        classes: np.ndarray,
+        conf: np.ndarray,
+        probs: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Relabel the placards among K detections with the label classifier.
+        """Relabel the placards among K detections with the label classifier ``labeler``.
 
         For a placard with the model's score s and classifier output q (16 labels,
         then background): label j* = argmax_j q_j, confidence s q_j*, Pr(label j) =
@@ -653,7 +660,7 @@ class OnnxYoloDetector:
         cand = np.flatnonzero(LABELLED[classes])  # (M,)
         if cand.size == 0:
             return classes, conf, probs
-        q = self._labeler.classify(rgb, boxes[cand])  # (M, 17)
+        q = labeler.classify(rgb, boxes[cand])  # (M, 17)
         n_lab = len(LABEL_CLASSES) - 1
         best = np.argmax(q[:, :n_lab], axis=1)  # (M,)
         placard = IS_HAZMAT[classes[cand]] | (q[np.arange(cand.size), best] > q[:, n_lab])  # (M,)

@@ -195,9 +195,9 @@ def check_detection(det: Any) -> str | None:
     """Why ``det`` is not a usable :class:`Detection`, or None."""
     if not isinstance(det, Detection):
         return f"a {type(det).__name__}, not a poi.core.types.Detection"
-    if not isinstance(det.class_name, str) or det.class_name not in CLASSES:
+    identity = class_to_identity(det.class_name) if isinstance(det.class_name, str) else None
+    if identity is None or det.class_name not in CLASSES:
         return _bad_class(det.class_name)
-    identity = class_to_identity(det.class_name)
     if det.type != identity[0]:
         return (
             f"class_name {det.class_name!r} has type {det.type!r}, expected {identity[0]!r} "

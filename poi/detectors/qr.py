@@ -44,7 +44,7 @@ SHARPEN_AMOUNT = 1.5
 # quiet zone (29 modules) at 0.7 px a module. None under 1 px a module decoded in the default
 # trial (bench/bench_qr.py); a failed try costs well under a millisecond.
 MIN_BOX_PX = 20.0
-_QR = zxingcpp.BarcodeFormat.QRCode
+_QR = zxingcpp.BarcodeFormats(zxingcpp.BarcodeFormat.QRCode)
 
 
 def _to_gray(rgb: np.ndarray) -> np.ndarray:

@@ -67,7 +67,8 @@ def thermal_box_to_colour(
         min(max(u(x2), 0.0), W),
         min(max(v(y2), 0.0), H),
     )
-    return tuple(round(c, 9) for c in out)  # drop float dust from the affine map
+    a, b, c, d = (round(c, 9) for c in out)  # drop float dust from the affine map
+    return a, b, c, d
 
 
 @register("thermal")

@@ -149,7 +149,7 @@ class FiducialMapper:
             if stats[k, cv2.CC_STAT_AREA] < cfg.min_cells:
                 continue
             g = np.argwhere(lab == k)  # (m, 2) grid indices
-            keys = [tuple(int(t) for t in gg + lo_corner) for gg in g]
+            keys = [(int(i), int(j)) for i, j in g + lo_corner]  # (m,) grid cells
             if sum(key in self._top for key in keys) < cfg.min_top_fraction * len(keys):
                 continue  # nothing of it reaches the top of the band: lower than a pipe
             xy = (g + lo_corner + 0.5) * cfg.cell_m  # (m, 2) cell centres, map frame

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import overload
 
 import cv2
 import numpy as np
@@ -221,8 +222,13 @@ class DepthPlane:
     # window-correlated noise (box_depth_plane with mean_variance); only depth_variance_at reads it
     cov: np.ndarray | None = None
 
-    def depth_at(self, u: float, v: float) -> float:
-        """The plane's depth (m) at pixel (u, v): d0 + g_u (u - u0) + g_v (v - v0).
+    @overload
+    def depth_at(self, u: float, v: float) -> float: ...
+    @overload
+    def depth_at(self, u: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+    def depth_at(self, u, v):
+        """The plane's depth (m) at pixel (u, v): d0 + g_u (u - u0) + g_v (v - v0); elementwise
+        for arrays of pixels.
 
         >>> DepthPlane(d0=2.0, u0=10.0, v0=5.0, g_u=0.01, g_v=0.0, var_g_u=0.0, var_g_v=0.0).depth_at(12.0, 9.0)
         2.02
@@ -483,10 +489,9 @@ def flat_item(
         return on_plane(side, end) if wall else on_plane(end, side)
 
     (sa, sb), (e0, e1) = ((x1, x2), (y1, y2)) if wall else ((y1, y2), (x1, x2))
-    C = [at(sa, e0), at(sa, e1), at(sb, e0), at(sb, e1)]
-    if any(c is None for c in C):
+    a0, a1, b0, b1 = at(sa, e0), at(sa, e1), at(sb, e0), at(sb, e1)
+    if a0 is None or a1 is None or b0 is None or b1 is None:
         return None
-    a0, a1, b0, b1 = C
     la, lb = float(np.linalg.norm(a1 - a0)), float(np.linalg.norm(b1 - b0))
     if la <= 0.0 or lb <= 0.0:
         return None
@@ -874,7 +879,7 @@ def measure_flat_item(
         )
         item = flat_item(intr, u, v, d, grad, whole, diamond, turned)
     centre = item.center if item is not None and fitted else None
-    turn = item.turn_sigma_px if centre is not None else (0.0, 0.0)
+    turn = item.turn_sigma_px if item is not None and centre is not None else (0.0, 0.0)
     return FlatMeasure(
         centre=centre, hidden_w=hid_w, hidden_h=hid_h, shift_u=shift_u, shift_v=shift_v, turn_sigma_px=turn
     )
@@ -1088,11 +1093,9 @@ def localize(
     plane = None
     # a flat item read on its plane takes the plane's own depth variance (flat_depth_variance)
     mean_variance = lc.flat_depth == "plane" and lc.flat_depth_variance == "plane" and t in lc.aspect
+    sigma_px = depth_sigma_m(d_med, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
     if lc.depth_gradient == "plane":
         J1 = np.eye(3)
-        sigma_px = depth_sigma_m(
-            d_med, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m
-        )
         plane = box_depth_plane(
             depth,
             detection.box_xyxy,
@@ -1109,8 +1112,8 @@ def localize(
         J1 = depth_jacobian(depth, u, v, lc.depth_scale)
     # a flat item's depth at its box centre: its plane's there (the median of a sloping
     # surface is the depth where its valid pixels centre, off the box centre where holes lie)
-    on_plane = lc.flat_depth == "plane" and t in lc.aspect and plane is not None
-    d = (plane.depth_at(u, v) if on_plane else d_med) * lc.depth_scale
+    flat_plane = plane if lc.flat_depth == "plane" and t in lc.aspect else None  # None: read off the plane
+    d = (d_med if flat_plane is None else flat_plane.depth_at(u, v)) * lc.depth_scale
     if not lc.min_depth_m <= d <= lc.max_depth_m:
         return None
     to_center = lc.surface_to_center_m.get(t, 0.0)
@@ -1174,8 +1177,8 @@ def localize(
         if any(shifted):
             # the whole item's box centre, and its depth on the plane there
             u, v = u + flat.shift_u, v + flat.shift_v
-            if on_plane:
-                d = plane.depth_at(u, v) * lc.depth_scale
+            if flat_plane is not None:
+                d = flat_plane.depth_at(u, v) * lc.depth_scale
             p_c = point(u, v, d)
         if flat.centre is not None and lc.flat_center:
             p_c = flat.centre
@@ -1214,14 +1217,14 @@ def localize(
         sigma_v = math.hypot(sigma_v, 0.5 * hid_h)
     else:
         hidden_var = ((0.5 * hid_w) ** 2, (0.5 * hid_h) ** 2)
-    if on_plane and mean_variance:
+    if flat_plane is not None and mean_variance:
         # the plane's depth at the box centre averages the noise of the block's windows
         # plus the Z16 unit's rounding, which a block facing the camera shares (1 mm^2 / 12)
-        var_depth = lc.depth_scale**2 * (plane.depth_variance_at(u, v) + DEPTH_UNIT_M**2 / 12.0)
+        var_depth = lc.depth_scale**2 * (flat_plane.depth_variance_at(u, v) + DEPTH_UNIT_M**2 / 12.0)
     else:
         sigma_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
         var_depth = sigma_d**2
-        if not on_plane and lc.median_depth_variance == "window":
+        if flat_plane is None and lc.median_depth_variance == "window":
             # the median of the inner block averages its windows' noise, but keeps the Z16
             # unit's rounding (1 mm^2 / 12)
             sigma_raw = sigma_d / lc.depth_scale  # in the depth image's units, as its pixels

@@ -660,19 +660,19 @@ class UkfSlam:
         z = rot2(self.x[2]).T @ (cd.xy - self.x[:2])  # so that g(x, z) = cd.xy
         Jx, Jz = self.augmentation_jacobians(z)
         n = self.n
-        biased = self.params.shared_errors and sighting.R_shared is not None
-        size = 4 if biased else 2
+        R_shared = sighting.R_shared if self.params.shared_errors else None  # None: unbiased
+        size = 2 if R_shared is None else 4
         PJ = self.P @ Jx.T  # (n, 2): the landmark's cross-covariance with the state
         P = np.zeros((n + size, n + size))
         P[:n, :n] = self.P
         P[:n, n : n + 2] = PJ
         P[n : n + 2, :n] = PJ.T
         # the noise of the candidate's mean of n sightings (module docstring)
-        R_mean = sighting.R_shared + fresh_covariance(sighting) / cd.n_seen if biased else sighting.R
+        R_mean = sighting.R if R_shared is None else R_shared + fresh_covariance(sighting) / cd.n_seen
         P[n : n + 2, n : n + 2] = _symmetric(Jx @ PJ + Jz @ R_mean @ Jz.T)
         x = np.concatenate([self.x, cd.xy])
-        if biased:
-            S = _symmetric(Jz @ sighting.R_shared @ Jz.T)
+        if R_shared is not None:
+            S = _symmetric(Jz @ R_shared @ Jz.T)
             P[n : n + 2, n + 2 :] = P[n + 2 :, n : n + 2] = -S
             P[n + 2 :, n + 2 :] = S
             x = np.concatenate([x, np.zeros(2)])
@@ -687,7 +687,7 @@ class UkfSlam:
                 slot=slot, class_name=cd.class_name, n_seen=cd.n_seen, last_seen_s=t_s, view_from=self.x[:2].copy()
             )
         )
-        if biased:
+        if R_shared is not None:
             self.biased.append(slot)
         self._points = sigma_points(self.n, self.params)
         return slot

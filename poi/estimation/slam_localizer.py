@@ -185,10 +185,11 @@ class SlamLocalizer:
         current = self._report_difference(reported, t_s)
         before_jump = current if current is None or self._velocity is None else self._velocity
         odom = self.frame_time_odometry(reported, before_jump if jumped else current)
-        if self.slam is None:
+        last = self._last_filter_odometry  # set with the filter, after its first frame
+        if self.slam is None or last is None:
             self.slam = UkfSlam(self.cfg, pose0=tuple(odom))
         else:
-            delta = odometry_increment(self._last_filter_odometry, odom)
+            delta = odometry_increment(last, odom)
             dt = t_s - self._last_t_s
             if not jumped and dt > 0.0 and float(np.hypot(delta[0], delta[1])) > self.cfg.max_speed_m_s * dt:
                 # faster than the robot can move: the odometry jumped unannounced (a false

@@ -11,7 +11,9 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
 3. Paired tracks get the Kalman update with H = I ([Avevor2022]_ 2.4.4; covariance in Joseph's
    form, :func:`kalman_update`; with the errors that repeat over frames kept apart, see
    below), support + 1 and
-   their class distribution fused. An unpaired observation inside the gate of a
+   their class distribution fused; each such update's innovation, its covariance S and its
+   d^2 (NIS) are in the step's result (:class:`Innovation`), to check the filter on a log
+   that has no ground truth. An unpaired observation inside the gate of a
    track already taken this frame (or started by an earlier observation of this
    frame) is a duplicate detection of that object (two detectors, or two boxes on one
    object) and is dropped; the other unpaired observations start tentative tracks.
@@ -114,7 +116,8 @@ def kalman_update(
     :func:`shared_error_update` needs one) is applied by hand.
     """
     if K is None:
-        mu_new, Sigma_new = filterpy_update(mu, Sigma, o, R, H=IDENTITY3)
+        updated = filterpy_update(mu, Sigma, o, R, H=IDENTITY3)  # (x, P): without return_all
+        mu_new, Sigma_new = updated[0], updated[1]
     else:
         A = IDENTITY3 - K
         mu_new, Sigma_new = mu + K @ (o - mu), A @ Sigma @ A.T + K @ R @ K.T
@@ -130,6 +133,24 @@ def symmetric_sqrt(S: np.ndarray) -> np.ndarray:
     """
     w, V = np.linalg.eigh(0.5 * (S + S.T))
     return (V * np.sqrt(np.clip(w, 0.0, None))) @ V.T
+
+
+def innovation_covariance(
+    Sigma_w: np.ndarray, L: np.ndarray, R_w: np.ndarray, L_o: np.ndarray, change: float = 0.0
+) -> np.ndarray:
+    """S, the covariance of the innovation o - mu that :func:`shared_error_update` weighs.
+
+    S = Sigma_w + R_w + D D^T + c L_o L_o^T with D = L_o - L: the fresh errors of track and
+    observation, the part of the shared error they do not have in common, and the share ``c``
+    (``tracker.shared_change``) of it that may have moved. With no shared part (L = L_o = 0)
+    it is the plain Kalman filter's Sigma + R ([BarShalom2001]_ 5.2).
+
+    >>> Z = np.zeros((3, 3))
+    >>> np.diag(innovation_covariance(np.eye(3), Z, 2 * np.eye(3), Z)).tolist()
+    [3.0, 3.0, 3.0]
+    """
+    D = L_o - L
+    return Sigma_w + R_w + D @ D.T + change * (L_o @ L_o.T)
 
 
 def shared_error_update(
@@ -160,8 +181,7 @@ def shared_error_update(
     >>> mu.tolist(), np.diag(Sw).tolist(), np.diag(L @ L.T).tolist()
     ([0.5, 0.5, 0.5], [0.5, 0.5, 0.5], [1.0, 1.0, 1.0])
     """
-    D = L_o - L
-    S = Sigma_w + R_w + D @ D.T + change * (L_o @ L_o.T)
+    S = innovation_covariance(Sigma_w, L, R_w, L_o, change)
     K = np.linalg.solve(S, Sigma_w).T  # Sigma_w S^-1, both symmetric
     mu_new, Sigma_w_new = kalman_update(mu, Sigma_w, o, R_w, K)
     return mu_new, Sigma_w_new, (IDENTITY3 - K) @ L + K @ L_o
@@ -308,10 +328,30 @@ class Track:
         )
 
 
+@dataclass(frozen=True, kw_only=True)
+class Innovation:
+    """What one paired (observation, track) update saw, before it: the filter's check that needs
+    no ground truth (filterpy's ``y``, ``S`` and ``mahalanobis``).
+
+    ``nu = o - mu`` (map frame, m), ``S`` its covariance (:func:`innovation_covariance`, m^2) and
+    ``d2 = nu^T S^-1 nu``, the normalised innovation squared (NIS). When R and Sigma hold the
+    errors, d2 is chi-square with 3 degrees of freedom: its mean over many updates is 3
+    ([BarShalom2001]_ 5.4). The gate's m^2 (:meth:`Tracker.distances`) differs: it adds the
+    gate allowance, and counts a shared error in both Sigma and R.
+    """
+
+    obs_index: int
+    track_id: int
+    nu: np.ndarray  # (3,)
+    S: np.ndarray  # (3, 3)
+    d2: float
+
+
 @dataclass(kw_only=True)
 class StepResult:
     newly_confirmed: list[TrackSnapshot]
     pairs: list[tuple[int, int]]  # (observation index, track id)
+    innovations: list[Innovation] = field(default_factory=list)  # one a pair, in the order of pairs
     new_tracks: list[tuple[int, int]] = field(default_factory=list)  # (observation index, track id)
     duplicates: list[tuple[int, int]] = field(default_factory=list)  # (obs index, track id)
     dropped: list[int] = field(default_factory=list)  # track ids deleted this step
@@ -393,8 +433,15 @@ class Tracker:
         self.tracks[tr.track_id] = tr
         return tr
 
-    def _update(self, tr: Track, obs: Observation, t: float) -> None:
+    def _update(self, tr: Track, obs: Observation, t: float, obs_index: int) -> Innovation:
+        """Fuse ``obs`` (observation ``obs_index`` of the frame) into ``tr``; the innovation it had."""
         o, R_w, L_o = self._split(obs)
+        # nu = o - mu, S = Sigma_w + R_w + D D^T + c L_o L_o^T, d^2 = nu^T S^-1 nu (before the update)
+        nu = o - tr.mu
+        S = innovation_covariance(tr.Sigma_w, tr.L_shared, R_w, L_o, self.cfg.shared_change)
+        innovation = Innovation(
+            obs_index=obs_index, track_id=tr.track_id, nu=nu, S=S, d2=float(nu @ np.linalg.solve(S, nu))
+        )
         tr.mu, tr.Sigma_w, tr.L_shared = shared_error_update(
             tr.mu, tr.Sigma_w, tr.L_shared, o, R_w, L_o, self.cfg.shared_change
         )
@@ -408,6 +455,7 @@ class Tracker:
         tr.support += 1.0
         tr.n_detections += 1
         tr.last_seen_s = t
+        return innovation
 
     def _ready(self, tr: Track) -> bool:
         if tr.n_detections < self.cfg.n_min or tr.max_fresh_std_m > self.cfg.settle_sigma_m:
@@ -440,8 +488,7 @@ class Tracker:
         pairs = [(i, tracks[j].track_id) for i, j in idx_pairs]
         paired_obs = {i for i, _ in pairs}
         paired_tracks = {tid for _, tid in pairs}
-        for i, tid in pairs:
-            self._update(self.tracks[tid], observations[i], timestamp_s)
+        innovations = [self._update(self.tracks[tid], observations[i], timestamp_s, i) for i, tid in pairs]
 
         dropped: list[int] = []
         for tid in sorted(set(in_view_not_detected) - paired_tracks):
@@ -479,6 +526,7 @@ class Tracker:
         return StepResult(
             newly_confirmed=newly,
             pairs=pairs,
+            innovations=innovations,
             new_tracks=new_tracks,
             duplicates=duplicates,
             dropped=dropped,
@@ -488,5 +536,5 @@ class Tracker:
         """All tracks (or the confirmed ones, by report id) as snapshots."""
         trs = [t for t in self.tracks.values() if t.confirmed or not confirmed_only]
         if confirmed_only:
-            trs.sort(key=lambda t: t.report_id)
+            trs.sort(key=lambda t: -1 if t.report_id is None else t.report_id)  # a confirmed one has one
         return [t.snapshot() for t in trs]

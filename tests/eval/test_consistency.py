@@ -405,6 +405,7 @@ def test_track_sigma_stays_honest_when_the_shared_error_changes_part_way(rho):
         assert lo <= mean
 
 
+@pytest.mark.slow
 def test_the_pipelines_r_and_track_sigma_hold_their_errors_in_a_simulated_run():
     """End to end: the built-in maze rendered with every sensor error on, 150 frames through
     the pipeline behind the oracle. Each object type's per-frame R (camera frame) and the

@@ -129,6 +129,7 @@ def test_compiles_and_steps_without_warnings(all_types, capfd, recwarn):
     assert len(recwarn) == 0
 
 
+@pytest.mark.slow
 def test_each_object_is_seen_by_its_camera(all_types):
     objects, model, data, _ = all_types
     for o in objects:
@@ -182,6 +183,7 @@ def _qr_first_corner_is_top_left(img: np.ndarray, text: str) -> bool:
     return int(np.argmin(pts.sum(axis=1))) == 0
 
 
+@pytest.mark.slow
 def test_rendered_qr_decodes_and_is_not_mirrored():
     assert _qr_first_corner_is_top_left(draw_qr("Chart QZ", 256), "Chart QZ")
     o = _object(0, "qr", text="Chart QZ")
@@ -204,6 +206,7 @@ def _hue_close(px: np.ndarray, rgb, tol_deg: float = 12.0) -> bool:
     ("label", "top", "bottom"),
     [("organic-peroxide", RED, YELLOW), ("explosive", ORANGE, ORANGE)],
 )
+@pytest.mark.slow
 def test_rendered_placard_is_upright(label, top, bottom):
     o = _object(0, "hazmat", text=label)
     model, data, _ = _scene([o], cam_dist_m=1.0)
@@ -223,6 +226,7 @@ def test_rendered_placard_is_upright(label, top, bottom):
 
 
 @pytest.mark.parametrize("roll", [np.pi, np.pi / 2])
+@pytest.mark.slow
 def test_rolled_placard_turns_about_its_face_normal(roll):
     # organic-peroxide: red top half, yellow bottom half. Turned by pi the red half is at
     # the bottom; turned by pi/2 counter-clockwise (as the viewer sees it) it is on the left.
@@ -242,6 +246,7 @@ def test_rolled_placard_turns_about_its_face_normal(roll):
     assert _hue_close(near_yellow, YELLOW), near_yellow
 
 
+@pytest.mark.slow
 def test_cut_placard_is_a_diamond_and_a_sheet_is_a_square():
     from maze_assets.hazmat import placard_style
 
@@ -264,6 +269,7 @@ def test_cut_placard_is_a_diamond_and_a_sheet_is_a_square():
     assert fill["sheet"] > 0.95, fill
 
 
+@pytest.mark.slow
 def test_rendered_exit_sign_arrow_points_right():
     o = _object(0, "exit-sign")
     model, data, _ = _scene([o], cam_dist_m=1.0)
@@ -307,6 +313,7 @@ def test_bad_size_is_rejected():
 
 
 @pytest.mark.parametrize("light", [0.5, 0.15])  # bright and dim headlight
+@pytest.mark.slow
 def test_arena_pillars_and_ball_render_in_distinct_matte_hues(light):
     types = [*PILLAR_RGBA, "ball"]
     objects = [_object(i, t) for i, t in enumerate(types)]

@@ -77,6 +77,22 @@ def test_static_object_seen_five_times_is_confirmed_once_at_the_right_place():
     assert res.detections[0].track_id == snap.track_id
 
 
+def test_the_frame_result_carries_the_tracker_innovations():
+    """Each paired update's innovation, S and NIS come out with the frame (no ground truth needed)."""
+    pipe = Pipeline(
+        synthetic_config("qr.enabled=false"), [FakeDetector({i: [("door", DOOR_BOX)] for i in range(3)})]
+    )
+    results = [pipe.process(make_frame(i)) for i in range(3)]
+    assert [len(r.innovations) for r in results] == [0, 1, 1]  # frame 0 starts the track
+    (track,) = pipe.tracks()
+    for r in results[1:]:
+        (inn,) = r.innovations
+        assert inn.obs_index == 0 and inn.track_id == track.track_id
+        assert inn.nu.shape == (3,) and inn.S.shape == (3, 3)
+        # the same box from the same pose: the observation lands where the track is
+        assert np.allclose(inn.nu, 0.0, atol=1e-9) and inn.d2 == pytest.approx(0.0, abs=1e-9)
+
+
 @pytest.mark.parametrize(("latency_s", "observed"), [(0.01, 0), (0.0, 1)])
 def test_the_first_frame_is_observed_only_when_its_pose_is_at_its_time(latency_s, observed):
     """With an odometry latency the first frame's pose is a report from before it, and no

@@ -233,6 +233,7 @@ def test_shipped_turtlebot_goal_scenario():
     assert parse_scenario(sc.to_yaml(), "again") == sc
 
 
+@pytest.mark.slow
 def test_arena_simulation_truth_mount_odometry_and_oracle(capfd):
     from poi.core.geometry import transform_points
     from poi.core.names import ARENA_TYPES, CLASSES

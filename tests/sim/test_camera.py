@@ -2,10 +2,13 @@
 
 import mujoco  # noqa: E402
 import numpy as np
+import pytest
 
 import sim.gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 from poi.core.geometry import make_transform, transform_points  # noqa: E402
 from sim.camera import T_RIG_OPTICAL, d435_intrinsics, mujoco_camera_attrs  # noqa: E402
+
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
 
 
 def _render_segmentation(intr, point_world, rig_pos):

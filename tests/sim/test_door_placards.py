@@ -13,6 +13,8 @@ from sim.placement import PlacementError, hang_placards_on_doors
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
+
 
 def _scenario(n: int):
     sc = with_noise(load_scenario("default"), False)

@@ -23,6 +23,7 @@ def pair():
         yield wall, floor
 
 
+@pytest.mark.slow
 def test_placards_move_from_the_wall_to_the_floor_in_front_of_it(pair):
     wall, floor = pair
     moved = 0
@@ -43,6 +44,7 @@ def test_placards_move_from_the_wall_to_the_floor_in_front_of_it(pair):
     assert moved >= 3  # of 5: one may stay on its wall for want of room
 
 
+@pytest.mark.slow
 def test_a_floor_placard_faces_up_and_the_camera_above_sees_it(pair):
     _, floor = pair
     m, d = floor.world.model, floor.world.data

@@ -26,6 +26,8 @@ from sim.placement import PlacementError, hang_placard_boards, lay_placards_on_r
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
+
 
 def _scenario(crates: int = 0, boards: int = 0, landolt: int = 0, ramps: int = 0):
     sc = with_noise(load_scenario("default"), False)

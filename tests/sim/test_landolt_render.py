@@ -11,6 +11,8 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import pytest
+
 from sim.scenario import load_scenario
 
 _spec = importlib.util.spec_from_file_location(
@@ -18,6 +20,8 @@ _spec = importlib.util.spec_from_file_location(
 )
 bench = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(bench)
+
+pytestmark = pytest.mark.slow  # it renders
 
 
 def test_rendered_targets_read_near_and_are_none_far():

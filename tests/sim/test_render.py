@@ -13,6 +13,8 @@ from sim.scenario import apply_settings, load_scenario
 from sim.simulator import Simulation
 from sim.world import CAMERA_NAME
 
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
+
 
 @pytest.fixture(scope="module")
 def default_sim():

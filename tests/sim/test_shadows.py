@@ -10,6 +10,8 @@ from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 from sim.world import SHADOW_MAP_PX
 
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
+
 FRAMES = (40, 120, 200, 330)  # frames of the earlier sweeping tour with walls and floor in view
 
 

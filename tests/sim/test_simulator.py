@@ -14,6 +14,8 @@ from poi.estimation.localize import BOX_CORNER_TO_CENTER_PX, project_point_to_pi
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
+
 FLAT_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign")
 STRIDE = 4  # every 4th frame of the 10 fps route: 2.5 frames a second is plenty to see each object
 

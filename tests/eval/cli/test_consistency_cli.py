@@ -7,6 +7,7 @@ import pytest
 from eval.cli.main import main
 
 
+@pytest.mark.slow
 def test_consistency_writes_the_table_json_and_plot(tmp_path, capsys):
     out = tmp_path / "c"
     assert main(["consistency", "--frames", "10", "--runs", "1", "--out", str(out)]) == 0
@@ -26,6 +27,7 @@ def test_consistency_writes_the_table_json_and_plot(tmp_path, capsys):
     assert (out / "consistency.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_frames_all_runs_each_scenario_to_its_end(tmp_path):
     out = tmp_path / "c"
     # the default maze cut to 1.2 s: 13 frames at 10 frames a second
@@ -56,6 +58,7 @@ def test_consistency_refuses_bad_arguments_in_one_line(tmp_path, capsys):
     assert "SCENARIO or --suite" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
     from poi.config import apply_overrides, load_config
 

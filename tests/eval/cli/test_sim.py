@@ -11,6 +11,8 @@ from poi.core.poi_file import read_poi_file
 from sim.scenario import apply_settings, load_scenario, parse_scenario
 from sim.simulator import Simulation
 
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
+
 
 def test_scenario_new_prints_a_loadable_scenario(tmp_path, capsys):
     assert main(["scenario", "new", "--seed", "5"]) == 0

@@ -40,6 +40,7 @@ def tiny(tmp_path_factory):
     return spec, out, summary
 
 
+@pytest.mark.slow
 def test_files_and_data_yaml(tiny):
     spec, out, summary = tiny
     data = yaml.safe_load((out / "data.yaml").read_text())
@@ -58,6 +59,7 @@ def test_files_and_data_yaml(tiny):
     assert (out / "classes.png").stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_split_is_by_scenario_and_targets_are_labelled(tiny):
     import pandas as pd
 
@@ -71,6 +73,7 @@ def test_split_is_by_scenario_and_targets_are_labelled(tiny):
     assert ((m.distance_m >= 0.3) & (m.distance_m <= 5.2)).all()
 
 
+@pytest.mark.slow
 def test_same_seed_same_bytes_and_resume_skips_finished_scenarios(tiny, tmp_path):
     spec, out, _ = tiny
     again = tmp_path / "again"
@@ -85,6 +88,7 @@ def test_same_seed_same_bytes_and_resume_skips_finished_scenarios(tiny, tmp_path
     assert (again / "images" / "train" / "s0000_000.jpg").stat().st_mtime_ns == before  # not redone
 
 
+@pytest.mark.slow
 def test_a_folder_with_other_settings_or_other_files_is_refused(tiny, tmp_path):
     spec, out, _ = tiny
     with pytest.raises(DatasetError, match="other settings"):
@@ -148,6 +152,7 @@ def test_dataset_cli_errors_are_one_line(tmp_path, capsys):
     assert len(err) == 1 and "--images must be at least 1" in err[0]
 
 
+@pytest.mark.slow
 def test_train_checks_its_inputs_before_needing_ultralytics(tiny, tmp_path):
     _, out, _ = tiny
     assert data_yaml(out) == out / "data.yaml"
@@ -185,6 +190,7 @@ def test_existing_24_class_datasets_still_pass_the_train_check(tmp_path):
         data_yaml(grown)
 
 
+@pytest.mark.slow
 def test_trial_camera_dataset_is_still_and_unblurred(tmp_path):
     out = tmp_path / "trial"
     assert (
@@ -202,6 +208,7 @@ def test_trial_camera_dataset_is_still_and_unblurred(tmp_path):
         DatasetSpec(images=1, hazmat_on_floor=2)
 
 
+@pytest.mark.slow
 def test_log_distance_and_free_roll_views():
     """--distance log puts more views close (log-uniform over 0.3-5 m: P(d < 1 m) = ln(1/0.3)/ln(5/0.3)
     = 0.43 where room allows, against 0.15 uniform); --free-roll 1 rolls anywhere, 0 keeps +-5 deg."""
@@ -232,6 +239,7 @@ def test_log_distance_and_free_roll_views():
         DatasetSpec(images=1, free_roll=-0.5)
 
 
+@pytest.mark.slow
 def test_crates_and_boards_reach_the_scenarios_and_views_stay_out_of_crates():
     # views as near as 5 cm: without the crates counted as obstacles, some would stand inside one
     spec = DatasetSpec(

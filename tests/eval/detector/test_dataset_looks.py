@@ -53,6 +53,7 @@ def _world(looks):
     return build_world_xml(maze, objects, intr, sc.lighting, np.random.default_rng(sc.seed), looks=looks)
 
 
+@pytest.mark.slow
 def test_looks_change_the_floor_and_placards_only_and_trials_have_none():
     xml0, files0 = _world(None)
     assert 'offsamples="0"' in xml0
@@ -114,6 +115,7 @@ def scene():
     sim.close()
 
 
+@pytest.mark.slow
 def test_closeups_fill_about_a_third_of_the_image(scene):
     spec, sim = scene
     H = sim.intrinsics.height
@@ -133,6 +135,7 @@ def test_closeups_fill_about_a_third_of_the_image(scene):
     assert 0.25 < np.median(fills) < 0.45 and min(fills) > 0.15 and max(fills) < 0.6, fills
 
 
+@pytest.mark.slow
 def test_msaa_smooths_placard_edges_and_keeps_the_truth():
     """MSAA (offsamples 4) against none, on the same views: the truth boxes are the same, and the
     placard crops' Laplacian variance falls (aliased steps along the cut diamond's edges go)."""
@@ -167,6 +170,7 @@ def test_msaa_smooths_placard_edges_and_keeps_the_truth():
             assert max(abs(p - q) for p, q in zip(a[0][i], b[0][i], strict=True)) <= 2
 
 
+@pytest.mark.slow
 def test_landolt_targets_appear_unlabelled_standalone_and_on_boards(tmp_path, monkeypatch):
     """Landolt-C targets have no detector class: they stand in the scenes (one by itself on a wall,
     one on the placard board) and are neither labelled nor ignored, so detections of them count
@@ -189,6 +193,7 @@ def test_landolt_targets_appear_unlabelled_standalone_and_on_boards(tmp_path, mo
     assert aimed and all("landolt" not in r["labels"] for r in rows)
 
 
+@pytest.mark.slow
 def test_milk_crates_stand_near_placards_unlabelled():
     spec = DatasetSpec(images=1, seed=3)
     sc = scenario_for(spec, 1)  # an RRL maze: 1.2 m cells (RMRC lanes get no crates)

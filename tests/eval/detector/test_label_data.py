@@ -48,6 +48,7 @@ def _expected(root: Path, split: str) -> tuple[int, int]:
     return n_hz, n_other
 
 
+@pytest.mark.slow
 def test_every_placard_and_object_becomes_a_sample(placards):
     crops = collect_crops([placards], "train", seed=0)
     n_hz, n_other = _expected(placards, "train")
@@ -60,6 +61,7 @@ def test_every_placard_and_object_becomes_a_sample(placards):
     assert len(crops.patches) == len(crops.boxes) == len(crops.labels)
 
 
+@pytest.mark.slow
 def test_an_exact_crop_equals_the_pipelines_crop_of_the_frame(placards):
     import cv2
 
@@ -78,6 +80,7 @@ def test_an_exact_crop_equals_the_pipelines_crop_of_the_frame(placards):
                 assert np.array_equal(sample_crop(crops.patches[i], crops.boxes[i], 64, None), want)
 
 
+@pytest.mark.slow
 def test_augmented_crops_are_seeded_and_differ_from_the_exact_one(placards):
     crops = collect_crops([placards], "val", seed=0)
     i = int(np.flatnonzero(crops.labels != BACKGROUND_INDEX)[0])
@@ -120,6 +123,7 @@ def test_balanced_draw_makes_every_class_equally_likely():
     assert share.sum() == pytest.approx(1.0)
 
 
+@pytest.mark.slow
 def test_dataset_hazmat_count_option(tmp_path, capsys):
     with pytest.raises(DatasetError, match="whole numbers >= 0"):
         DatasetSpec(images=4, counts={"hazmat": -1})

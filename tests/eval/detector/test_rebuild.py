@@ -58,6 +58,7 @@ def rendered(tmp_path_factory):
     return sorted((out / "images" / "train").glob("*.jpg"))
 
 
+@pytest.mark.slow
 def test_the_rebuilt_model_boxes_as_onnxruntime_does(rendered, tmp_path):
     torch = pytest.importorskip("torch")
     pytest.importorskip("ultralytics")

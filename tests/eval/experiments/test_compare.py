@@ -260,6 +260,7 @@ def test_compare_refuses_a_folder_that_is_not_a_run(tmp_path):
         compare_runs([a])
 
 
+@pytest.mark.slow
 def test_suite_run_then_compare_end_to_end(tmp_path, capsys):
     """Two real runs of the tiny suite (the default and the oracle detector), then compare."""
     a, b = tmp_path / "default", tmp_path / "oracle"

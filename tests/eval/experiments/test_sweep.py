@@ -90,6 +90,7 @@ def test_workers_below_one_are_refused(tmp_path, capsys):
     assert not (tmp_path / "s").exists()
 
 
+@pytest.mark.slow
 def test_a_failing_trial_is_a_row_and_the_sweep_goes_on(tmp_path, monkeypatch):
     import eval.trial.run
 
@@ -128,6 +129,7 @@ def test_an_existing_sweep_needs_resume_with_the_same_settings(tmp_path):
         run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=4"]), resume=True), tmp_path)
 
 
+@pytest.mark.slow
 def test_resume_after_a_kill_loses_nothing_and_matches_an_unbroken_run(tmp_path):
     args = ["--suite", TINY, "--set", "tracker.gate=4,9,16", "--quiet"]
     cmd = [sys.executable, "-m", "eval.cli.main", "sweep", *args, "--out", str(tmp_path / "k")]
@@ -157,6 +159,7 @@ def test_resume_after_a_kill_loses_nothing_and_matches_an_unbroken_run(tmp_path)
     assert (tmp_path / "u" / "score.png").exists() and (tmp_path / "u" / "aggregate.csv").exists()
 
 
+@pytest.mark.slow
 def test_a_torn_last_line_is_dropped_on_resume_and_its_trial_runs_again(tmp_path, capsys):
     spec = SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=9"]))
     whole, _ = run_sweep(spec, tmp_path)
@@ -177,6 +180,7 @@ def test_a_torn_last_line_is_dropped_on_resume_and_its_trial_runs_again(tmp_path
     pd.testing.assert_frame_equal(df[RESULT_COLS], whole[RESULT_COLS])
 
 
+@pytest.mark.slow
 def test_rows_and_aggregate_give_each_trials_cpu_seconds(tmp_path):
     df, agg = run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=9"])), tmp_path)
     assert (df["cpu_s"] > 0).all() and (df["cpu_s_per_sim_s"] > 0).all()
@@ -222,6 +226,7 @@ def test_drop_torn_tail_keeps_whole_lines_only(tmp_path):
     assert f.read_bytes() == b"a,b\r\n1,2\r\n"
 
 
+@pytest.mark.slow
 def test_two_workers_give_the_rows_of_one(tmp_path):
     one, _ = run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.n_min=2,3"])), tmp_path / "a")
     two, agg = run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.n_min=2,3"]), workers=2), tmp_path / "b")
@@ -233,6 +238,7 @@ def test_two_workers_give_the_rows_of_one(tmp_path):
     assert list(agg["set.tracker.n_min"].astype(str)) == ["2", "3"]
 
 
+@pytest.mark.slow
 def test_ray_backend_gives_the_same_table(tmp_path):
     pytest.importorskip("ray")
     grid = parse_grid(["tracker.gate=4,9"])
@@ -276,6 +282,7 @@ def test_aggregate_mean_and_bootstrap_interval():
     assert pd.isna(agg.loc["2", "fraction_ci95_low"])  # one trial: no interval
 
 
+@pytest.mark.slow
 def test_regress_passes_then_fails_against_a_raised_baseline(tmp_path, capsys):
     base = tmp_path / "baseline.json"
     assert main(["regress", "--suite", TINY, "--baseline", str(base), "--update", "--quiet"]) == 0
@@ -334,6 +341,7 @@ def test_tune_finds_settings_writes_the_study_and_repeats_itself(tmp_path, capsy
     pd.testing.assert_frame_equal(study.drop(columns=["duration"]), again.drop(columns=["duration"]))
 
 
+@pytest.mark.slow
 def test_tune_on_the_ray_backend_scores_like_the_local_one(tmp_path):
     pytest.importorskip("optuna")
     pytest.importorskip("ray")

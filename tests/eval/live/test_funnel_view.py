@@ -119,6 +119,7 @@ def _open(browser, server):
     return page, errors
 
 
+@pytest.mark.browser
 def test_picking_an_object_shows_its_funnel(tmp_path):
     pw, browser = _browser()
     new = LiveServer(0, replay=ReplaySource(_trial_dir(tmp_path / "trial")))

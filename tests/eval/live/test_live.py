@@ -46,6 +46,8 @@ def _start_live(out: Path, *extra: str) -> tuple[subprocess.Popen, str]:
     return proc, m.group(1)
 
 
+@pytest.mark.browser
+@pytest.mark.slow
 def test_live_page_shows_names_and_numbered_markers_that_update(tmp_path):
     pw, browser = _browser()
     try:
@@ -75,6 +77,8 @@ def test_live_page_shows_names_and_numbered_markers_that_update(tmp_path):
         pw.stop()
 
 
+@pytest.mark.browser
+@pytest.mark.slow
 def test_closing_the_browser_does_not_stop_the_trial(tmp_path):
     pw, browser = _browser()
     try:
@@ -90,6 +94,7 @@ def test_closing_the_browser_does_not_stop_the_trial(tmp_path):
         pw.stop()
 
 
+@pytest.mark.browser
 def test_page_with_no_trial_data_says_so(tmp_path):
     pw, browser = _browser()
     server = LiveServer(0)
@@ -114,6 +119,7 @@ def recorded_trial(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_a_trial_records_what_the_replay_needs(recorded_trial):
     frames = (recorded_trial / "live" / "frames.jsonl").read_text().splitlines()
     init = json.loads((recorded_trial / "live" / "init.json").read_text())
@@ -131,6 +137,8 @@ def test_a_trial_records_what_the_replay_needs(recorded_trial):
     src.close()
 
 
+@pytest.mark.browser
+@pytest.mark.slow
 def test_replay_page_has_a_time_slider(recorded_trial, tmp_path):
     pw, browser = _browser()
     proc = subprocess.Popen(

@@ -177,6 +177,7 @@ def _check(summary: dict, trial: Path) -> None:
     assert "camera_aligned_depth_to_color_frame" in parent and "thermal_optical_frame" in parent
 
 
+@pytest.mark.slow
 def test_mcap_log_decodes_with_mcap_ros2_support(mcap_trial):
     mcap_reader = pytest.importorskip("mcap.reader")
     decoder = pytest.importorskip("mcap_ros2.decoder")
@@ -260,6 +261,7 @@ def _system_rosbag() -> tuple[str, str]:
     return cmd, py
 
 
+@pytest.mark.slow
 def test_bag_reads_with_debians_rosbag(bag_trial):
     cmd, py = _system_rosbag()
     bag = bag_trial / "trial.bag"
@@ -284,6 +286,7 @@ def test_bag_reads_with_debians_rosbag(bag_trial):
     _check(summary, bag_trial)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["mcap", "bag"])
 def test_round_trip_replay_gives_the_same_poi_file(fmt, mcap_trial, bag_trial, tmp_path, capsys):
     trial = mcap_trial if fmt == "mcap" else bag_trial

@@ -2,6 +2,7 @@
 
 import json
 
+import pytest
 import yaml
 
 from eval.cli.main import main
@@ -31,6 +32,7 @@ def test_shipped_files_load_and_fit_together():
     assert seeds and EVAL_SEED not in seeds
 
 
+@pytest.mark.slow
 def test_default_run_uses_the_shipped_detector_label_model_and_calibration(tmp_path, capsys):
     out = tmp_path / "t"
     sweep = ["--set", "robot.pan.mode=sweep"]  # the earlier tour, whose first 30 s the figures below are of

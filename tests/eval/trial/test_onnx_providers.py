@@ -5,6 +5,8 @@ import pytest
 
 from eval.cli.main import main
 
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
+
 
 @pytest.mark.skipif("CUDAExecutionProvider" in ort.get_available_providers(), reason="this onnxruntime has CUDA")
 def test_missing_cuda_runs_on_the_cpu_with_one_line(tmp_path, capsys):

@@ -79,6 +79,7 @@ def test_the_key_changes_with_what_changes_perception_only():
     assert perception_key(sc, "oracle", low, None, None) is None
 
 
+@pytest.mark.slow
 def test_a_torn_corrupt_or_foreign_record_is_recomputed_never_trusted(tmp_path, monkeypatch):
     sc, cfg = apply_settings(_smoke(0), ["robot.max_duration_s=1"]), load_config()
     cache = PerceptionCache(tmp_path / "c")
@@ -139,6 +140,7 @@ def test_the_cache_stays_under_its_size_limit_dropping_the_least_recently_used(t
             PerceptionCache(tmp_path)
 
 
+@pytest.mark.slow
 def test_a_replayed_trial_writes_the_full_trials_files_byte_for_byte(tmp_path, monkeypatch):
     sc = _smoke(1)
     kw = dict(detector="default", rules=load_rules("ex3"), rules_name="ex3", video=False, progress=False)
@@ -167,6 +169,7 @@ def test_cache_flags_are_checked(tmp_path, capsys):
     assert "--cache and --no-cache" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_sweep_killed_while_it_caches_resumes_to_the_table_of_an_uncached_one(tmp_path):
     args = ["--suite", TINY, "--set", "tracker.gate=4,9,16", "--quiet", "--cache", str(tmp_path / "c")]
     cmd = [sys.executable, "-m", "eval.cli.main", "sweep", *args, "--out", str(tmp_path / "k")]

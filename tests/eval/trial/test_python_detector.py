@@ -31,6 +31,7 @@ def team_module(monkeypatch):
     return red_detector
 
 
+@pytest.mark.slow
 def test_a_python_detector_runs_a_scored_trial_and_its_config_reruns_it(tmp_path, team_module, capsys):
     weights = team_module.write_weights(tmp_path / "red.npz")
     out = tmp_path / "t"
@@ -80,6 +81,7 @@ def test_a_python_detector_runs_a_scored_trial_and_its_config_reruns_it(tmp_path
         ),
     ],
 )
+@pytest.mark.slow
 def test_a_detector_mistake_is_one_line_and_exit_2(detector, sets, expected, tmp_path, team_module, capsys):
     argv = ["run", "--detector", detector, *sets, "--max-frames", "3", "--no-video", "--quiet", *SCENE]
     assert main([*argv, "--out", str(tmp_path / "t")]) == 2

@@ -7,10 +7,13 @@ from __future__ import annotations
 import json
 import math
 
+import pytest
 import yaml
 
 from eval.cli.main import main
 from poi.core.poi_file import read_poi_file
+
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
 
 
 def test_rmrc_trial_reports_the_fiducials_it_passes(tmp_path, capsys) -> None:

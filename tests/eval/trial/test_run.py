@@ -19,6 +19,7 @@ from poi.core.poi_file import read_poi_file
 SMALL = ["--set", "maze.file=rrl_small", "--set", "objects.generate.counts={hazmat: 2, qr: 2, valve: 1}"]
 
 
+@pytest.mark.slow
 def test_run_writes_every_file_and_reruns_from_its_config(tmp_path, capsys):
     out = tmp_path / "t"
     rc = main(["run", "--out", str(out), "--detector", "oracle", "--max-frames", "80", "--quiet", *SMALL])
@@ -53,6 +54,7 @@ def test_run_writes_every_file_and_reruns_from_its_config(tmp_path, capsys):
     assert 0 < run1["cpu_children_s"] < run1["cpu_s"]
 
 
+@pytest.mark.slow
 def test_no_live_record_writes_no_live_folder_and_scores_the_same(tmp_path, capsys):
     base = ["run", "--detector", "oracle", "--max-frames", "80", "--quiet", "--no-video", *SMALL]
     with_live, without = tmp_path / "with", tmp_path / "without"
@@ -65,6 +67,7 @@ def test_no_live_record_writes_no_live_folder_and_scores_the_same(tmp_path, caps
         assert (without / name).read_bytes() == (with_live / name).read_bytes(), name
 
 
+@pytest.mark.slow
 def test_pose_error_is_reported_and_slam_keeps_a_clean_run_clean(tmp_path):
     """score.json's pose_error compares the pose each frame was mapped with to the truth: zero
     for a noise-free T265; the SLAM-corrected pose of a noise-free run stays within 2 cm."""
@@ -89,6 +92,7 @@ def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
     assert f"{bad}:3: robot.speed_mps" in err
 
 
+@pytest.mark.slow
 def test_detector_model_is_refused_with_one_line_naming_detector(tmp_path, capsys):
     # issue 60 edge 1: the trial ran the shipped detector while config.yaml recorded the team's model
     out = tmp_path / "t"
@@ -111,6 +115,7 @@ def _no_nan(name: str):
     raise ValueError(f"{name} is not JSON")
 
 
+@pytest.mark.slow
 def test_max_frames_below_one_is_refused_and_one_frame_writes_valid_json(tmp_path, capsys):
     # issue 60 edge 12: --max-frames 0 or 1 wrote NaN into cost.json, -1 was accepted
     for bad in ("0", "-1"):
@@ -129,6 +134,7 @@ def test_max_frames_below_one_is_refused_and_one_frame_writes_valid_json(tmp_pat
     assert "; 1 frame, 0 s simulated" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_counts_take_their_number_and_the_live_header_the_trials_frames(tmp_path, capsys):
     # issue 60 edge 13: "1 false reports"; the live header said "/ 1191" frames under --max-frames 400
     from eval.cli.run import counted
@@ -144,6 +150,7 @@ def test_counts_take_their_number_and_the_live_header_the_trials_frames(tmp_path
     assert "0 false reports, 5 misses; 3 frames, " in printed
 
 
+@pytest.mark.slow
 def test_oracle_trial_on_the_default_scenario_scores_every_point(tmp_path):
     """A perfect detector scores what a robot could see: the default tour shows every object
     (its QR codes whole and still), so the oracle, with its noise model, scores every point,
@@ -161,6 +168,7 @@ def test_oracle_trial_on_the_default_scenario_scores_every_point(tmp_path):
     assert sum(d <= 0.3 for d in dist) >= 0.95 * len(dist), dist
 
 
+@pytest.mark.slow
 def test_killed_run_leaves_a_valid_poi_file(tmp_path):
     out = tmp_path / "killed"
     env = dict(os.environ, PYTHONUNBUFFERED="1")
@@ -199,6 +207,7 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
     assert result.identified >= 3 and result.total > 0
 
 
+@pytest.mark.slow
 def test_turtlebot_goal_trial_writes_the_map_error(tmp_path, capsys):
     out = tmp_path / "tb"
     argv = ["run", "turtlebot-goal", "--out", str(out), "--detector", "oracle", "--max-frames", "60"]
@@ -227,6 +236,7 @@ def test_turtlebot_goal_trial_writes_the_map_error(tmp_path, capsys):
     assert yaml.safe_load((out / "config.yaml").read_text())["rules"] == "turtlebot"
 
 
+@pytest.mark.slow
 def test_a_rescue_model_in_the_arena_falls_back_to_the_oracle_with_a_note(tmp_path, monkeypatch, capsys):
     """The shipped model knows the rescue maze's classes only: in the goal arena the default
     detector is the oracle, said so; a model given by hand runs, with a note on what it lacks."""
@@ -255,6 +265,7 @@ def test_a_rescue_model_in_the_arena_falls_back_to_the_oracle_with_a_note(tmp_pa
     assert "cannot report this scenario's ball, pillar-blue, pillar-green, pillar-red" in err
 
 
+@pytest.mark.slow
 def test_ctrl_c_leaves_a_complete_poi_file_and_one_line(tmp_path):
     """Ctrl-C (SIGINT to the whole process group, the encoder included) once an object is
     confirmed: exit 130, one line on stderr, every row of pois.csv whole."""
@@ -328,6 +339,7 @@ def _full_disk(monkeypatch, name: str) -> None:
 
 
 @pytest.mark.parametrize("failing", ["score.json", "map.png", "trial.mp4", "live/insets.mp4"])
+@pytest.mark.slow
 def test_a_full_disk_names_the_file_and_every_other_output_is_written(failing, tmp_path, monkeypatch, capsys):
     out = tmp_path / "t"
     _full_disk(monkeypatch, failing)

@@ -22,6 +22,7 @@ def test_a_mistyped_scenario_key_lists_both_kinds_of_key():
     assert "pipeline section (" in msg and "tracker" in msg and "detector" in msg
 
 
+@pytest.mark.slow
 def test_run_refuses_it_as_one_line_before_simulating(tmp_path, capsys):
     out = tmp_path / "t"
     assert main(["run", "--out", str(out), "--set", "sensor.fps=15", "--quiet"]) == 2
@@ -30,6 +31,7 @@ def test_run_refuses_it_as_one_line_before_simulating(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_an_unknown_scenario_name_lists_the_shipped_ones_and_the_suite_it_looks_like(tmp_path, capsys):
     # issue 60 edge 6: "rrl-1: cannot read: No such file or directory", no names
     out = tmp_path / "t"
@@ -44,6 +46,7 @@ def test_an_unknown_scenario_name_lists_the_shipped_ones_and_the_suite_it_looks_
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_an_unknown_scenario_key_lists_the_keys_valid_at_its_level(tmp_path, capsys):
     # issue 60 edge 6: "--set sensors.fsp: unknown setting", no keys (the pipeline's --set lists them)
     out = tmp_path / "t"

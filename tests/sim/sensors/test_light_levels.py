@@ -19,6 +19,7 @@ def test_lux_of_a_decoded_one_undoes_the_renders_own_shading():
 
 
 @pytest.mark.parametrize("lighting", ["dim", "uneven"])
+@pytest.mark.slow
 def test_placard_whites_seen_face_on_are_light(lighting):
     """Each placard seen face on from 1 m: its whites (p90 grey) read at least 160 (real
     photos: about 220; a D435 at its longest exposure and highest gain in a room lit by the

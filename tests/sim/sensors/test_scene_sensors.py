@@ -7,6 +7,8 @@ import pytest
 from sim.scenario import apply_settings, load_scenario
 from sim.simulator import Simulation
 
+pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
+
 
 @pytest.fixture(scope="module")
 def sims():
