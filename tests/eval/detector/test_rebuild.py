@@ -59,6 +59,7 @@ def rendered(tmp_path_factory):
 
 
 @pytest.mark.slow
+@pytest.mark.slow
 def test_the_rebuilt_model_boxes_as_onnxruntime_does(rendered, tmp_path):
     torch = pytest.importorskip("torch")
     pytest.importorskip("ultralytics")

@@ -9,6 +9,8 @@ from eval.detector.dataset import DatasetError
 from eval.detector.route_frames import RouteFramesSpec, write_route_frames
 from poi.core.names import RESCUE_CLASSES
 
+pytestmark = pytest.mark.slow  # each test tours a simulated maze
+
 
 @pytest.fixture(scope="module")
 def tour(tmp_path_factory):
