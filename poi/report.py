@@ -118,10 +118,14 @@ class PoiWriter:
             raise ReportError(f"{self.path}: already finalized")
         self._write(format_row_text(self._row(track, time_hms), self.header.version) + "\n")
 
+    def text(self, tracks: Iterable[TrackSnapshot]) -> str:
+        """The file :meth:`finalize` would write for these objects (by report id)."""
+        ordered = sorted((t for t in tracks), key=lambda t: t.report_id if t.report_id is not None else -1)
+        return format_poi_text(self.header.poi_header(), [self._row(t, None) for t in ordered])
+
     def finalize(self, tracks: Iterable[TrackSnapshot]) -> None:
         """Rewrite the whole file with these objects (by report id), atomically."""
-        ordered = sorted((t for t in tracks), key=lambda t: t.report_id if t.report_id is not None else -1)
-        text = format_poi_text(self.header.poi_header(), [self._row(t, None) for t in ordered])
+        text = self.text(tracks)
         self.close()
         write_text_atomic(self.path, text)
 

@@ -113,7 +113,7 @@ class LiveRecorder:
         # () -> the running score of the confirmed objects so far (eval.scoring.report.live_summary), or None
         self.score_fn = score_fn
         self._score: dict | None = None
-        self._n_confirmed = -1
+        self._scored_rows: list | None = None  # the confirmed rows the score was last computed for
         walls = [[round(a[0], 3), round(a[1], 3), round(b[0], 3), round(b[1], 3)] for a, b in sim.walls_in_map()]
         xs = [v for w in walls for v in (w[0], w[2])] or [0.0]
         ys = [v for w in walls for v in (w[1], w[3])] or [0.0]
@@ -149,8 +149,11 @@ class LiveRecorder:
         if pose is not None:
             self.init["path"].append(pose[:2])
         confirmed = pipe.confirmed()
-        if len(confirmed) != self._n_confirmed and self.score_fn is not None:
-            self._n_confirmed = len(confirmed)
+        rows = confirmed_rows(confirmed)
+        # rescored whenever a report appears, moves or is renamed: a report's estimate crossing
+        # the located radius changes the score as much as a new one
+        if rows != self._scored_rows and self.score_fn is not None:
+            self._scored_rows = rows
             self._score = self.score_fn()
         by_track = {s.track_id: s for s in confirmed}
         msg = {
@@ -169,7 +172,7 @@ class LiveRecorder:
                 }
                 for d in res.detections
             ],
-            "confirmed": confirmed_rows(confirmed),
+            "confirmed": rows,
             "score": self._score,
             "skipped": res.skipped_reason,
         }

@@ -47,7 +47,7 @@ from eval.trial.funnel_recorder import FunnelRecorder
 from eval.trial.outputs import TrialOutputs
 from eval.trial.sensor_settings import mean_drift_multiplier, sensor_settings, simulation_sensor_settings
 from poi.core.geometry import planar_pose, wrap_angle
-from poi.core.poi_file import read_poi_file
+from poi.core.poi_file import parse_poi_text, read_poi_file
 from sim.scenario import Scenario
 
 MODELS_DIR = Path(__file__).resolve().parents[2] / "poi" / "models"
@@ -502,7 +502,10 @@ def run_trial(
             from eval.live.record import LiveRecorder
 
             def running_score() -> dict:
-                return live_summary(score(read_poi_file(out / "pois.csv"), truth_file, rules))
+                # the reports as they stand now (the file the trial would end with), not as streamed
+                text = writer.text(pipe.confirmed() + pipe.landmarks())
+                now = parse_poi_text(text, source=str(out / "pois.csv"))
+                return live_summary(score(now, truth_file, rules))
 
             live = LiveRecorder(
                 out,
