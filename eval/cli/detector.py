@@ -166,9 +166,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--data",
         required=True,
         nargs="+",
-        help="dataset folders ('poibench dataset', 'poibench route-frames') or their data.yaml, trained on as one",
+        help="dataset folders ('poibench dataset', 'poibench route-frames') or their data.yaml, or folders of "
+        "labelled photos (images/, labels/; need --holdout), trained on as one",
     )
     t.add_argument("--out", required=True, help="run folder: weights, plots, model.onnx (resumes if interrupted)")
+    t.add_argument(
+        "--holdout",
+        type=float,
+        help="for photo folders: hold back this fraction of each, by run of one scene's shots, as the "
+        "validation split, listed in RUN/holdout.json (evaluate-photos and sim2real --holdout-of RUN); "
+        "the model exported is the last epoch's, not the one best on them",
+    )
     t.add_argument(
         "--model",
         default="yolo11n.yaml",
@@ -422,6 +430,7 @@ def cmd_train(args) -> int:
             placards=args.placards,
             hours=args.hours,
             lr0=args.lr0,
+            holdout=args.holdout,
         )
     )
     print(f"model: {out}")

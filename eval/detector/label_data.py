@@ -13,8 +13,9 @@ core test suite checks it.
 
 A folder of labelled photos (flat ``images/`` and ``labels/``, as
 :func:`eval.detector.photos.load_folder` reads it) has no splits of its own:
-:func:`holdout_split` holds back a seeded fraction of its images, by image,
-and the classifier trains on the rest (:func:`training_images`). The held-back
+:func:`holdout_split` holds back a seeded fraction of its images, by run of
+consecutively numbered photos (:func:`photo_runs`), and the classifier (or
+``poibench train``'s detector) trains on the rest (:func:`training_images`). The held-back
 names are written beside the run (``holdout.json``) so that ``poibench
 evaluate-labels --holdout-of RUN`` scores exactly them.
 """
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -164,23 +166,60 @@ def image_key(root: str | Path, image: LabelledImage) -> str:
     return Path(image.path).relative_to(Path(root) / "images").as_posix()
 
 
+RUN_GAP = 2  # photos whose numbers differ by at most this (same prefix) are one run: one scene
+
+
+def photo_runs(keys: Sequence[str]) -> list[list[int]]:
+    """Indices of ``keys`` (image names) grouped into runs of one scene.
+
+    A photo set holds scenes shot again and again (``image607``, ``image608``, ... of one
+    board); near-identical shots on both sides of a split would let a detector be scored on
+    what it trained on. A name's stem up to its first dot is read as prefix, last number,
+    suffix (``image607_jpg.rf.3a...`` -> ``image``, 607, ``_jpg``); names with the same prefix
+    and suffix whose numbers follow each other within :data:`RUN_GAP` are one run. A name
+    without a number is a run of its own.
+
+    >>> photo_runs(["image4_jpg.rf.a.jpg", "image5_jpg.rf.b.jpg", "image9_jpg.rf.c.jpg", "x.jpg"])
+    [[0, 1], [2], [3]]
+    """
+    parsed = []
+    for i, key in enumerate(keys):
+        stem = Path(key).name.split(".", 1)[0]
+        m = re.fullmatch(r"(.*?)(\d+)(\D*)", stem)
+        parsed.append((m.group(1), m.group(3), int(m.group(2)), i) if m else (stem, "", -1, i))
+    runs: list[list[int]] = []
+    last: tuple[str, str, int] | None = None
+    for prefix, suffix, number, i in sorted(parsed):
+        if last is not None and number >= 0 and last[:2] == (prefix, suffix) and 0 <= number - last[2] <= RUN_GAP:
+            runs[-1].append(i)
+        else:
+            runs.append([i])
+        last = (prefix, suffix, number)
+    return sorted(sorted(r) for r in runs)
+
+
 def holdout_split(
     images: Sequence[LabelledImage], root: str | Path, fraction: float, seed: int
 ) -> tuple[list[LabelledImage], list[LabelledImage]]:
-    """(training, held-back) images of one folder: ``round(fraction * n)`` images held back, drawn
-    without replacement by ``np.random.default_rng([seed, HOLDOUT_STREAM])`` from the images sorted
-    by name, so the split depends only on the names, the fraction and the seed. Split by image:
-    every box of an image is on the same side."""
+    """(training, held-back) images of one folder, split by run (:func:`photo_runs`): the runs,
+    in the order ``np.random.default_rng([seed, HOLDOUT_STREAM]).permutation`` draws them, are
+    held back while fewer than ``round(fraction * n)`` images are, so the split depends only on
+    the names, the fraction and the seed, and every box of an image and every shot of a scene
+    is on one side."""
     if not 0.0 < fraction < 1.0:
         raise DetectorQualityError(f"--holdout must be between 0 and 1, got {fraction}")
     ordered = sorted(images, key=lambda im: image_key(root, im))
-    n_held = round(fraction * len(ordered))
-    if not 0 < n_held < len(ordered):
+    runs = photo_runs([image_key(root, im) for im in ordered])
+    target = round(fraction * len(ordered))
+    held: set[int] = set()
+    for r in np.random.default_rng([seed, HOLDOUT_STREAM]).permutation(len(runs)):
+        if len(held) >= target:
+            break
+        held.update(runs[r])
+    if not 0 < len(held) < len(ordered):
         raise DetectorQualityError(
             f"{root}: --holdout {fraction} of {len(ordered)} images leaves no training or no held-back image"
         )
-    pick = np.random.default_rng([seed, HOLDOUT_STREAM]).permutation(len(ordered))
-    held = set(pick[:n_held].tolist())
     train = [im for k, im in enumerate(ordered) if k not in held]
     return train, [im for k, im in enumerate(ordered) if k in held]
 

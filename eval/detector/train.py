@@ -40,6 +40,7 @@ import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from eval.detector.label_data import is_photo_folder
 from poi.core.loader import safe_load_file
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 
@@ -68,6 +69,7 @@ class TrainSpec:
     placards: str = "named"  # 'one': one class for the 16 labels, named by the label classifier
     hours: float | None = None  # a time budget: Ultralytics fits the epochs into it (overrides epochs)
     lr0: float | None = None  # None: FINE_TUNE_LR0 for a checkpoint, Ultralytics' own choice from scratch
+    holdout: float | None = None  # a photo folder's held-back fraction (RUN/holdout.json)
 
     @property
     def fine_tune(self) -> bool:
@@ -85,6 +87,8 @@ class TrainSpec:
             raise TrainError(f"--lr0 must be in (0, 1), got {self.lr0}")
         if self.fine_tune and not Path(self.model).exists():
             raise TrainError(f"--model {self.model}: no such file")
+        if self.holdout is not None and not 0 < self.holdout < 1:
+            raise TrainError(f"--holdout must be between 0 and 1, got {self.holdout}")
         if self.imgsz % 32:
             raise TrainError(f"--imgsz must be a multiple of 32 (the model's stride), got {self.imgsz}")
 
@@ -106,6 +110,80 @@ def data_yaml(data: str | Path) -> Path:
             "(the rescue classes, poi.core.names.RESCUE_CLASSES)"
         )
     return p
+
+
+def photo_dataset(root: Path, dst: Path, fraction: float, seed: int, run: Path) -> Path:
+    """A training dataset in ``dst`` from a folder of labelled photos (flat ``images/`` and
+    ``labels/``): the images held back by :func:`eval.detector.label_data.holdout_split` are its
+    ``val`` split, the rest ``train`` (hard links, or copies across file systems), and their
+    names go to ``RUN/holdout.json`` so that ``evaluate-photos --holdout-of RUN`` and
+    ``poibench sim2real`` score the detector on exactly them. Returns the dataset's data.yaml."""
+    import yaml
+
+    from eval.detector.label_data import holdout_split, image_key, write_holdout
+    from eval.detector.photos import load_folder
+    from eval.detector.quality import DetectorQualityError
+
+    try:
+        folder = load_folder(root)
+        train_images, held = holdout_split(folder.images, root, fraction, seed)
+        write_holdout(
+            run,
+            {
+                "fraction": fraction,
+                "seed": seed,
+                "folders": {str(root.resolve()): [image_key(root, im) for im in held]},
+            },
+        )
+    except DetectorQualityError as exc:
+        raise TrainError(str(exc)) from None
+    for split, images in (("train", train_images), ("val", held)):
+        for kind in ("images", "labels"):
+            (dst / kind / split).mkdir(parents=True, exist_ok=True)
+        for im in images:
+            _link(im.path, dst / "images" / split / im.path.name)
+            label = root / "labels" / f"{im.path.stem}.txt"
+            rows = _label_rows(label, one=False) if label.exists() else []
+            (dst / "labels" / split / label.name).write_text("".join(r + "\n" for r in rows))
+        (dst / "labels" / f"{split}.cache").unlink(missing_ok=True)
+    doc = {"path": str(dst.resolve()), "train": "images/train", "val": "images/val", "nc": len(RESCUE_CLASSES)}
+    doc["names"] = dict(enumerate(RESCUE_CLASSES))
+    (dst / "data.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
+    return dst / "data.yaml"
+
+
+def _link(src: Path, target: Path) -> None:
+    """``target`` as a hard link to ``src`` (a copy across file systems): Ultralytics resolves
+    folder links and would read the source's labels beside the source's images."""
+    if target.exists():
+        return
+    try:
+        os.link(src, target)
+    except OSError:
+        shutil.copy2(src, target)
+
+
+def _label_rows(f: Path, one: bool) -> list[str]:
+    """The YOLO rows of label file ``f``, class indices checked against RESCUE_CLASSES; with
+    ``one``, the 16 hazmat labels as class 0 and class k >= 16 as k - 15."""
+    n = len(HAZMAT_LABELS)
+    rows = []
+    for lineno, line in enumerate(f.read_text().splitlines(), 1):
+        parts = line.split()
+        if not parts:
+            continue
+        try:
+            k = int(parts[0])
+        except ValueError:
+            raise TrainError(f"{f}:{lineno}: class index {parts[0]!r} is not an integer") from None
+        if not 0 <= k < len(RESCUE_CLASSES):
+            raise TrainError(f"{f}:{lineno}: class index {k} is not in 0..{len(RESCUE_CLASSES) - 1}")
+        if len(parts) != 5:
+            raise TrainError(f"{f}:{lineno}: expected 'class cx cy w h', got {len(parts)} fields")
+        if one:
+            k = 0 if k < n else k - n + 1
+        rows.append(" ".join([str(k), *parts[1:]]))
+    return rows
 
 
 def placard_dataset(data: Path, dst: Path) -> Path:
@@ -138,31 +216,12 @@ def training_dataset(sources: list[Path], dst: Path, placards: str = "named") ->
             linked = dst / "images" / split
             linked.mkdir(parents=True, exist_ok=True)
             for img in sorted(images.iterdir()):
-                target = linked / f"{prefix}{img.name}"
-                if img.is_file() and not target.exists():
-                    # a hard link (a copy across file systems): Ultralytics resolves folder links and
-                    # would read the source's labels beside the source's images
-                    try:
-                        os.link(img, target)
-                    except OSError:
-                        shutil.copy2(img, target)
+                if img.is_file():
+                    _link(img, linked / f"{prefix}{img.name}")
             out = dst / "labels" / split
             out.mkdir(parents=True, exist_ok=True)
             for f in sorted((src / "labels" / split).glob("*.txt")):
-                rows = []
-                for lineno, line in enumerate(f.read_text().splitlines(), 1):
-                    parts = line.split()
-                    if not parts:
-                        continue
-                    try:
-                        k = int(parts[0])
-                    except ValueError:
-                        raise TrainError(f"{f}:{lineno}: class index {parts[0]!r} is not an integer") from None
-                    if not 0 <= k < len(RESCUE_CLASSES):
-                        raise TrainError(f"{f}:{lineno}: class index {k} is not in 0..{len(RESCUE_CLASSES) - 1}")
-                    if one:
-                        k = 0 if k < n else k - n + 1
-                    rows.append(" ".join([str(k), *parts[1:]]))
+                rows = _label_rows(f, one)
                 (out / f"{prefix}{f.name}").write_text("".join(r + "\n" for r in rows))
             (out.parent / f"{split}.cache").unlink(missing_ok=True)  # Ultralytics' label cache
     doc = {"path": str(dst.resolve()), "train": "images/train", "val": "images/val", "nc": len(names)}
@@ -227,11 +286,26 @@ def _check_classes(model: Path, names: list[str], data: Path) -> None:
         raise TrainError(f"{model}: its {len(names)} classes are not the dataset's {len(want)}{hint}")
 
 
+def sources_of(spec: TrainSpec) -> list[str]:
+    return [spec.data] if isinstance(spec.data, str) else list(spec.data)
+
+
 def train(spec: TrainSpec) -> Path:
     """Train (or resume) and export; returns the path of ``model.onnx``."""
-    sources = [data_yaml(d) for d in ([spec.data] if isinstance(spec.data, str) else spec.data)]
-    ul = _ultralytics()
     out = Path(spec.out).resolve()
+    sources = []
+    for d in sources_of(spec):
+        if is_photo_folder(d):
+            if spec.holdout is None:
+                raise TrainError(f"{d} is a folder of photos (no train/val splits): give --holdout, e.g. 0.2")
+            out.mkdir(parents=True, exist_ok=True)
+            dst = out / f"data-photos-{len(sources)}"
+            sources.append(photo_dataset(Path(d), dst, spec.holdout, spec.seed, out))
+        else:
+            sources.append(data_yaml(d))
+    if spec.holdout is not None and not any(is_photo_folder(d) for d in sources_of(spec)):
+        raise TrainError("--holdout is for a folder of photos (images/, labels/); no --data folder is one")
+    ul = _ultralytics()
     source = data = sources[0]
     if spec.placards == "one":
         data = training_dataset(sources, out / "data-placards", placards="one")
@@ -274,9 +348,10 @@ def train(spec: TrainSpec) -> Path:
             fliplr=0.0,
             **schedule,
         )
-    best = out / "weights" / "best.pt"
+    # with held-back photos as the validation split, the model chosen on them would flatter them
+    best = out / "weights" / ("last.pt" if spec.holdout is not None else "best.pt")
     if not best.exists():
-        raise TrainError(f"{best}: training ended without a best checkpoint")
+        raise TrainError(f"{best}: training ended without that checkpoint")
     exported = Path(ul.YOLO(str(best)).export(format="onnx", imgsz=spec.imgsz, dynamic=False, simplify=False))
     _stamp_dataset_seed(exported, onnx_path, source)
     return onnx_path

@@ -74,9 +74,10 @@ def photos(tmp_path) -> Path:
     return root
 
 
-def _many(root: Path, n: int) -> Path:
+def _many(root: Path, n: int, step: int = 3) -> Path:
+    """``n`` photos numbered ``step`` apart: with step 3 each is a run of its own (RUN_GAP 2)."""
     for k in range(n):
-        _photo(root, f"im{k:02d}", [("poison", BLUE, (10, 10, 60, 60))])
+        _photo(root, f"im{step * k:02d}", [("poison", BLUE, (10, 10, 60, 60))])
     return root
 
 
@@ -87,12 +88,26 @@ def test_holdout_split_is_seeded_disjoint_and_by_name(tmp_path):
     names = lambda ims: [image_key(root, im) for im in ims]  # noqa: E731
     assert len(held) == 3 and len(train) == 7
     assert set(names(train)).isdisjoint(names(held))
-    assert sorted(names(train) + names(held)) == [f"im{k:02d}.png" for k in range(10)]
+    assert sorted(names(train) + names(held)) == [f"im{3 * k:02d}.png" for k in range(10)]
     # the same seed gives the same split whatever the order the images come in
     again = holdout_split(list(reversed(images)), root, 0.3, seed=5)
     assert names(again[1]) == names(held) and names(again[0]) == names(train)
     # another seed draws other images (10 choose 3 = 120 possible draws; these two differ)
     assert {tuple(names(holdout_split(images, root, 0.3, seed=s)[1])) for s in range(4)} != {tuple(names(held))}
+
+
+def test_holdout_split_keeps_a_scenes_shots_on_one_side(tmp_path):
+    """Photos numbered within RUN_GAP of each other are one scene shot again: never split."""
+    root = tmp_path / "p"
+    for name in ["scene1", "scene2", "scene4", "scene9", "scene10", "other7", "x"]:
+        _photo(root, name, [("poison", BLUE, (10, 10, 60, 60))])
+    images = load_folder(root).images
+    runs = [{"scene1", "scene2", "scene4"}, {"scene9", "scene10"}, {"other7"}, {"x"}]
+    for seed in range(6):
+        train, held = holdout_split(images, root, 0.3, seed=seed)
+        held_names = {Path(image_key(root, im)).stem for im in held}
+        assert all(run <= held_names or not run & held_names for run in runs)
+        assert len(held_names) >= 2  # runs are held back until round(0.3 * 7) = 2 images are
 
 
 def test_holdout_split_refuses_fractions_that_leave_a_side_empty(tmp_path):

@@ -1,5 +1,7 @@
 """poibench train's dataset preparation (the training itself needs the 'train' extra)."""
 
+import cv2
+import numpy as np
 import pytest
 import yaml
 
@@ -77,3 +79,45 @@ def test_two_datasets_train_as_one_with_the_second_ones_files_prefixed(tmp_path)
     assert (out.parent / "images" / "train" / "1-s0000_i000.png").exists()
     named = training_dataset([a, b], tmp_path / "run" / "data-merged")
     assert (named.parent / "labels" / "train" / "1-s0000_i000.txt").read_text() == f"{door} 0.2 0.3 0.1 0.4\n"
+
+
+def _photos(root, rows_by_name):
+    (root / "images").mkdir(parents=True)
+    (root / "labels").mkdir(parents=True)
+    for name, rows in rows_by_name.items():
+        cv2.imwrite(str(root / "images" / f"{name}.jpg"), np.full((40, 60, 3), 128, np.uint8))
+        (root / "labels" / f"{name}.txt").write_text("".join(r + "\n" for r in rows))
+    return root
+
+
+def test_a_photo_folder_trains_on_all_but_its_held_back_runs(tmp_path):
+    from eval.detector.label_data import read_holdout
+    from eval.detector.train import photo_dataset
+
+    ox = CLASS_INDEX["oxidizer"]
+    names = ["img1", "img2", "img3", "img10", "img20", "img30", "img40", "img50", "img60", "img70"]
+    root = _photos(tmp_path / "photos", {n: [f"{ox} 0.5 0.5 0.2 0.3"] for n in names})
+    run = tmp_path / "run"
+    run.mkdir()
+    data = photo_dataset(root, run / "data-photos-0", 0.3, 0, run)
+    assert data_yaml(data) == data  # poibench's 24 classes in order
+    split = {s: sorted(p.stem for p in (data.parent / "images" / s).iterdir()) for s in ("train", "val")}
+    held = read_holdout(run)[str(root.resolve())]
+    assert sorted(held) == [f"{n}.jpg" for n in split["val"]]
+    assert sorted(split["train"] + split["val"]) == sorted(names)
+    # img1-3 are one scene: all on one side; about 0.3 of 10 held back
+    assert len({"img1", "img2", "img3"} & set(split["val"])) in (0, 3) and len(split["val"]) >= 3
+    assert (data.parent / "labels" / "val" / f"{split['val'][0]}.txt").read_text() == f"{ox} 0.5 0.5 0.2 0.3\n"
+    assert (data.parent / "images" / "train" / f"{split['train'][0]}.jpg").stat().st_nlink == 2
+
+
+def test_a_photo_folder_needs_a_holdout_and_valid_labels(tmp_path):
+    from eval.detector.train import train
+
+    root = _photos(tmp_path / "photos", {"a1": ["3 0.5 0.5 0.1 0.1"], "b5": ["3 0.5 0.5 0.1"], "c9": []})
+    with pytest.raises(TrainError, match="is a folder of photos .*give --holdout"):
+        train(TrainSpec(data=str(root), out=str(tmp_path / "run")))
+    with pytest.raises(TrainError, match=r"b5\.txt:1: expected 'class cx cy w h'"):
+        train(TrainSpec(data=str(root), out=str(tmp_path / "run"), holdout=0.5))
+    with pytest.raises(TrainError, match="--holdout is for a folder of photos"):
+        train(TrainSpec(data=str(tmp_path / "nothing"), out=str(tmp_path / "run2"), holdout=0.5))
