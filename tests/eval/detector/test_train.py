@@ -120,4 +120,5 @@ def test_a_photo_folder_needs_a_holdout_and_valid_labels(tmp_path):
     with pytest.raises(TrainError, match=r"b5\.txt:1: expected 'class cx cy w h'"):
         train(TrainSpec(data=str(root), out=str(tmp_path / "run"), holdout=0.5))
     with pytest.raises(TrainError, match="--holdout is for a folder of photos"):
-        train(TrainSpec(data=str(tmp_path / "nothing"), out=str(tmp_path / "run2"), holdout=0.5))
+        rendered = _dataset(tmp_path / "d", {"a": ["3 0.5 0.5 0.1 0.1"]}).parent
+        train(TrainSpec(data=str(rendered), out=str(tmp_path / "run2"), holdout=0.5))
