@@ -85,10 +85,11 @@ def _fake_shard(
     (folder / "sweep.yaml").write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
     w = RowWriter(folder / "trials.csv", row_fields([]))
     for t in rows if rows is not None else Shard(index=index, count=count).select(ids):
+        t, error = t if isinstance(t, tuple) else (t, "")  # (trial, error): a failed run of it
         k = ids.index(t)
         w.write(
             {"trial": t, "suite": "tiny", "suite_version": 1, "scenario": f"s{k}", "seed": k, "score": k}
-            | {"max_score": 10, "fraction": k / 10, "error": "", "wall_s": 1.5, "complete": 1}
+            | {"max_score": 10, "fraction": k / 10, "error": error, "wall_s": 1.5, "complete": 1}
         )
     w.close()
     return folder
@@ -103,6 +104,16 @@ def test_merge_orders_rows_as_one_run_and_keeps_each_rows_bytes(tmp_path):
     assert merged[1:] == [given[t] for t in IDS]
     assert merged[0] == (a / "trials.csv").read_bytes().splitlines(keepends=True)[0]
     assert "shard" not in yaml.safe_load((tmp_path / "m" / "sweep.yaml").read_text())
+
+
+def test_a_resumed_shard_gives_its_rerun_row(tmp_path):
+    """A shard resumed after a failed trial holds the failure and the rerun; the merge takes the
+    rerun, as read_rows does for a single run."""
+    a = _fake_shard(tmp_path / "a", 0, 2)
+    b = _fake_shard(tmp_path / "b", 1, 2, rows=[("t1", "RuntimeError: crash"), "t3", "t1"])
+    df, _ = merge_shards([a, b], tmp_path / "m")
+    assert list(df["trial"]) == IDS and (df["error"] == "").all()
+    assert len((tmp_path / "m" / "trials.csv").read_bytes().splitlines()) == 1 + len(IDS)
 
 
 @pytest.mark.parametrize(
