@@ -223,8 +223,8 @@ def rate_interval(
 
 
 def weighted_median(x: np.ndarray, w: np.ndarray | None = None) -> float | None:
-    """The smallest x whose cumulative weight reaches half the total (the plain lower median when
-    unweighted and n is even: np.median's mean of the two middle values otherwise).
+    """The weighted median: the smallest x whose cumulative weight reaches half the total; with
+    no weights, np.median. None without a value of positive weight.
 
     >>> x = np.array([1.0, 2.0, 3.0])
     >>> weighted_median(x), weighted_median(x, np.array([1, 1, 4.0]))

@@ -270,6 +270,14 @@ def test_bad_input_is_one_line(photos, tmp_path, capsys):
     seeded = _model(tmp_path / "s.onnx", 0.9, {"poibench_dataset_seed": "1000"})
     argv = ["sim2real", "--model", str(seeded), "--photos", str(photos), "--out", str(tmp_path / "o2")]
     assert "trained on scenes from seed 1000; evaluate on another --seed" in _error(capsys, argv)
+    # --option for an ONNX model; a label model trained on these photos without --holdout-of
+    err = _error(capsys, [*base, "--photos", str(photos), "--option", "conf=0.3"])
+    assert "--option is for a Python detector" in err
+    W = np.zeros((3, 17))
+    meta = {"poibench_photo_folders": str(photos.resolve())}
+    labels = onnx_models.make_colour_label_model(tmp_path / "l.onnx", W, metadata=meta)
+    err = _error(capsys, [*base, "--photos", str(photos), "--label-model", str(labels)])
+    assert f"{labels} was trained on part of {photos}; give --holdout-of its run folder" in err
     assert not (tmp_path / "o").exists() and not (tmp_path / "o2").exists()  # nothing rendered
 
 
