@@ -316,6 +316,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         "default keep",
     )
     ph.add_argument("--limit", type=int, help="at most this many images a folder, drawn with --seed")
+    ph.add_argument(
+        "--holdout-of",
+        metavar="RUN",
+        help="a train or train-labels run folder: its photo folders are scored on their held-back images only",
+    )
     ph.add_argument("--seed", type=int, default=0, help="seed of --limit's and the overlay's draws (default 0)")
     ph.add_argument("--overlay", type=int, default=12, help="images a folder on overlay.png (default 12; 0: none)")
     ph.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -727,10 +732,34 @@ def _photo_detector(args) -> None:
     _options(args)
 
 
+def _refuse_trained_photos(models, folders) -> None:
+    """Refuse a photo folder that a model (detector or label classifier) was trained on part of,
+    unless it was cut to that training's held-back images (``--holdout-of RUN``)."""
+    from eval.detector.quality import (
+        PATH_SEPARATOR,
+        PHOTO_FOLDERS_METADATA_KEY,
+        DetectorQualityError,
+        _model_metadata,
+    )
+    from poi.detectors import is_team_detector
+
+    for model in models:
+        if model is None or is_team_detector(model):
+            continue
+        meta = _model_metadata(model).get(PHOTO_FOLDERS_METADATA_KEY, "")
+        trained_on = set(filter(None, meta.split(PATH_SEPARATOR)))
+        for folder, cut in folders:
+            if str(folder.root.resolve()) in trained_on and not cut:
+                raise DetectorQualityError(
+                    f"{model} was trained on part of {folder.root}; give --holdout-of its run folder"
+                )
+
+
 def cmd_evaluate_photos(args) -> int:
     """``poibench evaluate-photos``: eval.detector.photos on each --images folder, side by side."""
     import time
 
+    from eval.detector.label_eval import load_folders
     from eval.detector.photos import FALSE_DETECTION, fold_classes, folder_report, load_folder, write_outputs
     from eval.detector.quality import DetectorQualityError
 
@@ -739,14 +768,21 @@ def cmd_evaluate_photos(args) -> int:
     if not 0.0 <= args.conf <= 1.0:
         raise DetectorQualityError(f"--conf must be in [0, 1], got {args.conf}")
     _photo_detector(args)
-    names: Counter[str] = Counter()
-    folders = []
-    for k, d in enumerate(args.images):
-        folder = load_folder(d, args.limit, args.seed)
-        names[folder.name] += 1
-        if names[folder.name] > 1:
-            folder.name = f"{folder.name}-{k + 1}"
-        folders.append(folder)
+    if args.holdout_of is not None:
+        if args.limit is not None:
+            raise DetectorQualityError("--limit does not go with --holdout-of: the held-back images are scored")
+        cut = load_folders(args.images, args.holdout_of, "--images")
+    else:
+        names: Counter[str] = Counter()
+        cut = []
+        for k, d in enumerate(args.images):
+            folder = load_folder(d, args.limit, args.seed)
+            names[folder.name] += 1
+            if names[folder.name] > 1:
+                folder.name = f"{folder.name}-{k + 1}"
+            cut.append((folder, False))
+    _refuse_trained_photos((args.model, args.label_model), cut)
+    folders = [f for f, _ in cut]
     results = []
     cpu = []
     for folder in folders:
@@ -789,11 +825,9 @@ def cmd_sim2real(args) -> int:
     from eval.detector.dataset import DatasetSpec, write_dataset
     from eval.detector.label_eval import load_folders
     from eval.detector.photos import fold_classes, load_folder
-    from eval.detector.quality import DetectorQualityError, _model_metadata
+    from eval.detector.quality import DetectorQualityError
     from eval.detector.sim2real import measure_photometry, photo_labels, side_outcomes, sim2real_card, write_card
-    from eval.detector.train_labels import PATH_SEPARATOR, PHOTO_FOLDERS_METADATA_KEY
     from eval.progress import progress_bar
-    from poi.detectors import is_team_detector
 
     if not 0.0 <= args.conf <= 1.0:
         raise DetectorQualityError(f"--conf must be in [0, 1], got {args.conf}")
@@ -804,17 +838,7 @@ def cmd_sim2real(args) -> int:
     _refuse_training_seed(args)
     cpu0 = time.process_time()
     folders = load_folders(args.photos, args.holdout_of, "--photos")
-    for model in (args.model, args.label_model):
-        if model is None or is_team_detector(model):
-            continue
-        trained_on = set(
-            filter(None, _model_metadata(model).get(PHOTO_FOLDERS_METADATA_KEY, "").split(PATH_SEPARATOR))
-        )
-        for folder, cut in folders:
-            if str(folder.root.resolve()) in trained_on and not cut:
-                raise DetectorQualityError(
-                    f"{model} was trained on part of {folder.root}; give --holdout-of its run folder"
-                )
+    _refuse_trained_photos((args.model, args.label_model), folders)
     labels = photo_labels([f for f, _ in folders])
     photo_images = [im for f, _ in folders for im in f.images]
     photo_results = fold_classes(_detect(args, photo_images, args.conf), args.absent)

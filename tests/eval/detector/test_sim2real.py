@@ -292,3 +292,45 @@ def test_held_back_images_only(photos, tmp_path):
     with pytest.raises(DetectorQualityError, match="held-back images are not in the folder"):
         (run / "holdout.json").write_text(json.dumps({"folders": {str(photos.resolve()): ["zz.png"]}}))
         load_folders([photos], run)
+
+
+def test_evaluate_photos_scores_a_photo_trained_detector_on_its_held_back_images_only(photos, tmp_path, capsys):
+    """A detector whose metadata names the photo folder (poibench train --holdout) is refused on
+    the whole folder and scored on the held-back image with --holdout-of."""
+    meta = {"poibench_photo_folders": str(photos.resolve())}
+    model = _model(tmp_path / "m.onnx", 0.9, meta)
+    argv = ["evaluate-photos", "--images", str(photos), "--model", str(model), "--label-model", "none", "--quiet"]
+    err = _error(capsys, [*argv, "--out", str(tmp_path / "o1")])
+    assert f"{model} was trained on part of {photos}; give --holdout-of its run folder" in err
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "holdout.json").write_text(json.dumps({"folders": {str(photos.resolve()): ["a.png"]}}))
+    assert main([*argv, "--out", str(tmp_path / "o2"), "--holdout-of", str(run)]) == 0
+    (folder,) = json.loads((tmp_path / "o2" / "summary.json").read_text())["folders"]
+    # a.png alone: its poison found at BOX, its explosive missed; no false detection
+    assert (folder["images"], folder["hazmat"]["boxes"], folder["hazmat"]["right"], folder["false"]) == (
+        1,
+        2,
+        1,
+        0,
+    )
+    err = _error(capsys, [*argv, "--out", str(tmp_path / "o3"), "--holdout-of", str(run), "--limit", "1"])
+    assert "--limit does not go with --holdout-of" in err
+
+
+def test_train_stamps_the_photo_folders_it_trained_on(photos, tmp_path):
+    """poibench train's export carries the photo folders (and a rendered dataset's seed) in its
+    metadata, which evaluate-photos and sim2real read to refuse a folder without --holdout-of."""
+    from eval.detector.quality import _model_metadata
+    from eval.detector.train import _stamp_metadata
+
+    src = _model(tmp_path / "m.onnx", 0.9)
+    dataset = tmp_path / "d"
+    dataset.mkdir()
+    (dataset / "dataset.yaml").write_text(yaml.safe_dump({"spec": {"seed": 77}}))
+    _stamp_metadata(src, tmp_path / "out.onnx", dataset / "data.yaml", [str(photos.resolve())])
+    meta = _model_metadata(tmp_path / "out.onnx")
+    assert meta["poibench_photo_folders"] == str(photos.resolve()) and meta["poibench_dataset_seed"] == "77"
+    assert "names" in meta  # the model's own metadata kept
+    _stamp_metadata(src, tmp_path / "plain.onnx", tmp_path / "none" / "data.yaml", [])
+    assert "poibench_photo_folders" not in _model_metadata(tmp_path / "plain.onnx")
