@@ -826,7 +826,14 @@ def cmd_sim2real(args) -> int:
     from eval.detector.label_eval import load_folders
     from eval.detector.photos import fold_classes, load_folder
     from eval.detector.quality import DetectorQualityError
-    from eval.detector.sim2real import measure_photometry, photo_labels, side_outcomes, sim2real_card, write_card
+    from eval.detector.sim2real import (
+        measure_photometry,
+        photo_labels,
+        render_labels,
+        side_outcomes,
+        sim2real_card,
+        write_card,
+    )
     from eval.progress import progress_bar
 
     if not 0.0 <= args.conf <= 1.0:
@@ -840,6 +847,7 @@ def cmd_sim2real(args) -> int:
     folders = load_folders(args.photos, args.holdout_of, "--photos")
     _refuse_trained_photos((args.model, args.label_model), folders)
     labels = photo_labels([f for f, _ in folders])
+    hung = render_labels(labels, args.absent)  # with --absent map, the labels folded into them too
     photo_images = [im for f, _ in folders for im in f.images]
     photo_results = fold_classes(_detect(args, photo_images, args.conf), args.absent)
     cpu = {"photos": time.process_time() - cpu0}
@@ -851,8 +859,8 @@ def cmd_sim2real(args) -> int:
         val_every=1,
         camera=None,  # the trial's colour camera, still: what a trial shows
         blur_fraction=0.0,
-        counts={**DatasetSpec.default_counts(), "hazmat": len(labels)},
-        hazmat_labels=tuple(labels),
+        counts={**DatasetSpec.default_counts(), "hazmat": len(hung)},
+        hazmat_labels=tuple(hung),
     )
     t0 = time.process_time()
     with progress_bar(total=spec.images, desc="renders", unit="img", quiet=args.quiet) as bar:
@@ -889,6 +897,7 @@ def cmd_sim2real(args) -> int:
             "images": rendered.images,
             "placards": int(len(rendered.label)),
             "looks": "DatasetSpec.trial_looks, the trial's still colour camera, the photos' labels only",
+            "labels": hung,
         },
         "error": None,
         **sim2real_card(photos, rendered, labels, seed=args.seed),

@@ -67,7 +67,15 @@ import numpy as np
 
 from eval.detector.label_eval import wilson
 from eval.detector.metrics import ImageBoxes, recall_by_size, size_band_label
-from eval.detector.photos import FALSE_DETECTION, HAZMAT_IDS, IOU_MIN, PhotoFolder, outcome, write_overlay
+from eval.detector.photos import (
+    FALSE_DETECTION,
+    HAZMAT_IDS,
+    IOU_MIN,
+    REAL_SET_FOLD,
+    PhotoFolder,
+    outcome,
+    write_overlay,
+)
 from eval.detector.quality import DetectorQualityError, LabelledImage
 from poi.core.names import RESCUE_CLASSES
 
@@ -359,6 +367,24 @@ def photo_labels(folders: Sequence[PhotoFolder]) -> list[str]:
             )
         seen |= here
     return [RESCUE_CLASSES[c] for c in sorted(seen)]
+
+
+def render_labels(labels: Sequence[str], absent: str) -> list[str]:
+    """The hazmat labels the renders hang for photos that label ``labels``: those, and with
+    ``absent == "map"`` also every label the photo set files under one of them
+    (:data:`eval.detector.photos.REAL_SET_FOLD`: hazmat-photos-dev calls INHALATION HAZARD
+    placards ``poison``), so each folded class shows on the renders the looks it holds on the
+    photos. RESCUE_CLASSES order.
+
+    >>> render_labels(["explosive", "poison"], "map")
+    ['explosive', 'blasting-agent', 'inhalation-hazard', 'poison']
+    >>> render_labels(["explosive", "poison"], "keep")
+    ['explosive', 'poison']
+    """
+    wanted = set(labels)
+    if absent == "map":
+        wanted |= {label for label, into in REAL_SET_FOLD.items() if into in wanted}
+    return [c for c in RESCUE_CLASSES if c in wanted]
 
 
 # ---------------------------------------------------------------------------- the card
