@@ -36,7 +36,7 @@ from __future__ import annotations
 import csv
 import math
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -535,6 +535,46 @@ def _label_lines(labels: list[tuple[int, float, float, float, float]]) -> str:
     return "".join(f"{c} {x:.6f} {y:.6f} {w:.6f} {h:.6f}\n" for c, x, y, w, h in labels)
 
 
+def write_labelled_image(
+    out: Path, split: str, name: str, rgb: np.ndarray, labels: list, jpeg_quality: int
+) -> None:
+    """``images/SPLIT/NAME.jpg`` and its YOLO label file ``labels/SPLIT/NAME.txt`` in ``out``."""
+    cv2.imwrite(
+        str(out / "images" / split / f"{name}.jpg"),
+        cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
+        [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality],
+    )
+    (out / "labels" / split / f"{name}.txt").write_text(_label_lines(labels), encoding="utf-8")
+
+
+def write_rows(path: Path, rows: list[dict]) -> None:
+    """A CSV of ``rows`` (the columns of the first): a unit's marker, or the manifest."""
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def gather_manifest(out: Path, markers: list[Path]) -> list[dict]:
+    """The rows of every finished unit's marker, in order, written as ``out/manifest.csv``."""
+    rows: list[dict] = []
+    for marker in markers:
+        with open(marker, newline="", encoding="utf-8") as f:
+            rows.extend(csv.DictReader(f))
+    write_rows(out / "manifest.csv", rows)
+    return rows
+
+
+def write_data_yaml(dst: Path, names: Sequence[str] = RESCUE_CLASSES) -> Path:
+    """``dst/data.yaml``, the Ultralytics dataset file: ``images/train`` and ``images/val`` under
+    ``dst`` and the class ``names`` in order."""
+    doc = {"path": str(dst.resolve()), "train": "images/train", "val": "images/val", "nc": len(names)}
+    doc["names"] = dict(enumerate(names))
+    target = dst / "data.yaml"
+    target.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    return target
+
+
 def _image_name(j: int, i: int) -> str:
     return f"s{j:04d}_{i:03d}"
 
@@ -624,12 +664,7 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                 for c, *_ in labels:
                     per_class[RESCUE_CLASSES[c]] += 1
                 name = _image_name(j, i)
-                cv2.imwrite(
-                    str(out / "images" / split / f"{name}.jpg"),
-                    cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
-                    [cv2.IMWRITE_JPEG_QUALITY, spec.jpeg_quality],
-                )
-                (out / "labels" / split / f"{name}.txt").write_text(_label_lines(labels), encoding="utf-8")
+                write_labelled_image(out, split, name, rgb, labels, spec.jpeg_quality)
                 ignore = yolo_labels(truth, by_id, spec, rgb.shape[1], rgb.shape[0], ignored=True)
                 if ignore:
                     (out / "ignore" / split).mkdir(parents=True, exist_ok=True)
@@ -654,34 +689,17 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                 )
                 if progress:
                     progress(1)
-        with open(marker, "w", newline="", encoding="utf-8") as f:
-            w = csv.DictWriter(f, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        write_rows(marker, rows)
     return _finish(out, spec)
 
 
 def _finish(out: Path, spec: DatasetSpec) -> dict:
     """Gather the per-scenario manifests, write manifest.csv, data.yaml and classes.png."""
-    rows = []
-    for j in range(spec.n_scenarios):
-        with open(out / ".done" / f"scenario_{j:04d}.csv", newline="", encoding="utf-8") as f:
-            rows.extend(csv.DictReader(f))
-    with open(out / "manifest.csv", "w", newline="", encoding="utf-8") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    rows = gather_manifest(out, [out / ".done" / f"scenario_{j:04d}.csv" for j in range(spec.n_scenarios)])
     counts = {split: Counter() for split in ("train", "val")}
     for r in rows:
         counts[r["split"]].update(r["labels"].split())
-    data = {
-        "path": str(out.resolve()),
-        "train": "images/train",
-        "val": "images/val",
-        "nc": len(RESCUE_CLASSES),
-        "names": dict(enumerate(RESCUE_CLASSES)),
-    }
-    (out / "data.yaml").write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    write_data_yaml(out)
     summary = {
         "images": {s: sum(r["split"] == s for r in rows) for s in counts},
         "instances": {s: {c: counts[s][c] for c in RESCUE_CLASSES} for s in counts},

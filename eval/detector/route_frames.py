@@ -22,16 +22,24 @@ lighting preset each. Layout: ``images/train/*.jpg``, ``labels/train/*.txt``,
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 import yaml
 
-from eval.detector.dataset import LIGHTING, DatasetError, DatasetSpec, object_class, yolo_labels
+from eval.detector.dataset import (
+    LIGHTING,
+    DatasetError,
+    DatasetSpec,
+    gather_manifest,
+    object_class,
+    write_data_yaml,
+    write_labelled_image,
+    write_rows,
+    yolo_labels,
+)
 from poi.core.loader import safe_load_file
 from poi.core.names import RESCUE_CLASSES
 
@@ -92,16 +100,10 @@ def write_route_frames(
             by_id = {o.id: o for o in sim.objects}
             for k in range(0, sim.n_frames, spec.every):
                 frame, truth = sim.frame(k)
-                rgb = frame.rgb
-                labels = yolo_labels(truth, by_id, label_spec, rgb.shape[1], rgb.shape[0])
+                height, width = frame.rgb.shape[:2]
+                labels = yolo_labels(truth, by_id, label_spec, width, height)
                 name = f"r{j:04d}_{k:05d}"
-                cv2.imwrite(
-                    str(out / "images" / "train" / f"{name}.jpg"),
-                    cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
-                    [cv2.IMWRITE_JPEG_QUALITY, spec.jpeg_quality],
-                )
-                text = "".join(f"{c} {x:.6f} {y:.6f} {w:.6f} {h:.6f}\n" for c, x, y, w, h in labels)
-                (out / "labels" / "train" / f"{name}.txt").write_text(text, encoding="utf-8")
+                write_labelled_image(out, "train", name, frame.rgb, labels, spec.jpeg_quality)
                 rows.append(
                     {
                         "image": f"images/train/{name}.jpg",
@@ -116,25 +118,13 @@ def write_route_frames(
                 )
                 if progress:
                     progress(1)
-        with open(marker, "w", newline="", encoding="utf-8") as f:
-            w = csv.DictWriter(f, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        write_rows(marker, rows)
     return _finish(out, spec)
 
 
 def _finish(out: Path, spec: RouteFramesSpec) -> dict:
-    rows = []
-    for j in range(spec.mazes):
-        with open(out / ".done" / f"maze_{j:04d}.csv", newline="", encoding="utf-8") as f:
-            rows.extend(csv.DictReader(f))
-    with open(out / "manifest.csv", "w", newline="", encoding="utf-8") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    data = {"path": str(out.resolve()), "train": "images/train", "val": "images/val", "nc": len(RESCUE_CLASSES)}
-    data["names"] = dict(enumerate(RESCUE_CLASSES))
-    (out / "data.yaml").write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    rows = gather_manifest(out, [out / ".done" / f"maze_{j:04d}.csv" for j in range(spec.mazes)])
+    write_data_yaml(out)
     summary = {
         "frames": len(rows),
         "frames_with_labels": sum(bool(r["labels"]) for r in rows),

@@ -118,7 +118,6 @@ def photo_dataset(root: Path, dst: Path, fraction: float, seed: int, run: Path) 
     ``val`` split, the rest ``train`` (hard links, or copies across file systems), and their
     names go to ``RUN/holdout.json`` so that ``evaluate-photos --holdout-of RUN`` and
     ``poibench sim2real`` score the detector on exactly them. Returns the dataset's data.yaml."""
-    import yaml
 
     from eval.detector.label_data import holdout_split, image_key, write_holdout
     from eval.detector.photos import load_folder
@@ -146,10 +145,9 @@ def photo_dataset(root: Path, dst: Path, fraction: float, seed: int, run: Path) 
             rows = _label_rows(label, one=False) if label.exists() else []
             (dst / "labels" / split / label.name).write_text("".join(r + "\n" for r in rows))
         (dst / "labels" / f"{split}.cache").unlink(missing_ok=True)
-    doc = {"path": str(dst.resolve()), "train": "images/train", "val": "images/val", "nc": len(RESCUE_CLASSES)}
-    doc["names"] = dict(enumerate(RESCUE_CLASSES))
-    (dst / "data.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
-    return dst / "data.yaml"
+    from eval.detector.dataset import write_data_yaml
+
+    return write_data_yaml(dst)
 
 
 def _link(src: Path, target: Path) -> None:
@@ -199,7 +197,6 @@ def training_dataset(sources: list[Path], dst: Path, placards: str = "named") ->
     hazmat labels become one class: class k < 16 becomes 0 (``hazmat``), k >= 16 becomes
     k - 15. Labels are rewritten on every call (cheap), so they follow the sources. Returns the
     new data.yaml."""
-    import yaml
 
     n = len(HAZMAT_LABELS)
     one = placards == "one"
@@ -224,11 +221,9 @@ def training_dataset(sources: list[Path], dst: Path, placards: str = "named") ->
                 rows = _label_rows(f, one)
                 (out / f"{prefix}{f.name}").write_text("".join(r + "\n" for r in rows))
             (out.parent / f"{split}.cache").unlink(missing_ok=True)  # Ultralytics' label cache
-    doc = {"path": str(dst.resolve()), "train": "images/train", "val": "images/val", "nc": len(names)}
-    doc["names"] = dict(enumerate(names))
-    target = dst / "data.yaml"
-    target.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return target
+    from eval.detector.dataset import write_data_yaml
+
+    return write_data_yaml(dst, names)
 
 
 def _ultralytics():
