@@ -285,22 +285,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="YOLO folders (images/, labels/; or a 'poibench dataset' folder); two or more: side by side",
     )
     ph.add_argument("--out", required=True, help="folder for summary.json, per_class.csv, report.md and plots")
-    ph.add_argument(
-        "--model",
-        help="an ONNX detector, python:MODULE:CLASS or an entry point name (default: the shipped model)",
-    )
-    ph.add_argument(
-        "--option",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="a keyword argument of a Python detector (VALUE read as YAML); repeatable",
-    )
-    ph.add_argument(
-        "--label-model",
-        help="hazmat label classifier; 'none' for the detector alone (default: the shipped one with the "
-        "shipped detector, none otherwise)",
-    )
+    _add_photo_detector_args(ph)
     ph.add_argument(
         "--conf",
         type=float,
@@ -339,22 +324,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="YOLO folders of labelled photos (images/, labels/), pooled; their hazmat labels are rendered",
     )
     sr.add_argument("--out", required=True, help="folder for card.md, card.json, misses.jpg and the renders")
-    sr.add_argument(
-        "--model",
-        help="an ONNX detector, python:MODULE:CLASS or an entry point name (default: the shipped model)",
-    )
-    sr.add_argument(
-        "--option",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="a keyword argument of a Python detector (VALUE read as YAML); repeatable",
-    )
-    sr.add_argument(
-        "--label-model",
-        help="hazmat label classifier; 'none' for the detector alone (default: the shipped one with the "
-        "shipped detector, none otherwise)",
-    )
+    _add_photo_detector_args(sr)
     sr.add_argument(
         "--holdout-of",
         metavar="RUN",
@@ -710,6 +680,26 @@ def cmd_calibrate(args) -> int:
     )
     print(f"plot: {out.with_suffix('.png')}; use it with --set calibration={out}")
     return 0
+
+
+def _add_photo_detector_args(parser) -> None:
+    """--model, --option and --label-model, as evaluate-photos and sim2real take them (:func:`_photo_detector`)."""
+    parser.add_argument(
+        "--model",
+        help="an ONNX detector, python:MODULE:CLASS or an entry point name (default: the shipped model)",
+    )
+    parser.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a keyword argument of a Python detector (VALUE read as YAML); repeatable",
+    )
+    parser.add_argument(
+        "--label-model",
+        help="hazmat label classifier; 'none' for the detector alone (default: the shipped one with the "
+        "shipped detector, none otherwise)",
+    )
 
 
 def _photo_detector(args) -> None:
