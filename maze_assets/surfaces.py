@@ -57,8 +57,13 @@ def draw_plywood(size_px: int, rng: np.random.Generator) -> np.ndarray:
         width = length * rng.uniform(0.12, 0.3)
         ang = rng.normal(0.0, 25.0)  # strands lie mostly along the sheet's long side
         shade = float(rng.normal(0.0, 0.10))
-        for ox in (0, n, 2 * n):
-            for oy in (0, n, 2 * n):
+        # only the copies that reach the centre tile, the one kept: a corner lies within
+        # hypot(length, width) / 2 of the strand's centre, and rounding moves it half a pixel
+        reach = 0.5 * float(np.hypot(length, width)) + 1.0
+        xs = [ox for ox in (0, n, 2 * n) if n - reach <= cx + ox <= 2 * n - 1 + reach]
+        ys = [oy for oy in (0, n, 2 * n) if n - reach <= cy + oy <= 2 * n - 1 + reach]
+        for ox in xs:
+            for oy in ys:
                 box = cv2.boxPoints(((cx + ox, cy + oy), (length, width), ang))
                 cv2.fillPoly(big, [np.round(box).astype(np.int32)], shade)
     flakes = big[n : 2 * n, n : 2 * n]

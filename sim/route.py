@@ -66,6 +66,15 @@ class Route:
             return 0.0
         return self.pan_amplitude_rad * float(np.sin(2.0 * np.pi * t / self.pan_period_s))
 
+    def pans(self, t: np.ndarray) -> np.ndarray:
+        """(n,) :meth:`pan` at each of the times ``t`` (n,), in one array operation."""
+        t = np.asarray(t, dtype=float)
+        if self.pan_rad is not None:
+            return np.interp(t, self.t_s, self.pan_rad)
+        if self.pan_amplitude_rad == 0.0:
+            return np.zeros(t.shape)
+        return self.pan_amplitude_rad * np.sin(2.0 * np.pi * t / self.pan_period_s)
+
     def tilt(self, t: float) -> float:
         """The camera head's tilt at time t over the mount's own (0 without keyframes)."""
         if self.tilt_rad is None:

@@ -366,7 +366,7 @@ class Simulation:
         t = np.asarray(t, dtype=float)
         r = self.route
         x, y, yaw = (np.interp(t, r.t_s, v) for v in (r.x_m, r.y_m, r.yaw_rad))
-        pan = np.array([r.pan(float(ti)) for ti in t])
+        pan = r.pans(t)
         tilt = self._tilt_rad + (np.zeros(len(t)) if r.tilt_rad is None else np.interp(t, r.t_s, r.tilt_rad))
         n = len(t)
         T_world_base = np.zeros((n, 4, 4))

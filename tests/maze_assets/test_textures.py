@@ -135,3 +135,40 @@ def test_surfaces(draw):
     # tileable: the step across the wrap-around seam is no larger than a typical step
     seam = np.abs(grey[:, 0] - grey[:, -1]).mean()
     assert seam < 2.0 * interior
+
+
+def _plywood_every_copy(n: int, rng: np.random.Generator) -> np.ndarray:
+    """draw_plywood's strands with all nine copies drawn (before issue 62): the reference."""
+    import cv2
+
+    big = np.zeros((3 * n, 3 * n), np.float32)
+    for _ in range(int(3.0 * (n / 8) ** 2)):
+        cx, cy = rng.uniform(0, n, size=2)
+        length = rng.uniform(0.05, 0.14) * n
+        width = length * rng.uniform(0.12, 0.3)
+        ang = rng.normal(0.0, 25.0)
+        shade = float(rng.normal(0.0, 0.10))
+        for ox in (0, n, 2 * n):
+            for oy in (0, n, 2 * n):
+                box = cv2.boxPoints(((cx + ox, cy + oy), (length, width), ang))
+                cv2.fillPoly(big, [np.round(box).astype(np.int32)], shade)
+    return big[n : 2 * n, n : 2 * n]
+
+
+@pytest.mark.parametrize("n", [16, 37, 128])
+def test_plywood_strands_drawn_only_where_they_reach_the_kept_tile_change_nothing(n, monkeypatch):
+    # draw_plywood skips the copies of a strand that cannot reach the centre tile (issue 62: a
+    # third of a world's build); the flakes must be those of all nine copies, bit for bit
+    import maze_assets.surfaces as surfaces
+
+    kept: list[np.ndarray] = []
+    real_laplacian = surfaces.cv2.Laplacian
+
+    def laplacian(src, ddepth, *args, **kwargs):
+        h = src.shape[0] // 3
+        kept.append(src[:h, :h].copy())  # np.tile(flakes, (3, 3)): its first tile is the flakes
+        return real_laplacian(src, ddepth, *args, **kwargs)
+
+    monkeypatch.setattr(surfaces.cv2, "Laplacian", laplacian)
+    surfaces.draw_plywood(n, np.random.default_rng(n))
+    assert np.array_equal(kept[0], _plywood_every_copy(n, np.random.default_rng(n)))

@@ -181,3 +181,15 @@ def test_bad_pan_settings_give_one_line_errors_naming_the_key(text, message):
 def test_an_empty_step_list_is_fine_for_a_sweep():
     sc = parse_scenario("robot: {pan: {mode: sweep, steps_deg: []}}\n", "x.yaml")
     assert sc.robot.pan.mode == "sweep"
+
+
+@pytest.mark.parametrize("kind", ["keyframes", "sweep", "none"], ids=["pan from keyframes", "swept pan", "no pan"])
+def test_pans_at_many_times_equal_pan_at_each_bit_for_bit(kind):
+    # Route.pans is Simulation._tracker_poses' one-array form of Route.pan (issue 62): the T265's
+    # 200 Hz poses must not move by a rounding step, or a trial's pois.csv would change
+    rng = np.random.default_rng(3)
+    k = np.arange(12.0)
+    extra = {"keyframes": {"pan_rad": rng.normal(size=12)}, "sweep": {"pan_amplitude_rad": 0.7}, "none": {}}[kind]
+    route = Route(t_s=k, x_m=k * 0.1, y_m=k * 0.0, yaw_rad=k * 0.0, **extra)
+    t = np.sort(rng.uniform(-1.0, 14.0, 20_000))
+    assert np.array_equal(route.pans(t), [route.pan(float(ti)) for ti in t])
