@@ -246,14 +246,20 @@ class SceneRenderer:
             mujoco.mjr_readPixels(buf, None, rect, self._ctx)
         finally:
             np.copyto(flags, saved)
-        # IDCOLOR writes segid + 1 as 24-bit little-endian RGB; 0 is background
-        code = buf[::-1, :, 0].astype(np.int32)
-        code |= buf[::-1, :, 1].astype(np.int32) << 8
-        code |= buf[::-1, :, 2].astype(np.int32) << 16
         lut = self._segid_to_geom()
         if relabel is not None:
             lut = np.where(lut >= 0, np.asarray(relabel, dtype=np.int32)[lut], -1).astype(np.int32)
-        return lut[code]
+        # IDCOLOR writes segid + 1 as 24-bit little-endian RGB; 0 is background. With fewer than
+        # 2^16 codes the blue byte is always 0 and two bytes make the code (half the work)
+        if lut.size <= 1 << 16:
+            code = buf[::-1, :, 1].astype(np.uint16)  # (h, w)
+            code <<= 8
+            code |= buf[::-1, :, 0]
+        else:
+            code = buf[::-1, :, 0].astype(np.int32)
+            code |= buf[::-1, :, 1].astype(np.int32) << 8
+            code |= buf[::-1, :, 2].astype(np.int32) << 16
+        return lut.take(code)
 
     def _segid_to_geom(self) -> np.ndarray:
         scn = self._scene
