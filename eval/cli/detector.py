@@ -10,6 +10,7 @@ from pathlib import Path
 
 from eval.detector.dataset import DISTANCE_DRAWS, HAZMAT_PER_SCENARIO, DatasetSpec
 from eval.detector.quality import EVAL_SEED
+from eval.detector.quantize import CALIBRATION_IMAGES
 from eval.detector.train import PLACARD_MODES
 from poi.config import DetectorConfig
 
@@ -186,7 +187,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--model",
         default="yolo11n.yaml",
         help="yolo11n.yaml (from scratch, the default), a checkpoint .pt, or an exported .onnx "
-        "(e.g. poi/models/default.onnx: rebuilt into RUN/rebuilt.pt) to fine-tune",
+        "(e.g. poi/models/default_fp32.onnx: rebuilt into RUN/rebuilt.pt) to fine-tune",
     )
     t.add_argument(
         "--lr0",
@@ -404,6 +405,21 @@ def register(sub: argparse._SubParsersAction) -> None:
             )
             e.set_defaults(func=cmd_calibrate, out_is_file=True)
 
+    qz = sub.add_parser(
+        "quantize-detector",
+        help="an int8 copy of a float YOLO ONNX export, by onnxruntime's static quantiser (QDQ)",
+    )
+    qz.add_argument("--model", required=True, help="the float ONNX export (e.g. poi/models/default_fp32.onnx)")
+    qz.add_argument("--data", required=True, help="a 'poibench dataset' folder whose images calibrate the ranges")
+    qz.add_argument(
+        "--images",
+        type=int,
+        default=CALIBRATION_IMAGES,
+        help=f"calibration images, the first by name (default {CALIBRATION_IMAGES})",
+    )
+    qz.add_argument("--out", required=True, help="the int8 ONNX model to write")
+    qz.set_defaults(func=cmd_quantize, out_is_file=True)
+
 
 def cmd_dataset(args) -> int:
     from eval.detector.dataset import DatasetSpec, write_dataset
@@ -482,7 +498,9 @@ def cmd_train(args) -> int:
     )
     print(f"model: {out}")
     print(
-        f"to make it the default detector: cp it to poi/models/default.onnx, and {out.parent}/weights/best.pt to"
+        f"to make it the default detector: cp it to poi/models/default_fp32.onnx, quantise that "
+        "(poibench quantize-detector --out poi/models/default.onnx, or cp it there as it is), and "
+        f"{out.parent}/weights/best.pt to"
     )
     print("poi/models/default.pt (the checkpoint later training fine-tunes from)")
     return 0
@@ -662,6 +680,19 @@ def cmd_evaluate(args) -> int:
     write_evaluation(out, report)
     print(format_evaluation(report))
     print(f"evaluation.json and confusion.png in {out}")
+    return 0
+
+
+def cmd_quantize(args) -> int:
+    from eval.detector.quantize import quantize_detector
+
+    done = quantize_detector(args.model, args.data, args.out, args.images)
+    print(
+        f"{done['out']}: {done['bytes'] / 2**20:.1f} MiB, {done['how']}; "
+        f"{done['float_nodes']} nodes kept in float (the head's decode, its last convolutions, "
+        "the attention's q^T k)"
+    )
+    print("check it before use: poibench evaluate-detector --model OUT (mAP50 against the float model's)")
     return 0
 
 

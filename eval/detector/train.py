@@ -12,7 +12,7 @@ epoch, ``weights/best.pt``, ``results.csv``, plots) and, at the end,
 metadata. Running the same command again resumes an interrupted run from
 ``weights/last.pt``; a finished run (``model.onnx`` present) is left alone.
 
-``--model`` may be an exported ``.onnx`` (the shipped ``poi/models/default.onnx``): it is
+``--model`` may be an exported ``.onnx`` (the shipped float export ``poi/models/default_fp32.onnx``): it is
 rebuilt into an Ultralytics checkpoint (``RUN/rebuilt.pt``, :mod:`eval.detector.rebuild`)
 and fine-tuned from there. A ``.pt`` is fine-tuned from directly. Fine-tuning runs AdamW at
 ``lr0`` (``FINE_TUNE_LR0`` unless given) with a flat warm-up: Ultralytics' default schedule
