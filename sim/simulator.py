@@ -58,6 +58,7 @@ from sim.maze import (
     load_maze,
 )
 from sim.maze_gen import generate_maze
+from sim.memory import keep_freed_memory
 from sim.placement import (
     assign_placard_looks,
     hang_placard_boards,
@@ -182,6 +183,9 @@ def default_mast_height_m(cell_size_m: float) -> float:
 class Simulation:
     def __init__(self, scenario: Scenario, *, looks: SceneLooks | None = None) -> None:
         """``looks``: a training scene's (sim.world.SceneLooks; poibench dataset), never a trial's."""
+        # every frame allocates and frees the same few dozen images: keep them in the process
+        # instead of faulting their pages in anew each frame (sim/memory.py)
+        keep_freed_memory()
         self.scenario = sc = scenario
         rng = np.random.default_rng(sc.seed)
         self.arena: ArenaLayout | None = None
