@@ -41,6 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
+from eval.detector.quantize import QUANTIZED_METADATA_KEY
+
 ARCH_PATTERN = re.compile(r"YOLO(\w+?)([nslmx])\b", re.IGNORECASE)  # "YOLO11n" in the description
 STATS_IMAGES = 96  # sample images for the BatchNorm statistics (section above)
 
@@ -77,6 +79,11 @@ def read_onnx(path: str | Path) -> OnnxYolo:
     if missing:
         raise RebuildError(
             f"{p}: metadata lacks {', '.join(missing)}; only a model exported by Ultralytics can be rebuilt"
+        )
+    if QUANTIZED_METADATA_KEY in meta:  # its weights are int8 with scales, not the trained floats
+        raise RebuildError(
+            f"{p}: an int8 model ({meta[QUANTIZED_METADATA_KEY]}); rebuild from the float export "
+            "(the shipped one: poi/models/default_fp32.onnx)"
         )
     m = ARCH_PATTERN.search(meta["description"])
     if m is None:

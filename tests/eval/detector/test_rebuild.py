@@ -8,7 +8,9 @@ import pytest
 from eval.detector.rebuild import RebuildError, read_onnx
 from eval.detector.train import TrainError, TrainSpec
 
-SHIPPED = Path(__file__).resolve().parents[3] / "poi" / "models" / "default_fp32.onnx"  # the float export default.onnx is quantised from
+SHIPPED = (
+    Path(__file__).resolve().parents[3] / "poi" / "models" / "default_fp32.onnx"
+)  # the float export default.onnx is quantised from
 
 
 def test_the_shipped_model_names_its_architecture_classes_and_size():
@@ -88,3 +90,9 @@ def test_the_rebuilt_model_boxes_as_onnxruntime_does(rendered, tmp_path):
         again = reloaded(x)[0].numpy()
     assert np.abs(again[:, :4] - want[:, :4]).max() < 1e-2
     assert YOLO(str(path)).names == src.names
+
+
+def test_the_int8_model_is_refused_naming_the_float_export():
+    # default.onnx is quantised (eval/detector/quantize.py): its weights cannot be copied back
+    with pytest.raises(RebuildError, match=r"default\.onnx: an int8 model .*poi/models/default_fp32\.onnx"):
+        read_onnx(SHIPPED.with_name("default.onnx"))
