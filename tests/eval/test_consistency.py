@@ -38,7 +38,8 @@ from poi.core.geometry import R_BODY_OPTICAL, make_transform
 from poi.core.sensor_noise import CENTER_SIGMA_A_PX, CENTER_SIGMA_B, center_sigma_px, depth_sigma_m
 from poi.core.types import Frame, Intrinsics
 from poi.detectors.base import make_detection
-from poi.estimation.localize import deproject_pixel_to_point, localize
+from poi.estimation.localize import localize
+from poi.estimation.projection import deproject_pixel_to_point
 from poi.estimation.tracker import kalman_update
 
 K = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=319.5, ppy=239.5)

@@ -13,21 +13,11 @@ from poi.core.geometry import R_BODY_OPTICAL, make_transform, rot_z
 from poi.core.sensor_noise import depth_sigma_m
 from poi.core.types import Detection, Frame, Intrinsics
 from poi.detectors.base import make_detection
+from poi.estimation.box_cuts import box_at_border, hidden_lengths_px, hidden_solid_px, occluded_sides
+from poi.estimation.box_depth import LocalizeError, box_depth, box_depth_plane, median_variance_fraction
 from poi.estimation.covariance import depth_jacobian
-from poi.estimation.localize import (
-    LocalizeError,
-    box_at_border,
-    box_depth,
-    box_depth_plane,
-    deproject_pixel_to_point,
-    flat_item,
-    hidden_lengths_px,
-    hidden_solid_px,
-    localize,
-    median_variance_fraction,
-    occluded_sides,
-    project_point_to_pixel,
-)
+from poi.estimation.localize import flat_item, localize
+from poi.estimation.projection import deproject_pixel_to_point, project_point_to_pixel
 from poi.estimation.visibility import in_view
 from sim.sensors.d435_depth import window_noise
 
