@@ -70,7 +70,7 @@ def hidden_solid_px(
     """How many pixels of a 3-D item a box cut by the image border leaves out, (across u,
     across v): f S / z - w on an axis where the box touches the border (``at_border``, from
     :func:`box_at_border`), S the width or height the type's uncut box spans (``size_m``,
-    ``localize.box_width_m`` / ``box_height_m``; 0: not known), z the depth of its centre and
+    a row's ``box_width_m`` / ``box_height_m`` in ``localize.types``; 0: not known), z the depth of its centre and
     f the focal length (a length S at depth z spans f S / z pixels);
     0 on an axis the box does not touch, or where it is no shorter than f S / z.
 

@@ -20,12 +20,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-from poi.core.sensor_noise import window_correlation
+from poi.core.depth_units import DEPTH_UNIT_M
+from poi.core.sensor_noise import depth_sigma_m, window_correlation
 from poi.core.types import Intrinsics
+
+if TYPE_CHECKING:
+    from poi.config import LocalizeConfig
 
 # few more keep one noisy pixel from tilting it), at most about this many (a grid over a large
 # box), and one refit without residuals beyond this many robust sigmas (the wall behind a
@@ -244,7 +249,6 @@ def box_depth_plane(
     noise_sigma_m: float | None = None,
     mean_variance: bool = False,
     split_m: float = math.inf,
-    inverse: bool = False,
 ) -> DepthPlane | None:
     """The least-squares plane d = a + g_u (u - c_u) + g_v (v - c_v) through the valid depths of
     the same inner box as :func:`box_depth`, refitted once without the pixels more than
@@ -253,20 +257,12 @@ def box_depth_plane(
 
     Only the depths within ``split_m`` of the block's median count (``localize.depth_split_m``,
     the item's surface as :func:`box_depth` tells two apart): a nearer surface in part of the
-    block is another surface, not a slope. A QR code at 4.2 m whose box's left 4 of 30 columns
-    lay on a wall edge at 3.0 m got a plane of 34 mm a pixel from a first fit through both (the
-    outlier refit then kept the wall), was measured 1.9 m wide on it and called cut in height by
-    130 px: R 0.5 m wide against an error of 2 cm.
+    block is another surface, not a slope.
 
-    J1 needs how the box's depth changes when the box moves by a pixel. Central differences
-    of single pixels at the centre (:func:`poi.estimation.covariance.depth_jacobian`) read the
-    D435's per-pixel noise instead: at 1 m its sigma_z (4 mm) is larger than the slope of a
-    wall seen at 45 degrees (about 1.7 mm per pixel), so the gradient they give points anywhere,
-    and Sigma_c, which is thin across the surface, came out thin in the wrong direction. The
-    plane averages that noise over the box.
-
-    ``d0`` is the plane's depth at the block's centre (u0, v0), where :func:`localize` reads a
-    flat item's depth (:meth:`DepthPlane.depth_at`).
+    Its slopes are J1's depth gradient ([Avevor2022]_ 2.2.2: how the box's depth changes when
+    the box moves by a pixel), averaged over the block where central differences of single
+    pixels (:func:`poi.estimation.covariance.depth_jacobian`) read the per-pixel noise.
+    ``d0`` is the plane's depth at the block's centre (u0, v0) (:meth:`DepthPlane.depth_at`).
 
     The slopes' variances are the least-squares ones, s^2 (A^T A)^-1, times ``window_px``^2:
     stereo matching correlates the noise of neighbouring pixels over its window, so N pixels
@@ -282,26 +278,13 @@ def box_depth_plane(
     residuals' own (RSS / (N - tr(H C)), unbiased for that noise: a dark or textureless block
     is noisier than the camera's nominal sigma_z, and shows it). Its d0 variance is about
     s^2 window^2 / N for a block of N pixels, far less than one pixel's s^2: the variance of a
-    flat item's depth read on its plane (``localize.flat_depth_variance: plane``). The scaled
-    slope variances above stay as they are for J1 and the tilt checks: they are 2-10 times the
-    exact ones in blocks of 6-12 px (docs/CONSISTENCY.md).
-
-    With ``inverse``, the fit is of 1 / d instead, a + b_u (u - c_u) + b_v (v - c_v), and the
-    plane returned is its tangent at the block's centre: d0 = 1 / a, g = -b d0^2, the
-    covariances carried through that map's Jacobian. A surface that is flat in space has an
-    inverse depth linear in the pixel (n . (z r) = c with r = K^-1 (u, v, 1) gives
-    1 / z = n . r / c), and a depth that is not: across a door's leaf seen 75 degrees off
-    face-on its depth runs from 2.0 to 2.8 m over 64 px, where the straight fit's slope is the
-    chord's, not the tangent's at the centre. The stereo noise is also even in 1 / z (a
-    disparity's), so ``noise_sigma_m`` is taken at the block's median depth, over its square.
+    flat item's depth read on its plane (:func:`plane_depth_variance`). The scaled slope
+    variances above stay for J1 and the tilt checks (docs/CONSISTENCY.md).
 
     >>> v, u = np.mgrid[0:20, 0:20]
     >>> pl = box_depth_plane(2.0 + 0.01 * u + 0.002 * v, (0, 0, 20, 20), 0.5)
     >>> round(pl.g_u, 6), round(pl.g_v, 6), pl.var_g_u < 1e-20
     (0.01, 0.002, True)
-    >>> pl = box_depth_plane(1.0 / (0.5 - 0.002 * (u - 9.5)), (0, 0, 20, 20), 0.5, inverse=True)
-    >>> round(pl.d0, 6), round(pl.g_u, 6), round(pl.g_v, 6)  # the tangent at u = 9.5: 0.002 / 0.5^2
-    (2.0, 0.008, 0.0)
     """
     r0, r1, c0, c1 = _inner_span(depth_m.shape, box_xyxy, inner_fraction)
     if c1 <= c0 or r1 <= r0:
@@ -317,10 +300,6 @@ def box_depth_plane(
     if int(ok.sum()) < PLANE_MIN_PIXELS:
         return None
     d = patch[ok]
-    if inverse:
-        if noise_sigma_m is not None:
-            noise_sigma_m = noise_sigma_m / float(np.median(d)) ** 2
-        d = 1.0 / d
     u0, v0 = 0.5 * (c0 + c1), 0.5 * (r0 + r1)
     du = cols[ok] - u0
     dv = rows[ok] - v0
@@ -346,16 +325,6 @@ def box_depth_plane(
         # the residuals' noise variance, unbiased for correlated noise: E[RSS] = s^2 (N - tr(H C))
         s2_res = float(res @ res) / max(d.size - float(np.trace(M @ (A.T @ A))), 1.0)
         exact = max(s2, s2_res) * M
-    if inverse:
-        # (1 / a, -b_u / a^2, -b_v / a^2) and its Jacobian in (a, b_u, b_v)
-        a, b_u, b_v = (float(c) for c in coef)
-        d0 = 1.0 / a
-        J = np.array(
-            [[-(d0**2), 0.0, 0.0], [2.0 * b_u * d0**3, -(d0**2), 0.0], [2.0 * b_v * d0**3, 0.0, -(d0**2)]]
-        )
-        coef = np.array([d0, -b_u * d0**2, -b_v * d0**2])
-        cov = J @ cov @ J.T
-        exact = None if exact is None else J @ exact @ J.T
     return DepthPlane(
         d0=float(coef[0]),
         u0=u0,
@@ -378,3 +347,93 @@ def plane_slope_sigma(var_g: tuple[float, float], intr: Intrinsics, d: float) ->
     0.5
     """
     return max(math.sqrt(var_g[0]) * intr.fx, math.sqrt(var_g[1]) * intr.fy) / d
+
+
+@dataclass(kw_only=True)
+class BoxDepth:
+    """A box's depth as :func:`read_box_depth` reads it: the ``median`` of its inner block (the
+    depth image's units), its depth ``plane`` (None where none fits), J1 ([Avevor2022]_ 2.2.2:
+    the identity with the plane's slopes g_u, g_v in m / px as its last row's first two entries,
+    0 without a plane) and those slopes' variances ``var_g`` (m^2 / px^2)."""
+
+    median: float
+    plane: DepthPlane | None
+    J1: np.ndarray
+    var_g: tuple[float, float]
+
+    @property
+    def grad(self) -> tuple[float, float]:
+        """(g_u, g_v): J1's depth gradient."""
+        return self.J1[2, 0], self.J1[2, 1]
+
+    @property
+    def surface(self) -> float | DepthPlane:
+        """What :func:`poi.estimation.box_cuts.occluded_sides` carries past the box: the plane,
+        else the median."""
+        return self.median if self.plane is None else self.plane
+
+
+def read_box_depth(depth_m: np.ndarray, box_xyxy, lc: LocalizeConfig, plane_variance: bool) -> BoxDepth | None:
+    """The median depth of a box (:func:`box_depth`) and its depth plane (:func:`box_depth_plane`,
+    its noise the depth camera's sigma_z at the median, ``plane_variance`` its ``mean_variance``),
+    with J1 = [[1, 0, 0], [0, 1, 0], [s g_u, s g_v, 1]] and var(s g) for depth_scale s; None where
+    :func:`box_depth` gives none.
+
+    >>> from poi.config import LocalizeConfig
+    >>> v, u = np.mgrid[0:40, 0:40]
+    >>> bd = read_box_depth(2.0 + 0.001 * u, (0, 0, 40, 40), LocalizeConfig(), False)
+    >>> round(bd.median, 4), round(float(bd.grad[0]), 6), bd.plane is not None
+    (2.0195, 0.001, True)
+    """
+    d_med = box_depth(
+        depth_m,
+        box_xyxy,
+        lc.inner_fraction,
+        lc.min_depth_fill,
+        split_m=lc.depth_split_m,
+        max_split=lc.max_depth_split,
+    )
+    if d_med is None:
+        return None
+    sigma_px = depth_sigma_m(d_med, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
+    plane = box_depth_plane(
+        depth_m,
+        box_xyxy,
+        lc.inner_fraction,
+        lc.depth_window_px,
+        sigma_px,
+        plane_variance,
+        split_m=lc.depth_split_m,
+    )
+    J1 = np.eye(3)
+    var_g = (0.0, 0.0)
+    if plane is not None:
+        J1[2, :2] = lc.depth_scale * plane.g_u, lc.depth_scale * plane.g_v
+        var_g = (lc.depth_scale**2 * plane.var_g_u, lc.depth_scale**2 * plane.var_g_v)
+    return BoxDepth(median=d_med, plane=plane, J1=J1, var_g=var_g)
+
+
+def plane_depth_variance(plane: DepthPlane, u: float, v: float, depth_scale: float) -> float:
+    """The variance (m^2) of a plane's depth at pixel (u, v), s (plane.depth_at(u, v)) for
+    depth_scale s: s^2 (x^T cov x + q^2 / 12), the plane fit's own variance under the
+    window-correlated noise (:meth:`DepthPlane.depth_variance_at`) plus the Z16 unit q's
+    rounding, which a block facing the camera shares (uniform over one unit: q^2 / 12)."""
+    return depth_scale**2 * (plane.depth_variance_at(u, v) + DEPTH_UNIT_M**2 / 12.0)
+
+
+def median_depth_variance(depth_m: np.ndarray, box_xyxy, lc: LocalizeConfig, d: float, median: float) -> float:
+    """The variance (m^2) of a box's median depth ``median`` (the depth image's units), read as
+    ``d`` m: f sigma_z(d)^2 + (s q)^2 / 12, with sigma_z(d) = d^2 sigma_d / (f_depth b) one pixel's
+    noise ([IntelTuning]_, :func:`poi.core.sensor_noise.depth_sigma_m`), f the share of it the
+    pixels deciding the median leave (:func:`median_variance_fraction`) and q the Z16 unit,
+    whose rounding the median keeps.
+
+    .. [IntelTuning] Intel RealSense, "Tuning depth cameras for best performance" (docs/SOURCES.md).
+    """
+    sigma_d = depth_sigma_m(d, sigma_d_px=lc.sigma_d_px, fx_depth_px=lc.fx_depth_px, baseline_m=lc.baseline_m)
+    var_depth = sigma_d**2
+    sigma_raw = sigma_d / lc.depth_scale  # in the depth image's units, as its pixels
+    fraction = median_variance_fraction(
+        depth_m, box_xyxy, lc.inner_fraction, lc.depth_window_px, sigma_raw, median
+    )
+    return fraction * var_depth + (lc.depth_scale * DEPTH_UNIT_M) ** 2 / 12.0
