@@ -354,7 +354,7 @@ def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list
     try:
         cfg = apply_overrides(load_config(), pipeline_settings(sim, list(pipeline_sets)))
         lc = cfg.localize
-        solid_types = set(lc.surface_to_center_m) | set(lc.extent_sigma_m) | set(lc.extent_ray_sigma_m)
+        solid_types = {t for t, row in lc.types.items() if row.shape in ("body", "leaf")}
         oracle_kw = {"seed": sc.seed, "confusion_rate": 0.0, "false_positives_per_frame": 0.0}
         if sim.arena is not None:
             from poi.core.names import ARENA_TYPES

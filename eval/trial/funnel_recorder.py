@@ -50,7 +50,7 @@ from eval.scoring.rules import AnyRules
 from eval.scoring.scorer import ScoreResult
 from poi.core.geometry import greedy_pairs, iou_matrix
 from poi.core.types import Detection, Frame, TrackSnapshot
-from poi.estimation.localize import box_depth
+from poi.estimation.box_depth import box_depth
 
 # sources of the helpers that run beside a trial's detector (heat, Landolt-C rings, QR finder):
 # their boxes do not say whether the detector itself boxes anything
@@ -97,7 +97,7 @@ def projected_views(
     recording's ``frame`` shows by its own pose: the pipeline's in-view test
     (:func:`poi.estimation.visibility.in_view`, with the ``visibility`` settings) on each."""
     from poi.core.geometry import invert_transform, transform_points
-    from poi.estimation.localize import project_point_to_pixel
+    from poi.estimation.projection import project_point_to_pixel
     from poi.estimation.visibility import in_view
 
     if frame.pose is None:
