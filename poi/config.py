@@ -551,11 +551,11 @@ def _below(cls: Any, part: str, here: str, nxt: str) -> Any:
     if isinstance(cls, _Rows):
         return cls.row
     tp = _hints(cls)[part]
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return tp
     if typing.get_origin(tp) is dict:
         row = typing.get_args(tp)[1]
-        return _Rows(row) if dataclasses.is_dataclass(row) else None
+        return _Rows(row) if isinstance(row, type) and dataclasses.is_dataclass(row) else None
     raise ConfigError(f"{here}: is a single setting, it has no key {nxt!r}")
 
 

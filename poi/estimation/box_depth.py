@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, overload
 
 import cv2
 import numpy as np
@@ -193,8 +193,13 @@ class DepthPlane:
     # window-correlated noise (box_depth_plane with mean_variance); only depth_variance_at reads it
     cov: np.ndarray | None = None
 
-    def depth_at(self, u: float, v: float) -> float:
-        """The plane's depth (m) at pixel (u, v): d0 + g_u (u - u0) + g_v (v - v0).
+    @overload
+    def depth_at(self, u: float, v: float) -> float: ...
+    @overload
+    def depth_at(self, u: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+    def depth_at(self, u, v):
+        """The plane's depth (m) at pixel (u, v): d0 + g_u (u - u0) + g_v (v - v0); elementwise
+        for arrays of pixels.
 
         >>> DepthPlane(d0=2.0, u0=10.0, v0=5.0, g_u=0.01, g_v=0.0, var_g_u=0.0, var_g_v=0.0).depth_at(12.0, 9.0)
         2.02

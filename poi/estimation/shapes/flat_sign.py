@@ -231,7 +231,7 @@ class FlatSign(Shape):
             )
             item = flat_item(intr, u, v, d, depth.grad, whole, self.diamond, turned)
         centre = item.center if item is not None and fitted else None
-        turn = item.turn_sigma_px if centre is not None else (0.0, 0.0)
+        turn = item.turn_sigma_px if item is not None and centre is not None else (0.0, 0.0)
         return FlatMeasure(
             centre=centre, hidden_w=hid_w, hidden_h=hid_h, shift_u=shift_u, shift_v=shift_v, turn_sigma_px=turn
         )

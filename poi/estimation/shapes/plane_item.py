@@ -106,10 +106,9 @@ def flat_item(
         return on_plane(side, end) if wall else on_plane(end, side)
 
     (sa, sb), (e0, e1) = ((x1, x2), (y1, y2)) if wall else ((y1, y2), (x1, x2))
-    C = [at(sa, e0), at(sa, e1), at(sb, e0), at(sb, e1)]
-    if any(c is None for c in C):
+    a0, a1, b0, b1 = at(sa, e0), at(sa, e1), at(sb, e0), at(sb, e1)
+    if a0 is None or a1 is None or b0 is None or b1 is None:
         return None
-    a0, a1, b0, b1 = C
     la, lb = float(np.linalg.norm(a1 - a0)), float(np.linalg.norm(b1 - b0))
     if la <= 0.0 or lb <= 0.0:
         return None
