@@ -26,6 +26,7 @@ from poi.core.geometry import R_BODY_OPTICAL
 def test_default_yaml_equals_dataclass_defaults_and_documents_every_key():
     cfg = load_config()
     assert cfg == PipelineConfig()
+
     # every key of the dataclasses is written in the shipped file (it is the documentation); a
     # row of localize.types gives only its shape's numbers (the comment above them says each)
     def keys(data: dict) -> set[str]:
