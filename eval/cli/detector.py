@@ -634,7 +634,7 @@ def cmd_evaluate_photos(args) -> int:
 
     from eval.detector.photos import FALSE_DETECTION, fold_classes, folder_report, load_folder, write_outputs
     from eval.detector.quality import DetectorQualityError
-    from eval.trial.run import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
+    from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 
     if args.limit is not None and args.limit < 1:
         raise DetectorQualityError(f"--limit must be at least 1, got {args.limit}")

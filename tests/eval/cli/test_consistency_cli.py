@@ -93,7 +93,7 @@ def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
 
 def test_suite_runs_past_the_suite_size_take_its_scenarios_again_with_fresh_seeds():
     from eval.cli.consistency import suite_runs
-    from eval.consistency import ConsistencyError
+    from eval.experiments.consistency import ConsistencyError
     from eval.experiments.suites import load_suite
 
     suite = load_suite("rrl-hard")

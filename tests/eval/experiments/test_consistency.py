@@ -1,4 +1,4 @@
-"""eval.consistency: NEES and its chi-square interval, and Monte Carlo checks that the
+"""eval.experiments.consistency: NEES and its chi-square interval, and Monte Carlo checks that the
 pipeline's observation R and track Sigma are consistent with the noise they describe
 ([BarShalom2001]_ 5.4).
 
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from eval.consistency import (
+from eval.experiments.consistency import (
     ConsistencyError,
     Row,
     Samples,
@@ -413,7 +413,7 @@ def test_the_pipelines_r_and_track_sigma_hold_their_errors_in_a_simulated_run():
     tracks' Sigma at confirmation and at the end hold the errors they make: each mean NEES is
     inside its 99% interval. The same errors judged against R half its size (every NEES
     doubled) put the two most-seen types, QR codes and placards, over theirs."""
-    from eval.consistency import run_consistency
+    from eval.experiments.consistency import run_consistency
     from sim.scenario import apply_settings, load_scenario, with_noise
 
     # the first 150 frames of the earlier sweeping tour (robot.pan.mode: sweep), which see the types below

@@ -1,4 +1,4 @@
-"""eval.extent_fit: the offset and the spreads along and across the ray, recovered from errors
+"""eval.experiments.extent_fit: the offset and the spreads along and across the ray, recovered from errors
 drawn with known ones."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eval.extent_fit import ExtentSample, fit_extents, fit_type, fitted_settings
+from eval.experiments.extent_fit import ExtentSample, fit_extents, fit_type, fitted_settings
 from poi.config import apply_overrides, load_config
 
 
