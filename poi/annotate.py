@@ -94,12 +94,14 @@ def annotate(
         )
     img = np.ascontiguousarray(frame_rgb.copy())
     by_id = {t.track_id: t for t in (tracks or [])}
-    for det in detections:
+    labels = []
+    for det in detections:  # every box first, then every label: no box edge crosses a label
         color = TYPE_COLORS_RGB.get(det.type, DEFAULT_COLOR_RGB)
         x1, y1, x2, y2 = (int(round(c)) for c in det.box_xyxy)
         cv2.rectangle(img, (x1, y1), (x2 - 1, y2 - 1), color, LINE_PX)
         snap = by_id.get(det.track_id) if det.track_id is not None else None
-        label = _label(det, snap)
+        labels.append((_label(det, snap), x1, y1, color))
+    for label, x1, y1, color in labels:
         (_, th), base = cv2.getTextSize(label, FONT, FONT_SCALE, 1)
         _text_box(img, label, x1, y1 - th - base - 2, color)
     n_confirmed = sum(1 for t in (tracks or []) if t.confirmed)

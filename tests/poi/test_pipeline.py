@@ -223,6 +223,17 @@ def test_annotate_draws_and_leaves_the_input_alone():
         annotate(np.zeros((10, 10), np.uint8), [])
 
 
+def test_no_box_edge_is_drawn_through_a_label():
+    """A label wider than its box reaches over a neighbour's box: the neighbour's edge stays under it."""
+    img = np.full((120, 200, 3), 40, np.uint8)
+    narrow = make_det("oxidizer", (20.0, 50.0, 30.0, 90.0), 0.87)  # its label runs ~100 px right
+    door = make_det("door", (60.0, 10.0, 120.0, 110.0), 0.9)  # left edge x = 60 crosses that label
+    out = annotate(img, [narrow, door], [], None)
+    label_rows = out[36:48, 58:63]  # the label's band where the door's edge would cross it
+    assert not np.all(label_rows == [150, 90, 40], axis=-1).any()  # no door-brown pixel in it
+    assert out[70, 60].tolist() == [150, 90, 40]  # the door's edge below the label is drawn
+
+
 def test_slam_mode_holds_the_pose_against_odometry_drift():
     """A static robot whose odometry creeps forward 3 mm a frame, watching an exit sign 2 m
     ahead: in t265 mode the map pose follows the odometry; in slam mode the mapped sign pins
