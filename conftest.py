@@ -16,6 +16,9 @@ Every ``tests/eval/ros/`` test is marked ``ros`` by its folder (they all need th
 extra's rosbags).
 """
 
+import sim.gl  # noqa: F401  # first: it sets MUJOCO_GL, which mujoco reads when imported
+
+# isort: split
 import subprocess
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -23,7 +26,6 @@ from pathlib import Path
 import mujoco
 import pytest
 
-import sim.gl  # noqa: F401
 import sim.render
 import sim.simulator
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 
 from eval.detector.dataset import DISTANCE_DRAWS, HAZMAT_PER_SCENARIO, DatasetSpec
@@ -13,6 +14,10 @@ from eval.detector.train import PLACARD_MODES
 from poi.config import DetectorConfig
 
 OPERATING_CONF = DetectorConfig().conf
+# 16 scenes of 40 views showed 531 placards of hazmat-photos-dev's 12 labels, 36-61 a label; 20 show
+# 682, 49-75 a label (seed 1000)
+SIM2REAL_SCENES = 20
+SIM2REAL_VIEWS = 40
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -311,10 +316,82 @@ def register(sub: argparse._SubParsersAction) -> None:
         "default keep",
     )
     ph.add_argument("--limit", type=int, help="at most this many images a folder, drawn with --seed")
+    ph.add_argument(
+        "--holdout-of",
+        metavar="RUN",
+        help="a train or train-labels run folder: its photo folders are scored on their held-back images only",
+    )
     ph.add_argument("--seed", type=int, default=0, help="seed of --limit's and the overlay's draws (default 0)")
     ph.add_argument("--overlay", type=int, default=12, help="images a folder on overlay.png (default 12; 0: none)")
     ph.add_argument("--quiet", action="store_true", help="no progress bars")
     ph.set_defaults(func=cmd_evaluate_photos)
+
+    sr = sub.add_parser(
+        "sim2real",
+        help="a detector on labelled real photos and on poibench renders of the same labels, side by side at "
+        "the photos' box sizes: recall, false detections, gaps per label, photometry (card.md, card.json)",
+    )
+    sr.add_argument(
+        "--photos",
+        required=True,
+        nargs="+",
+        metavar="DIR",
+        help="YOLO folders of labelled photos (images/, labels/), pooled; their hazmat labels are rendered",
+    )
+    sr.add_argument("--out", required=True, help="folder for card.md, card.json, misses.jpg and the renders")
+    sr.add_argument(
+        "--model",
+        help="an ONNX detector, python:MODULE:CLASS or an entry point name (default: the shipped model)",
+    )
+    sr.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a keyword argument of a Python detector (VALUE read as YAML); repeatable",
+    )
+    sr.add_argument(
+        "--label-model",
+        help="hazmat label classifier; 'none' for the detector alone (default: the shipped one with the "
+        "shipped detector, none otherwise)",
+    )
+    sr.add_argument(
+        "--holdout-of",
+        metavar="RUN",
+        help="a train or train-labels run folder: its photo folders are scored on their held-back images only "
+        "(RUN/holdout.json)",
+    )
+    sr.add_argument(
+        "--scenes",
+        type=int,
+        default=SIM2REAL_SCENES,
+        help=f"generated scenes to render, each hanging every label of the photos once (default "
+        f"{SIM2REAL_SCENES}: 682 placards, 49-75 a label, for 12 labels at 40 views; 0.09 CPU-s an image)",
+    )
+    sr.add_argument("--views", type=int, default=SIM2REAL_VIEWS, help=f"views a scene (default {SIM2REAL_VIEWS})")
+    sr.add_argument(
+        "--seed",
+        type=int,
+        default=EVAL_SEED,
+        help=f"seed of the rendered scenes and the bootstrap (default {EVAL_SEED}; refused if the model trained "
+        "on it)",
+    )
+    sr.add_argument(
+        "--conf",
+        type=float,
+        default=OPERATING_CONF,
+        help=f"operating confidence (default {OPERATING_CONF}, the pipeline's detector.conf)",
+    )
+    sr.add_argument(
+        "--absent",
+        default="keep",
+        choices=("keep", "map"),
+        help="map: fold labels a coarser photo set lacks into its class on both sides, truth and detections "
+        "(as evaluate-photos); default keep",
+    )
+    sr.add_argument("--overlay", type=int, default=12, help="images a side on misses.jpg (default 12; 0: none)")
+    sr.add_argument("--quiet", action="store_true", help="no progress bars")
+    sr.set_defaults(func=cmd_sim2real)
 
     for name, helptext in (
         ("evaluate-detector", "mAP50, mAP50-95, per-class AP and recall, confusion matrix image"),
@@ -534,24 +611,31 @@ def cmd_evaluate_labels(args) -> int:
 def _labelled_images(args, work: Path):
     """The val split of --data, or fresh scenes rendered from --seed into ``work``."""
     from eval.detector.dataset import DatasetSpec, write_dataset
-    from eval.detector.quality import DetectorQualityError, load_split, model_training_seeds
+    from eval.detector.quality import load_split
     from eval.progress import progress_bar
 
     if args.data:
         return load_split(args.data, "val")
+    _refuse_training_seed(args)
+    spec = DatasetSpec.trial_looks(images=args.images, seed=args.seed, val_every=1)
+    with progress_bar(total=spec.images, desc="scenes", unit="img", quiet=args.quiet) as bar:
+        write_dataset(spec, work, progress=bar.update)
+    return load_split(work, "val")
+
+
+def _refuse_training_seed(args) -> None:
+    """Refuse fresh scenes from a --seed the detector or its label model was trained on (the seeds
+    ``poibench train`` and ``train-labels`` write into the model's metadata)."""
+    from eval.detector.quality import DetectorQualityError, model_training_seeds
     from poi.detectors import is_team_detector
 
     for model in (args.model, args.label_model):
         if model is None or is_team_detector(model):
             continue  # a Python detector carries no training metadata
-        if model is not None and args.seed in model_training_seeds(model):
+        if args.seed in model_training_seeds(model):
             raise DetectorQualityError(
                 f"{model} was trained on scenes from seed {args.seed}; evaluate on another --seed"
             )
-    spec = DatasetSpec.trial_looks(images=args.images, seed=args.seed, val_every=1)
-    with progress_bar(total=spec.images, desc="scenes", unit="img", quiet=args.quiet) as bar:
-        write_dataset(spec, work, progress=bar.update)
-    return load_split(work, "val")
 
 
 def _detect(args, images, conf):
@@ -628,18 +712,13 @@ def cmd_calibrate(args) -> int:
     return 0
 
 
-def cmd_evaluate_photos(args) -> int:
-    """``poibench evaluate-photos``: eval.detector.photos on each --images folder, side by side."""
-    import time
-
-    from eval.detector.photos import FALSE_DETECTION, fold_classes, folder_report, load_folder, write_outputs
+def _photo_detector(args) -> None:
+    """The detector of evaluate-photos and sim2real: --model (default the shipped one, with the
+    shipped label model unless --label-model says otherwise; 'none': the detector alone), its
+    files checked and a Python detector's --option items with it (:func:`_options`)."""
     from eval.detector.quality import DetectorQualityError
     from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 
-    if args.limit is not None and args.limit < 1:
-        raise DetectorQualityError(f"--limit must be at least 1, got {args.limit}")
-    if not 0.0 <= args.conf <= 1.0:
-        raise DetectorQualityError(f"--conf must be in [0, 1], got {args.conf}")
     shipped = args.model is None
     if shipped:
         args.model = str(DEFAULT_MODEL)
@@ -651,14 +730,59 @@ def cmd_evaluate_photos(args) -> int:
         if m is not None and m.endswith(".onnx") and not Path(m).exists():
             raise DetectorQualityError(f"{m}: no such model file")
     _options(args)
-    names: Counter[str] = Counter()
-    folders = []
-    for k, d in enumerate(args.images):
-        folder = load_folder(d, args.limit, args.seed)
-        names[folder.name] += 1
-        if names[folder.name] > 1:
-            folder.name = f"{folder.name}-{k + 1}"
-        folders.append(folder)
+
+
+def _refuse_trained_photos(models, folders) -> None:
+    """Refuse a photo folder that a model (detector or label classifier) was trained on part of,
+    unless it was cut to that training's held-back images (``--holdout-of RUN``)."""
+    from eval.detector.quality import (
+        PATH_SEPARATOR,
+        PHOTO_FOLDERS_METADATA_KEY,
+        DetectorQualityError,
+        _model_metadata,
+    )
+    from poi.detectors import is_team_detector
+
+    for model in models:
+        if model is None or is_team_detector(model):
+            continue
+        meta = _model_metadata(model).get(PHOTO_FOLDERS_METADATA_KEY, "")
+        trained_on = set(filter(None, meta.split(PATH_SEPARATOR)))
+        for folder, cut in folders:
+            if str(folder.root.resolve()) in trained_on and not cut:
+                raise DetectorQualityError(
+                    f"{model} was trained on part of {folder.root}; give --holdout-of its run folder"
+                )
+
+
+def cmd_evaluate_photos(args) -> int:
+    """``poibench evaluate-photos``: eval.detector.photos on each --images folder, side by side."""
+    import time
+
+    from eval.detector.label_eval import load_folders
+    from eval.detector.photos import FALSE_DETECTION, fold_classes, folder_report, load_folder, write_outputs
+    from eval.detector.quality import DetectorQualityError
+
+    if args.limit is not None and args.limit < 1:
+        raise DetectorQualityError(f"--limit must be at least 1, got {args.limit}")
+    if not 0.0 <= args.conf <= 1.0:
+        raise DetectorQualityError(f"--conf must be in [0, 1], got {args.conf}")
+    _photo_detector(args)
+    if args.holdout_of is not None:
+        if args.limit is not None:
+            raise DetectorQualityError("--limit does not go with --holdout-of: the held-back images are scored")
+        cut = load_folders(args.images, args.holdout_of, "--images")
+    else:
+        names: Counter[str] = Counter()
+        cut = []
+        for k, d in enumerate(args.images):
+            folder = load_folder(d, args.limit, args.seed)
+            names[folder.name] += 1
+            if names[folder.name] > 1:
+                folder.name = f"{folder.name}-{k + 1}"
+            cut.append((folder, False))
+    _refuse_trained_photos((args.model, args.label_model), cut)
+    folders = [f for f, _ in cut]
     results = []
     cpu = []
     for folder in folders:
@@ -691,4 +815,97 @@ def cmd_evaluate_photos(args) -> int:
         if f["without_labels"]:
             print(f"{f['name']}: {f['without_labels']} images have no labels file; taken as showing no object")
     print(f"summary.json, per_class.csv, report.md, recall_by_size.png and overlay.png in {out}")
+    return 0
+
+
+def cmd_sim2real(args) -> int:
+    """``poibench sim2real``: eval.detector.sim2real's card of --photos against fresh renders."""
+    import time
+
+    from eval.detector.dataset import DatasetSpec, write_dataset
+    from eval.detector.label_eval import load_folders
+    from eval.detector.photos import fold_classes, load_folder
+    from eval.detector.quality import DetectorQualityError
+    from eval.detector.sim2real import measure_photometry, photo_labels, side_outcomes, sim2real_card, write_card
+    from eval.progress import progress_bar
+
+    if not 0.0 <= args.conf <= 1.0:
+        raise DetectorQualityError(f"--conf must be in [0, 1], got {args.conf}")
+    for flag, v in (("--scenes", args.scenes), ("--views", args.views)):
+        if v < 1:
+            raise DetectorQualityError(f"{flag} must be at least 1, got {v}")
+    _photo_detector(args)
+    _refuse_training_seed(args)
+    cpu0 = time.process_time()
+    folders = load_folders(args.photos, args.holdout_of, "--photos")
+    _refuse_trained_photos((args.model, args.label_model), folders)
+    labels = photo_labels([f for f, _ in folders])
+    photo_images = [im for f, _ in folders for im in f.images]
+    photo_results = fold_classes(_detect(args, photo_images, args.conf), args.absent)
+    cpu = {"photos": time.process_time() - cpu0}
+    out = Path(args.out)
+    spec = DatasetSpec.trial_looks(
+        images=args.scenes * args.views,
+        images_per_scenario=args.views,
+        seed=args.seed,
+        val_every=1,
+        camera=None,  # the trial's colour camera, still: what a trial shows
+        blur_fraction=0.0,
+        counts={**DatasetSpec.default_counts(), "hazmat": len(labels)},
+        hazmat_labels=tuple(labels),
+    )
+    t0 = time.process_time()
+    with progress_bar(total=spec.images, desc="renders", unit="img", quiet=args.quiet) as bar:
+        write_dataset(spec, out / "renders", progress=bar.update)
+    cpu["render"] = time.process_time() - t0
+    t0 = time.process_time()
+    renders = load_folder(out / "renders", name="renders")
+    render_results = fold_classes(_detect(args, renders.images, args.conf), args.absent)
+    cpu["detect_renders"] = time.process_time() - t0
+    t0 = time.process_time()
+    photos, rendered = side_outcomes(photo_results, args.conf), side_outcomes(render_results, args.conf)
+    measure_photometry(photos, photo_images)
+    measure_photometry(rendered, renders.images)
+    card = {
+        "model": str(args.model),
+        "label_model": args.label_model,
+        "conf": args.conf,
+        "iou_min": 0.5,
+        "absent": args.absent,
+        "holdout_of": args.holdout_of,
+        "photos": {
+            "folders": [
+                {"name": f.name, "path": str(f.root), "images": len(f.images), "held_back_only": cut}
+                for f, cut in folders
+            ],
+            "images": photos.images,
+            "placards": int(len(photos.label)),
+        },
+        "renders": {
+            "path": str(out / "renders"),
+            "scenes": args.scenes,
+            "views": args.views,
+            "seed": args.seed,
+            "images": rendered.images,
+            "placards": int(len(rendered.label)),
+            "looks": "DatasetSpec.trial_looks, the trial's still colour camera, the photos' labels only",
+        },
+        "error": None,
+        **sim2real_card(photos, rendered, labels, seed=args.seed),
+    }
+    if photos.detections + rendered.detections == 0:
+        card["error"] = (
+            f"{args.model} boxed nothing at confidence >= {args.conf} on any of {photos.images} photos and "
+            f"{rendered.images} renders; the recalls are 0 by default, not measured"
+        )
+    cpu["card"] = time.process_time() - t0
+    card["cpu_s"] = {k: round(v, 1) for k, v in cpu.items()} | {"total": round(time.process_time() - cpu0, 1)}
+    sides = [
+        (replace(folders[0][0], name="photos", images=photo_images), photo_results),
+        (renders, render_results),
+    ]
+    print(write_card(out, card, sides, args.overlay, args.seed))
+    if card["error"]:
+        raise DetectorQualityError(card["error"])
+    print(f"card.md, card.json and misses.jpg in {out}; the renders in {out / 'renders'}")
     return 0

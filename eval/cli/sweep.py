@@ -8,7 +8,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from eval.cli.args import positive_int
+from eval.cli.args import positive_int, shard
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -29,6 +29,25 @@ def _common(p: argparse.ArgumentParser) -> None:
         "(default: $XDG_CACHE_HOME/poibench/perception or ~/.cache/poibench/perception)",
     )
     p.add_argument("--no-cache", action="store_true", help="render and detect every trial")
+
+
+def _shard_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--shard",
+        type=shard,
+        metavar="I/N",
+        help="run only shard I of N (0-based: the trials k with k %% N == I), into a folder of its own; "
+        "join the N folders with poibench suite merge (a Slurm array or a Kubernetes indexed job, "
+        "docs/guides/suites.md)",
+    )
+
+
+def check_shard(args) -> None:
+    """A shard needs a folder of its own to merge; refuse ``--shard`` without ``--out``."""
+    from eval.experiments.sweep import SweepError
+
+    if args.shard is not None and not args.out:
+        raise SweepError(f"--shard {args.shard}: needs --out, the shard's folder that poibench suite merge joins")
 
 
 def cache_dir(args) -> str | None:
@@ -53,7 +72,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--out", help="folder for trials.csv and each trial's files (default: a temporary one)")
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
     _common(r)
+    _shard_option(r)
     r.set_defaults(func=cmd_suite_run)
+    m = ssub.add_parser(
+        "merge",
+        help="join the folders of a run's shards (--shard I/N) into the folder one run writes",
+        description="Join the --out folders of every shard of one suite run, sweep or regress run "
+        "(--shard I/N) into the folder a single run writes: trials.csv row for row in the run's order, "
+        "then aggregate.csv, funnel.csv and the plot from the merged rows. Refuses shards of different "
+        "runs or N, a shard missing or given twice, and a shard that did not finish.",
+    )
+    m.add_argument("shards", nargs="+", metavar="SHARD_DIR", help="a shard's --out folder (every one of 0..N-1)")
+    m.add_argument("--out", required=True, help="the merged run's folder (new or empty)")
+    m.set_defaults(func=cmd_suite_merge, locks_out=True)
     c = ssub.add_parser(
         "compare",
         help="rank finished suite runs (detectors or settings) on the same mazes, with intervals",
@@ -71,6 +102,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     w.add_argument("--out", required=True, help="folder for trials.csv, aggregate.csv and plots")
     w.add_argument("--resume", action="store_true", help="skip trials already finished in --out")
     _common(w)
+    _shard_option(w)
     w.set_defaults(func=cmd_sweep)
 
     g = sub.add_parser("regress", help="run a suite and fail when the score drops below a baseline")
@@ -81,7 +113,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--junit", help="write JUnit XML here")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="pipeline or scenario setting")
     g.add_argument("--out", help="folder for the trials (default: a temporary one)")
+    g.add_argument(
+        "--merged",
+        metavar="DIR",
+        help="judge this finished run (the poibench suite merge of its shards) against the baseline "
+        "instead of running the suite",
+    )
     _common(g)
+    _shard_option(g)
     g.set_defaults(func=cmd_regress)
 
     t = sub.add_parser("tune", help="search pipeline thresholds for the best mean score on a suite (Optuna)")
@@ -118,6 +157,7 @@ def _spec(args, suite: str, grid):
         address=args.address,
         resume=getattr(args, "resume", False),
         cache=cache_dir(args),
+        shard=getattr(args, "shard", None),
     )
 
 
@@ -195,22 +235,61 @@ def mean_line(ok, n_trials: int) -> str:
     return f"mean score fraction {f.mean():.3f} ({how}) over {len(f)} of {n_trials} trials"
 
 
-def cmd_suite_run(args) -> int:
-    from eval.experiments.suites import load_suite
+def print_suite_table(title: str, df, out: Path) -> None:
+    """A suite run's table of trials, its mean with the interval and its funnel (``suite run``
+    and ``suite merge`` print the same)."""
     from eval.experiments.sweep import summed_funnel
     from eval.experiments.table import format_table
 
+    print(title)
+    print(format_table(df, SUITE_RUN_FORMATS))
+    ok = df[df["error"] == ""] if len(df) else df
+    print(mean_line(ok, len(df)))
+    print_funnel(ok, summed_funnel(ok, out))
+
+
+def shard_note(args, out: Path, n_rows: int) -> str:
+    """The line a shard ends with: what it ran and how its folder is joined to the others'."""
+    from eval.cli.run import counted
+
+    return (
+        f"shard {args.shard}: {counted(n_rows, 'trial')} in {out}; when all {args.shard.count} shards have "
+        f"finished, join their folders with poibench suite merge DIR... --out MERGED"
+    )
+
+
+def cmd_suite_run(args) -> int:
+    from eval.experiments.suites import load_suite
+
+    check_shard(args)
     suite = load_suite(args.name)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.out) if args.out else Path(tmp)
         df, _ = _run(_spec(args, args.name, []), out, args.quiet)
-        print(f"suite {suite.name} v{suite.version}: {suite.description}")
-        print(format_table(df, SUITE_RUN_FORMATS))
-        ok = df[df["error"] == ""]
-        print(mean_line(ok, len(df)))
-        print_funnel(ok, summed_funnel(ok, out))
-        if args.out:
+        print_suite_table(f"suite {suite.name} v{suite.version}: {suite.description}", df, out)
+        if args.shard is not None:
+            print(shard_note(args, out, len(df)))
+        elif args.out:
             print(f"trials.csv and each trial's files in {out}; rank runs with poibench suite compare {out} OTHER")
+    return 0 if (df["error"] == "").all() else 1
+
+
+def cmd_suite_merge(args) -> int:
+    from eval.cli.run import counted
+    from eval.experiments.merge import merge_shards
+
+    out = Path(args.out)
+    df, agg = merge_shards(args.shards, out)
+    suites = (
+        sorted({f"{s} v{v}" for s, v in zip(df["suite"], df["suite_version"], strict=True)}) if len(df) else []
+    )
+    grid = [c for c in df.columns if c.startswith("set.")]
+    if grid:
+        print(agg.to_string(index=False))
+    else:
+        print_suite_table(f"suite {', '.join(suites) or '-'}: {len(args.shards)} shards merged", df, out)
+    n = f"{counted(len(df), 'trial')} of {len(args.shards)} shards"
+    print(f"{n}: trials.csv, aggregate.csv and funnel.csv in {out}")
     return 0 if (df["error"] == "").all() else 1
 
 
@@ -238,22 +317,66 @@ def cmd_sweep(args) -> int:
     print(
         f"{counted(len(df), 'trial')} ({failed} failed): trials.csv, aggregate.csv, funnel.csv and plots in {out}"
     )
+    if args.shard is not None:
+        print(shard_note(args, out, len(df)))
     return 0
 
 
+def merged_rows(folder: Path, spec):
+    """The rows of a finished run's folder (a merged one) made with ``spec``'s suite, settings,
+    detector and rules; :class:`RegressError` (one line) for a folder of another run or none."""
+    from eval.experiments.regress import RegressError
+    from eval.experiments.sweep import read_rows
+    from poi.core.loader import safe_load_file
+
+    meta = folder / "sweep.yaml"
+    if not meta.is_file() or not (folder / "trials.csv").is_file():
+        raise RegressError(f"--merged {folder}: not a finished run's folder (no sweep.yaml or trials.csv)")
+    doc = safe_load_file(meta, error=RegressError)
+    if not isinstance(doc, dict) or "shard" in doc:
+        raise RegressError(
+            f"--merged {folder}: a shard, not a merged run; join every shard with poibench suite merge"
+        )
+    if doc.get("sweep") != spec.identity():
+        raise RegressError(
+            f"{meta}: that run had another suite, --set, detector or rules than this regress ({doc.get('sweep')})"
+        )
+    df = read_rows(folder / "trials.csv")
+    if len(df) != doc.get("trials"):
+        raise RegressError(
+            f"--merged {folder}: {len(df)} of {doc.get('trials')} trials recorded; it did not finish"
+        )
+    return df
+
+
 def cmd_regress(args) -> int:
-    from eval.experiments.regress import baseline_doc, compare, load_baseline, write_junit
+    from eval.experiments.regress import RegressError, baseline_doc, compare, load_baseline, write_junit
     from eval.experiments.suites import load_suite
     from eval.experiments.sweep import summed_funnel
 
     suite = load_suite(args.suite)
     base_path = Path(args.baseline)
+    check_shard(args)
+    grid = [(k, [v]) for k, v in (item.split("=", 1) for item in args.set)] if args.set else []
+    if args.shard is not None and (args.update or args.junit or args.merged):
+        flag = "--update" if args.update else ("--junit" if args.junit else "--merged")
+        raise RegressError(
+            f"--shard {args.shard} with {flag}: a verdict or baseline needs every scenario; run the shards, "
+            "join them with poibench suite merge, then poibench regress --merged DIR"
+        )
+    if args.shard is not None:  # the shard's trials only; the baseline is read when the merged run is judged
+        df, _ = _run(_spec(args, args.suite, grid), Path(args.out), args.quiet)
+        print(shard_note(args, Path(args.out), len(df)))
+        return 0 if (df["error"] == "").all() else 1
     baseline = None if args.update else load_baseline(base_path)
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(args.out) if args.out else Path(tmp)
-        grid = [(k, [v]) for k, v in (item.split("=", 1) for item in args.set)] if args.set else []
-        df, _ = _run(_spec(args, args.suite, grid), out, args.quiet)
+    if args.merged:
+        df, out = merged_rows(Path(args.merged), _spec(args, args.suite, grid)), Path(args.merged)
         funnel = summed_funnel(df[df["error"] == ""], out)
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(args.out) if args.out else Path(tmp)
+            df, _ = _run(_spec(args, args.suite, grid), out, args.quiet)
+            funnel = summed_funnel(df[df["error"] == ""], out)
     if args.update:
         if (df["error"] != "").any():
             bad = df[df["error"] != ""].iloc[0]

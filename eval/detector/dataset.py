@@ -3,8 +3,8 @@
 ``write_dataset(spec, out_dir)`` builds ``ceil(images / images_per_scenario)``
 generated scenarios (maze size, preset, lighting, shadows on ``shadow_fraction`` of them, and
 object placement from ``SeedSequence([seed, j])``). Each scenario hangs a rotating window of the 16
-hazmat labels, so all labels appear equally often over the dataset, plus every
-other type. Each image looks at a target chosen to balance the classes (the
+hazmat labels (or of ``hazmat_labels``), so all labels appear equally often over the dataset,
+plus every other type. Each image looks at a target chosen to balance the classes (the
 least-labelled class present), from a viewpoint drawn in free space at a
 distance of ``distance_m`` and up to ``max_angle_deg`` off the object's face
 normal, with the target anywhere in the central part of the image, a small
@@ -120,6 +120,9 @@ class DatasetSpec:
     milk_crates: int = 2
     camera: CameraRandomisation | None = field(default_factory=lambda: CameraRandomisation())
     counts: dict[str, int] = field(default_factory=lambda: DatasetSpec.default_counts())
+    # the hazmat labels the scenarios' rotating window runs over; None: all 16. ``poibench
+    # sim2real`` renders only the labels its photos show
+    hazmat_labels: tuple[str, ...] | None = None
 
     @classmethod
     def trial_looks(cls, **kw) -> DatasetSpec:
@@ -181,6 +184,12 @@ class DatasetSpec:
         bad = {k: v for k, v in self.counts.items() if not isinstance(v, int) or v < 0}
         if bad:
             raise DatasetError(f"object counts must be whole numbers >= 0, got {bad}")
+        if self.hazmat_labels is not None:
+            unknown = sorted(set(self.hazmat_labels) - set(HAZMAT_LABELS))
+            if unknown or not self.hazmat_labels:
+                raise DatasetError(
+                    f"hazmat_labels must be some of {', '.join(HAZMAT_LABELS)}, got {list(self.hazmat_labels)}"
+                )
 
     @property
     def n_scenarios(self) -> int:
@@ -202,6 +211,10 @@ class DatasetSpec:
         d["print_black"] = None if self.print_black is None else list(self.print_black)
         if d["camera"] is not None:
             d["camera"] = {k: list(v) if isinstance(v, tuple) else v for k, v in d["camera"].items()}
+        if self.hazmat_labels is None:
+            del d["hazmat_labels"]  # datasets made before the field resume as they were
+        else:
+            d["hazmat_labels"] = list(self.hazmat_labels)
         return d
 
 
@@ -215,8 +228,9 @@ def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
     rows, cols = (int(v) for v in rng.integers(lo, hi + 1, size=2))
     preset = "rmrc" if rng.random() < spec.rmrc_fraction else "rrl"
     n = spec.counts.get("hazmat", 0)
-    start = (j * n) % len(HAZMAT_LABELS)
-    labels = [HAZMAT_LABELS[(start + i) % len(HAZMAT_LABELS)] for i in range(n)]
+    pool = HAZMAT_LABELS if spec.hazmat_labels is None else spec.hazmat_labels
+    start = (j * n) % len(pool)
+    labels = [pool[(start + i) % len(pool)] for i in range(n)]
     lighting = LIGHTING[int(rng.integers(len(LIGHTING)))]
     return Scenario(
         name=f"dataset-{spec.seed}-{j}",

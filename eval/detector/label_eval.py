@@ -229,8 +229,10 @@ def restrict_to_holdout(folder: PhotoFolder, held: dict[str, set[str]]) -> bool:
     return True
 
 
-def load_folders(data: Sequence[str | Path], holdout_of: str | Path | None) -> list[tuple[PhotoFolder, bool]]:
-    """Each ``--data`` folder (unique names) and whether it was cut to the run's held-back images."""
+def load_folders(
+    data: Sequence[str | Path], holdout_of: str | Path | None, option: str = "--data"
+) -> list[tuple[PhotoFolder, bool]]:
+    """Each ``option`` folder (unique names) and whether it was cut to the run's held-back images."""
     held = read_holdout(holdout_of) if holdout_of is not None else {}
     seen: dict[str, int] = {}
     out = []
@@ -242,7 +244,7 @@ def load_folders(data: Sequence[str | Path], holdout_of: str | Path | None) -> l
         out.append((folder, restrict_to_holdout(folder, held)))
     if held and not any(cut for _, cut in out):
         raise DetectorQualityError(
-            f"{holdout_of}: holds back images of {', '.join(sorted(held))}, none of which is a --data folder"
+            f"{holdout_of}: holds back images of {', '.join(sorted(held))}, none of which is a {option} folder"
         )
     return out
 

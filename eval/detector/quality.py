@@ -58,6 +58,8 @@ MIN_CENTER_VARIANCE_PX2 = 1.0 / 12.0
 CONFUSION_ALPHA = 0.5
 SEED_METADATA_KEY = "poibench_dataset_seed"
 SEEDS_METADATA_KEY = "poibench_dataset_seeds"  # a label classifier's, comma-separated
+PHOTO_FOLDERS_METADATA_KEY = "poibench_photo_folders"  # photo folders trained on (resolved), by PATH_SEPARATOR
+PATH_SEPARATOR = "\n"
 AP_CONF = 0.001  # detections kept for AP (the whole precision-recall curve)
 
 

@@ -353,7 +353,8 @@ def train(spec: TrainSpec) -> Path:
     if not best.exists():
         raise TrainError(f"{best}: training ended without that checkpoint")
     exported = Path(ul.YOLO(str(best)).export(format="onnx", imgsz=spec.imgsz, dynamic=False, simplify=False))
-    _stamp_dataset_seed(exported, onnx_path, source)
+    photo_roots = [str(Path(d).resolve()) for d in sources_of(spec) if is_photo_folder(d)]
+    _stamp_metadata(exported, onnx_path, source, photo_roots)
     return onnx_path
 
 
@@ -367,18 +368,23 @@ def dataset_seed(root: str | Path) -> int | None:
     return int(spec["seed"]) if isinstance(spec, dict) and "seed" in spec else None
 
 
-def _stamp_dataset_seed(src: Path, dst: Path, data: Path) -> None:
-    """Copy the exported model, adding the training dataset's seed to its metadata so that
-    evaluate-detector can refuse scenes the model was trained on."""
+def _stamp_metadata(src: Path, dst: Path, data: Path, photo_folders: list[str]) -> None:
+    """Copy the exported model, adding to its metadata the training dataset's seed, so that
+    evaluate-detector can refuse scenes the model was trained on, and the photo folders it
+    trained on part of, so that evaluate-photos and sim2real score it on their held-back
+    images only (``--holdout-of RUN``)."""
     import onnx
 
-    from eval.detector.quality import SEED_METADATA_KEY
+    from eval.detector.quality import PATH_SEPARATOR, PHOTO_FOLDERS_METADATA_KEY, SEED_METADATA_KEY
 
     seed = dataset_seed(data.parent)
+    stamps = {SEED_METADATA_KEY: None if seed is None else str(seed)}
+    stamps[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(photo_folders) or None
     model = onnx.load(str(src))
-    if seed is not None:
-        kept = [p for p in model.metadata_props if p.key != SEED_METADATA_KEY]
-        del model.metadata_props[:]
-        model.metadata_props.extend(kept)
-        model.metadata_props.add(key=SEED_METADATA_KEY, value=str(seed))
+    kept = [p for p in model.metadata_props if p.key not in stamps]
+    del model.metadata_props[:]
+    model.metadata_props.extend(kept)
+    for key, value in stamps.items():
+        if value is not None:
+            model.metadata_props.add(key=key, value=value)
     onnx.save(model, str(dst))

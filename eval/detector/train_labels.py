@@ -53,13 +53,17 @@ from eval.detector.label_data import (
     training_images,
     write_holdout,
 )
-from eval.detector.quality import SEEDS_METADATA_KEY, DetectorQualityError, plot_confusion
+from eval.detector.quality import (
+    PATH_SEPARATOR,
+    PHOTO_FOLDERS_METADATA_KEY,
+    SEEDS_METADATA_KEY,
+    DetectorQualityError,
+    plot_confusion,
+)
 from eval.detector.train import TrainError, dataset_seed
 from poi.detectors.hazmat_labels import DEFAULT_CROP_MARGIN, LABEL_CLASSES, TASK, crops_to_input
 
 ONNX_NAME = "label_model.onnx"
-PHOTO_FOLDERS_METADATA_KEY = "poibench_photo_folders"  # resolved paths, separated by PATH_SEPARATOR
-PATH_SEPARATOR = "\n"
 
 
 @dataclass(kw_only=True)

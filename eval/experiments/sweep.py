@@ -9,6 +9,10 @@ torn last line (a row cut short), then skips trials already recorded without
 error (failed and torn ones are run again). A trial
 that raises is recorded with its error and the sweep goes on.
 
+With ``SweepSpec.shard`` (``--shard I/N``, :mod:`eval.experiments.shard`) only every N-th trial
+of the task order runs, and ``sweep.yaml`` names the shard and every trial of the run, which
+``poibench suite merge`` (:mod:`eval.experiments.merge`) joins the shards by.
+
 With ``SweepSpec.cache`` (a folder) each scenario's perception is recorded once and
 every trial replays it (:mod:`eval.trial.perception_cache`): the same rows, a fraction
 of the CPU.
@@ -39,6 +43,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from eval.experiments.shard import Shard
 from eval.experiments.suites import Suite, load_suite
 from poi.core.loader import safe_load_file
 
@@ -150,6 +155,7 @@ class SweepSpec:
     resume: bool = False
     keep_trials: bool = True  # keep each trial's folder (pois.csv, score.json, map.png)
     cache: str | None = None  # perception cache folder; None: render and detect every trial
+    shard: Shard | None = None  # run only this shard's trials (eval.experiments.shard); None: all
 
     def identity(self) -> dict:
         """What must match for --resume to continue a sweep."""
@@ -448,6 +454,26 @@ def _check_out(out: Path, spec: SweepSpec) -> None:
             raise SweepError(
                 f"{meta}: that sweep had other settings; --resume needs the same suite, --set and rules"
             )
+        old_shard = old.get("shard") or {}
+        was = f"{old_shard.get('index')}/{old_shard.get('count')}" if old_shard else "none"
+        now = str(spec.shard) if spec.shard else "none"
+        if was != now:
+            raise SweepError(f"{meta}: that run was --shard {was}; --resume needs the same --shard, not {now}")
+
+
+def sweep_doc(spec: SweepSpec, suite: Suite, tasks: list[TrialTask]) -> dict:
+    """``sweep.yaml``: what the run was (``identity``), its suite's version and its trial count; a
+    shard's adds ``shard``: its index, the count and every trial id of the whole run in task order,
+    which ``poibench suite merge`` checks the shards against and orders their rows by."""
+    doc: dict = {
+        "poibench_sweep": 1,
+        "sweep": spec.identity(),
+        "suite_version": suite.version,
+        "trials": len(tasks),
+    }
+    if spec.shard is not None:
+        doc["shard"] = {**spec.shard.to_dict(), "trial_ids": [t.trial for t in tasks]}
+    return doc
 
 
 def run_sweep(
@@ -467,14 +493,11 @@ def run_sweep(
         )
     _check_out(out, spec)
     out.mkdir(parents=True, exist_ok=True)
-    tasks = make_tasks(suite, spec, out)
+    all_tasks = make_tasks(suite, spec, out)
     (out / "sweep.yaml").write_text(
-        yaml.safe_dump(
-            {"poibench_sweep": 1, "sweep": spec.identity(), "suite_version": suite.version, "trials": len(tasks)},
-            sort_keys=False,
-        ),
-        encoding="utf-8",
+        yaml.safe_dump(sweep_doc(spec, suite, all_tasks), sort_keys=False), encoding="utf-8"
     )
+    tasks = spec.shard.select(all_tasks) if spec.shard is not None else all_tasks
     path = out / "trials.csv"
     dropped = drop_torn_tail(path)
     if dropped:
@@ -502,11 +525,18 @@ def run_sweep(
                 progress(1, len(tasks))
     finally:
         writer.close()
-    df = read_rows(path)
-    agg = aggregate(df, [k for k, _ in spec.grid])
+    return write_summaries(out, [k for k, _ in spec.grid])
+
+
+def write_summaries(out: Path, keys: list[str]) -> tuple[object, object]:
+    """The rows of ``out/trials.csv`` and what is computed from them, written beside it:
+    ``aggregate.csv``, ``funnel.csv`` and the plot; returns (rows, aggregate) DataFrames. A run and
+    ``poibench suite merge`` both end here, so a merged folder's summaries are a single run's."""
+    df = read_rows(out / "trials.csv")
+    agg = aggregate(df, keys)
     agg.to_csv(out / "aggregate.csv", index=False)
-    funnel_table(df, [k for k, _ in spec.grid], out).to_csv(out / "funnel.csv", index=False)
-    plot_sweep(out, agg, [k for k, _ in spec.grid])
+    funnel_table(df, keys, out).to_csv(out / "funnel.csv", index=False)
+    plot_sweep(out, agg, keys)
     return df, agg
 
 

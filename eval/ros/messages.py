@@ -5,7 +5,8 @@ the fields given and fills every other field with its zero value, so one call wo
 dialects (ROS 1 has ``Header.seq`` and ``CameraInfo.K``; ROS 2 has ``CameraInfo.k`` and more
 ``Marker`` fields). Images follow ``sensor_msgs/Image``'s encodings: colour ``rgb8`` (``bgr8``,
 ``rgba8``, ``bgra8`` read too), depth ``16UC1``/``mono16`` millimetres or ``32FC1`` metres, thermal
-``32FC1`` degrees Celsius.
+``32FC1`` degrees Celsius. Colour and depth are read from ``sensor_msgs/CompressedImage`` too
+(:mod:`eval.ros.compression`: PNG or JPEG colour, compressedDepth or 16-bit PNG depth).
 
 References
 ----------
@@ -21,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from eval.ros.compression import CodecError, Encoded, decode_colour, decode_depth
 from poi.core.depth_units import from_z16
 from poi.core.geometry import make_transform, matrix_to_quat_wxyz, quat_wxyz_to_matrix
 from poi.core.types import Intrinsics
@@ -129,6 +131,29 @@ def image_msg(ts, t_ns: int, frame_id: str, array: np.ndarray, encoding: str):
     )
 
 
+def compressed_image_msg(ts, t_ns: int, frame_id: str, encoded: Encoded):
+    """``sensor_msgs/CompressedImage`` of an encoded image (:mod:`eval.ros.compression`)."""
+    return build(
+        ts,
+        "sensor_msgs/msg/CompressedImage",
+        header=header(ts, t_ns, frame_id),
+        format=encoded.format,
+        data=np.frombuffer(encoded.data, np.uint8),
+    )
+
+
+def is_compressed(msg) -> bool:
+    """Whether an image message is a ``sensor_msgs/CompressedImage`` (it has ``format``, no ``encoding``)."""
+    return hasattr(msg, "format") and not hasattr(msg, "encoding")
+
+
+def _decoded(fn, msg, topic: str) -> np.ndarray:
+    try:
+        return fn(np.asarray(msg.data, np.uint8).tobytes(), str(msg.format), topic)
+    except CodecError as e:
+        raise MessageError(str(e)) from None
+
+
 def _pixels(msg, dtype, channels: int, topic: str) -> np.ndarray:
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
     item = np.dtype(dtype).itemsize * channels
@@ -145,7 +170,9 @@ def _pixels(msg, dtype, channels: int, topic: str) -> np.ndarray:
 
 
 def colour_of(msg, topic: str) -> np.ndarray:
-    """RGB uint8 (H, W, 3) of a colour ``sensor_msgs/Image``."""
+    """RGB uint8 (H, W, 3) of a colour ``sensor_msgs/Image`` or ``CompressedImage``."""
+    if is_compressed(msg):
+        return _decoded(decode_colour, msg, topic)
     enc = msg.encoding
     if enc not in COLOUR_ENCODINGS:
         raise MessageError(
@@ -159,7 +186,10 @@ def colour_of(msg, topic: str) -> np.ndarray:
 
 def depth_of(msg, topic: str, depth_unit_m: float = 0.001) -> np.ndarray:
     """Depth in metres, float32 (H, W), 0 invalid, of a ``16UC1``/``mono16`` (units of
-    ``depth_unit_m``, millimetres by default) or ``32FC1`` (metres; NaN read as 0) image."""
+    ``depth_unit_m``, millimetres by default) or ``32FC1`` (metres; NaN read as 0) image, or of a
+    ``CompressedImage`` of those 16-bit units."""
+    if is_compressed(msg):
+        return from_z16(_decoded(decode_depth, msg, topic), depth_unit_m)
     enc = msg.encoding
     if enc in ("16UC1", "mono16"):
         return from_z16(_pixels(msg, np.uint16, 1, topic), depth_unit_m)

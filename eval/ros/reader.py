@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from eval.ros.align import align_depth_to_color
+from eval.ros.compression import COMPRESSED_SUFFIX, DEPTH_SUFFIX
 from eval.ros.messages import (
     MessageError,
     colour_of,
@@ -53,6 +54,7 @@ from poi.core.geometry import R_BODY_OPTICAL, invert_transform, make_transform
 from poi.core.types import Frame, Intrinsics
 
 IMAGE = "sensor_msgs/msg/Image"
+COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
@@ -300,26 +302,33 @@ def open_recording(
             color, color_info = topics.color, topics.color_info
             depth, depth_info = topics.depth, topics.depth_info
             aligned = True
+            # image_transport's compressed topics (poibench run --log-images png) when the raw ones are absent
+            if "color" not in given:
+                color = _compressed_topic(color, by_topic, (COMPRESSED_SUFFIX,))
+            if "depth" not in given:
+                depth = _compressed_topic(depth, by_topic, (DEPTH_SUFFIX, COMPRESSED_SUFFIX))
             if "depth" not in given and depth not in by_topic and UNALIGNED_DEPTH[0] in by_topic:
                 depth, depth_info = UNALIGNED_DEPTH
                 aligned = False
             elif "aligned_depth" not in depth and "depth" in given:
                 aligned = False  # a depth topic given by name: aligned only if its info says so (below)
             unit_topic = fps_topic = None
-        for role, topic, kind in (
-            ("colour image", color, IMAGE),
-            ("colour camera info", color_info, CAMERA_INFO),
-            ("depth image", depth, IMAGE),
-            ("depth camera info", depth_info, CAMERA_INFO),
+        for role, topic, kinds in (
+            ("colour image", color, (IMAGE, COMPRESSED_IMAGE)),
+            ("colour camera info", color_info, (CAMERA_INFO,)),
+            ("depth image", depth, (IMAGE, COMPRESSED_IMAGE)),
+            ("depth camera info", depth_info, (CAMERA_INFO,)),
         ):
             if topic not in by_topic:
-                what = "no camera info" if kind == CAMERA_INFO else "missing topic"
+                what = "no camera info" if kinds == (CAMERA_INFO,) else "missing topic"
                 raise RecordingError(
                     f"{path}: {what}: no {role} on {topic} (--topic to name another; topics: "
                     f"{_topic_list(available)})"
                 )
-            if by_topic[topic].msgtype != kind:
-                raise RecordingError(f"{path}: {topic} holds {by_topic[topic].msgtype}, not the {role} ({kind})")
+            if by_topic[topic].msgtype not in kinds:
+                raise RecordingError(
+                    f"{path}: {topic} holds {by_topic[topic].msgtype}, not the {role} ({' or '.join(kinds)})"
+                )
         odom = topics.odom if topics.odom in by_topic else None
         if odom is not None and by_topic[odom].msgtype != ODOMETRY:
             raise RecordingError(f"{path}: {odom} holds {by_topic[odom].msgtype}, not {ODOMETRY}")
@@ -486,6 +495,18 @@ def open_recording(
         _thermal_of=thermal_of,
         _poses=poses,
     )
+
+
+def _compressed_topic(topic: str, by_topic: dict, suffixes: tuple[str, ...]) -> str:
+    """``topic`` when the recording has it, else its first image_transport compressed topic
+    (``topic`` + a suffix) that it has, else ``topic`` (reported missing by the caller).
+
+    >>> _compressed_topic("/c", {"/c/compressed": None}, ("/compressed",))
+    '/c/compressed'
+    """
+    if topic in by_topic:
+        return topic
+    return next((topic + s for s in suffixes if topic + s in by_topic), topic)
 
 
 def _raw_header(raw, ros2: bool) -> tuple[int, str] | None:

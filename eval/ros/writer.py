@@ -5,6 +5,10 @@ Per frame, at the frame's stamp (the mission start plus the frame time):
 
 * colour ``sensor_msgs/Image`` ``rgb8`` and its ``CameraInfo``;
 * depth aligned to colour, ``16UC1`` millimetres, and its ``CameraInfo`` (the colour optics);
+* with ``images="png"`` (or ``"jpeg"``), colour and depth as ``sensor_msgs/CompressedImage``
+  instead, on the topics image_transport gives them (:mod:`eval.ros.compression`): colour PNG
+  (or JPEG) on ``<colour topic>/compressed``, depth a lossless 16-bit PNG on
+  ``<depth topic>/compressedDepth``;
 * thermal ``32FC1`` degrees Celsius and its ``CameraInfo`` when the trial has a thermal camera;
 * the tracker's pose as ``nav_msgs/Odometry`` (none for a frame without a pose, a dropout);
 * ``/tf``: ``odom -> base`` and ``base -> mast`` from the same pose;
@@ -39,9 +43,17 @@ from pathlib import Path
 
 import numpy as np
 
+from eval.ros.compression import (
+    COLOUR_CODECS,
+    COMPRESSED_SUFFIX,
+    DEPTH_SUFFIX,
+    encode_colour,
+    encode_depth,
+)
 from eval.ros.messages import (
     build,
     camera_info_msg,
+    compressed_image_msg,
     header,
     image_msg,
     pose_msg,
@@ -55,6 +67,7 @@ from poi.core.names import display_name
 from poi.core.types import Frame
 
 FORMATS = ("mcap", "bag")
+IMAGE_MODES = ("raw", *COLOUR_CODECS)  # images as sensor_msgs/Image, or compressed with colour PNG or JPEG
 QUEUE_FRAMES = 8  # frames the writer may fall behind before the trial waits for it
 MARKER_DIAMETER_M = 0.15
 TEXT_HEIGHT_M = 0.12
@@ -111,11 +124,15 @@ class LogWriter:
         truth: list[tuple[int, str, str, tuple[float, float, float]]],
         topics: Topics | None = None,
         names: FrameNames | None = None,
+        images: str = "raw",
     ) -> None:
         if fmt not in FORMATS:
             raise LogError(f"--log {fmt}: unknown log format; expected one of {', '.join(FORMATS)}")
+        if images not in IMAGE_MODES:
+            raise LogError(f"--log-images {images}: expected one of {', '.join(IMAGE_MODES)}")
         self.path = Path(path)
         self.fmt = fmt
+        self.images = images
         self.topics = topics or Topics()
         self.names = names or FrameNames()
         self.start_ns = int(start_ns)
@@ -263,11 +280,19 @@ class LogWriter:
     def _write_frame(self, item: _Item) -> None:
         f, t, n, T = item.frame, item.t_ns, self.names, self.topics
         k = f.intrinsics
-        self._put(T.color, "sensor_msgs/msg/Image", t, image_msg(self.ts, t, n.color, f.rgb, "rgb8"))
+        if self.images == "raw":
+            self._put(T.color, "sensor_msgs/msg/Image", t, image_msg(self.ts, t, n.color, f.rgb, "rgb8"))
+        else:
+            msg = compressed_image_msg(self.ts, t, n.color, encode_colour(f.rgb, self.images))
+            self._put(T.color + COMPRESSED_SUFFIX, "sensor_msgs/msg/CompressedImage", t, msg)
         self._put(T.color_info, "sensor_msgs/msg/CameraInfo", t, camera_info_msg(self.ts, t, n.color, k))
         if f.depth_m is not None:
             mm = to_z16(f.depth_m)
-            self._put(T.depth, "sensor_msgs/msg/Image", t, image_msg(self.ts, t, n.depth, mm, "16UC1"))
+            if self.images == "raw":
+                self._put(T.depth, "sensor_msgs/msg/Image", t, image_msg(self.ts, t, n.depth, mm, "16UC1"))
+            else:
+                msg = compressed_image_msg(self.ts, t, n.depth, encode_depth(mm))
+                self._put(T.depth + DEPTH_SUFFIX, "sensor_msgs/msg/CompressedImage", t, msg)
             self._put(T.depth_info, "sensor_msgs/msg/CameraInfo", t, camera_info_msg(self.ts, t, n.depth, k))
         if f.thermal_c is not None and f.thermal_intrinsics is not None:
             th = np.asarray(f.thermal_c, np.float32)
@@ -368,11 +393,19 @@ class TrialLogger:
     mount is then the pipeline's and ``truth.csv`` is written) and :meth:`close` ends it."""
 
     def __init__(
-        self, out_dir: Path, fmt: str, start_ns: int, topics: Topics | None = None, names: FrameNames | None = None
+        self,
+        out_dir: Path,
+        fmt: str,
+        start_ns: int,
+        topics: Topics | None = None,
+        names: FrameNames | None = None,
+        images: str = "raw",
     ) -> None:
+        if images not in IMAGE_MODES:
+            raise LogError(f"--log-images {images}: expected one of {', '.join(IMAGE_MODES)}")
         self.out = Path(out_dir)
         self.path = log_path(self.out, fmt)
-        self.fmt, self.start_ns, self.topics, self.names = fmt, start_ns, topics, names
+        self.fmt, self.start_ns, self.topics, self.names, self.images = fmt, start_ns, topics, names, images
         self.writer: LogWriter | None = None
 
     def __call__(self, frame, truth, res, pipe) -> None:
@@ -392,6 +425,7 @@ class TrialLogger:
                 truth=[(r.id, r.type, r.text, (r.x, r.y, r.z)) for r in rows],
                 topics=self.topics,
                 names=self.names,
+                images=self.images,
             )
         c0 = time.thread_time()
         confirmed = pipe.confirmed()

@@ -106,6 +106,19 @@ def test_hazmat_labels_rotate_so_every_label_is_used():
     assert used == set(HAZMAT_LABELS)
 
 
+def test_hazmat_labels_restrict_the_rotation_and_old_specs_keep_their_dict():
+    """sim2real renders only its photos' labels: each scenario hangs every one of them once."""
+    labels = ("explosive", "poison", "corrosive")
+    spec = DatasetSpec(images=3, images_per_scenario=1, counts={"hazmat": 3}, hazmat_labels=labels)
+    for j in range(3):
+        assert scenario_for(spec, j).objects.generate.labels == sorted(labels)
+    assert spec.to_dict()["hazmat_labels"] == list(labels)
+    # a spec without the field writes the dataset.yaml it wrote before (a rerun resumes)
+    assert "hazmat_labels" not in DatasetSpec(images=1).to_dict()
+    with pytest.raises(DatasetError, match="^hazmat_labels must be some of explosive, "):
+        DatasetSpec(images=1, hazmat_labels=("poison", "toxic"))
+
+
 def test_labels_follow_visibility_and_size_rules():
     from maze_assets.objects import PlacedObject
 

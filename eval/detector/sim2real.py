@@ -1,0 +1,673 @@
+"""``poibench sim2real``: one detector on labelled real photos and on poibench renders of the same
+labels, side by side at the photos' mix of box sizes (the card).
+
+The photos are read and matched as ``evaluate-photos`` reads and matches them
+(:mod:`eval.detector.photos`: one to one at IoU >= 0.5, right-class pairs first). The renders
+are fresh trial-looking scenes (``DatasetSpec.trial_looks`` with the trial's still colour
+camera) hanging only the hazmat labels the photos show. Per label and over all labels the card
+gives, for each side:
+
+* right-label recall: the share of labelled placards paired with a detection of their label;
+* recall as a placard: paired with a detection of any hazmat label;
+* false detections an image: detections paired with no labelled box
+  (:data:`eval.detector.photos.FALSE_DETECTION`), of any class and of a hazmat label.
+
+Renders show placards at other sizes than hand-held photos do (more far away), and recall
+depends on size, so the renders' shares are also given **at the photos' size mix**
+(post-stratification): a rendered placard of label c whose box's shorter side falls in size
+bin b (:data:`SIZE_BINS_PX`) weighs
+
+    w_cb = p_photo(c, b) / p_render(c, b)
+
+with p the share of each side's placards in cell (c, b), so the weighted renders have the
+photos' mix of labels and, within a label, of sizes; cells with photos but no renders are left
+out, and the share of photo placards in them is given (``covered``).
+
+Intervals (95%): a share of n placards, k hits, is given Wilson's score interval
+([Wilson1927]_); a weighted share p_w = sum w h / sum w the same interval at Kish's effective
+sample size n_eff = (sum w)^2 / sum w^2 ([Kish1965]_, section 11.7), with p_w n_eff hits; both
+lie in [0, 1] and hold their point. Placards of one image are not independent (one lighting,
+one camera), which these intervals ignore, so they are somewhat narrow. The gap of a label,
+render (at the photos' mix) minus photo right-label recall, has Newcombe's hybrid score
+interval from the two ([Newcombe1998]_, method 10). False detections an image get the seeded
+bootstrap percentile interval of their mean over images ([Efron1993]_, section 13.3). Labels
+with fewer than :data:`TOO_FEW` placards on either side are flagged.
+
+The photometry of the two sets of placard crops (labelled boxes with a shorter side of at
+least :data:`PHOTOMETRY_MIN_PX`, as the project's earlier sharpness figures were taken):
+brightness (mean grey, ITU-R BT.601 luma as OpenCV's ``COLOR_RGB2GRAY``), saturation (mean
+HSV saturation, 0-255), black and white levels (5th and 95th percentile of grey, as
+``docs/guides/training.md`` measured lifted blacks), sharpness (variance of the grey crop's
+Laplacian, OpenCV's 3x3 aperture-1 kernel); medians of each side, the renders' also weighted
+to the photos' mix.
+
+References
+----------
+Full entries in docs/SOURCES.md.
+
+.. [Wilson1927] E. B. Wilson, "Probable inference, the law of succession, and statistical
+   inference", Journal of the American Statistical Association 22, 1927.
+.. [Kish1965] L. Kish, "Survey Sampling", Wiley, 1965.
+.. [Newcombe1998] R. G. Newcombe, "Interval estimation for the difference between independent
+   proportions: comparison of eleven methods", Statistics in Medicine 17, 1998.
+.. [Efron1993] B. Efron, R. J. Tibshirani, "An Introduction to the Bootstrap", Chapman & Hall,
+   1993.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from eval.detector.label_eval import wilson
+from eval.detector.metrics import ImageBoxes, recall_by_size, size_band_label
+from eval.detector.photos import FALSE_DETECTION, HAZMAT_IDS, IOU_MIN, PhotoFolder, outcome, write_overlay
+from eval.detector.quality import DetectorQualityError, LabelledImage
+from poi.core.names import RESCUE_CLASSES
+
+SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, 160.0, float("inf"))  # shorter box side
+TOO_FEW = 20  # placards a side below which a label's gap is flagged
+PHOTOMETRY_MIN_PX = 40.0  # crops with a shorter side under this are left out of the photometry
+BOOTSTRAP_RESAMPLES = 2000
+GROUPS = ["hazmat label" if i in HAZMAT_IDS else "other type" for i in range(len(RESCUE_CLASSES))]
+PHOTOMETRY_KEYS = ("brightness", "saturation", "black", "white", "sharpness")
+INTERVALS = (
+    "95%: recall, Wilson's score interval (Wilson 1927), the renders at the photos' mix at Kish's "
+    "effective n = (sum w)^2 / sum w^2 (Kish 1965); gap, Newcombe's hybrid score interval (Newcombe "
+    "1998, method 10); false detections an image, seeded bootstrap percentile over images (Efron and "
+    "Tibshirani 1993, 13.3)"
+)
+
+
+# ---------------------------------------------------------------------------- the maths
+
+
+@dataclass(kw_only=True)
+class Share:
+    """A share of placards with its 95% interval; ``n_eff`` equals ``n`` when unweighted."""
+
+    value: float
+    lo: float
+    hi: float
+    n: int
+    n_eff: float
+
+    def to_dict(self) -> dict:
+        return {
+            "value": round(self.value, 4),
+            "ci95": [round(self.lo, 4), round(self.hi, 4)],
+            "n": self.n,
+            "n_eff": round(self.n_eff, 1),
+        }
+
+
+def kish_n_eff(w: np.ndarray) -> float:
+    """Kish's effective sample size of weights ``w`` ([Kish1965]_, 11.7): n_eff = (sum w)^2 / sum w^2.
+
+    >>> kish_n_eff(np.ones(4)), kish_n_eff(np.array([1.0, 1.0, 2.0, 0.0]))
+    (4.0, 2.6666666666666665)
+    """
+    w = np.asarray(w, dtype=float)
+    s2 = float(np.sum(w * w))
+    return float(np.sum(w)) ** 2 / s2 if s2 > 0 else 0.0
+
+
+def weighted_share(hits: np.ndarray, w: np.ndarray | None = None) -> Share | None:
+    """The share p_w = sum w h / sum w of ``hits`` (bool, one a placard) and its Wilson interval at
+    Kish's effective n ([Wilson1927]_, [Kish1965]_): wilson(p_w n_eff, n_eff). Unweighted
+    (``w`` None) it is k / n with Wilson's interval. None without placards of positive weight.
+
+    >>> s = weighted_share(np.array([True, True, False, False]), np.array([1.0, 1.0, 2.0, 0.0]))
+    >>> round(s.value, 4), round(s.n_eff, 4), s.n, 0 <= s.lo <= s.value <= s.hi <= 1
+    (0.5, 2.6667, 4, True)
+    """
+    h = np.asarray(hits, dtype=bool)
+    w = np.ones(len(h)) if w is None else np.asarray(w, dtype=float)
+    total = float(w.sum())
+    if len(h) == 0 or total <= 0:
+        return None
+    p = float(np.sum(w * h)) / total
+    n_eff = kish_n_eff(w)
+    lo, hi = wilson(p * n_eff, n_eff)
+    # the score interval holds its point; keep it so in the last bit
+    return Share(value=p, lo=min(lo, p), hi=max(hi, p), n=len(h), n_eff=n_eff)
+
+
+def newcombe_gap(a: Share, b: Share) -> tuple[float, float, float]:
+    """a - b with Newcombe's hybrid score interval from the two Wilson intervals ([Newcombe1998]_,
+    method 10): d - sqrt((a - lo_a)^2 + (hi_b - b)^2), d + sqrt((hi_a - a)^2 + (b - lo_b)^2); it
+    lies in [-1, 1].
+
+    >>> a = Share(value=0.8, lo=0.7, hi=0.9, n=50, n_eff=50.0)
+    >>> [round(x, 4) for x in newcombe_gap(a, Share(value=0.5, lo=0.4, hi=0.6, n=50, n_eff=50.0))]
+    [0.3, 0.1586, 0.4414]
+    """
+    d = a.value - b.value
+    lo = d - math.sqrt((a.value - a.lo) ** 2 + (b.hi - b.value) ** 2)
+    hi = d + math.sqrt((a.hi - a.value) ** 2 + (b.value - b.lo) ** 2)
+    return d, max(-1.0, lo), min(1.0, hi)
+
+
+def size_bins(side_px: np.ndarray, bins: Sequence[float] = SIZE_BINS_PX) -> np.ndarray:
+    """The bin of each box's shorter side in ``bins`` (pixels, the last open-ended).
+
+    >>> size_bins(np.array([5.0, 20.0, 79.9, 80.0, 500.0])).tolist()
+    [0, 1, 2, 3, 4]
+    """
+    b = np.searchsorted(np.asarray(bins), np.asarray(side_px, dtype=float), side="right") - 1
+    return np.clip(b, 0, len(bins) - 2)
+
+
+@dataclass(kw_only=True)
+class CellWeights:
+    """Post-stratification of the renders on (label, size bin) cells to the photos' mix."""
+
+    photo: np.ndarray  # (C, B) photo placards a cell
+    render: np.ndarray  # (C, B) rendered placards a cell
+    weight: np.ndarray  # (C, B) w_cb = p_photo(c, b) / p_render(c, b); 0 where no renders
+
+    def covered(self, c: int | None = None) -> float | None:
+        """The share of photo placards (of label row ``c``, or all) in cells the renders have."""
+        ph = self.photo if c is None else self.photo[c]
+        rd = self.render if c is None else self.render[c]
+        total = int(ph.sum())
+        return float(ph[rd > 0].sum() / total) if total else None
+
+
+def cell_weights(photo_cells: np.ndarray, render_cells: np.ndarray, shape: tuple[int, int]) -> CellWeights:
+    """Weights w_cb = p_photo(c, b) / p_render(c, b) from the (label row, bin) cell of each photo
+    and each rendered placard ((n, 2) integer arrays); 0 in cells without renders.
+
+    >>> w = cell_weights(np.array([[0, 0], [0, 1], [0, 1], [0, 1]]), np.array([[0, 0], [0, 0], [0, 1]]), (1, 2))
+    >>> w.weight.round(4).tolist(), w.covered()
+    ([[0.375, 2.25]], 1.0)
+    """
+    photo = np.zeros(shape, dtype=np.int64)
+    render = np.zeros(shape, dtype=np.int64)
+    np.add.at(photo, tuple(np.asarray(photo_cells, int).reshape(-1, 2).T), 1)
+    np.add.at(render, tuple(np.asarray(render_cells, int).reshape(-1, 2).T), 1)
+    p_photo = photo / max(int(photo.sum()), 1)
+    p_render = render / max(int(render.sum()), 1)
+    # w_cb = p_photo(c, b) / p_render(c, b)
+    weight = np.divide(p_photo, p_render, out=np.zeros(shape), where=render > 0)
+    return CellWeights(photo=photo, render=render, weight=weight)
+
+
+def rate_interval(
+    counts: np.ndarray, rng: np.random.Generator, resamples: int = BOOTSTRAP_RESAMPLES
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Means over images of ``counts`` ((n_img, K): false detections an image, K kinds) with their
+    95% bootstrap percentile intervals ([Efron1993]_, 13.3): the images drawn with replacement
+    ``resamples`` times (as multinomial counts), the 2.5% and 97.5% quantiles of the means. Each
+    end is a mean of counts, so it is >= 0 and within [min, max] of the counts.
+
+    >>> m, lo, hi = rate_interval(np.array([[0], [0], [2], [2]]), np.random.default_rng(0))
+    >>> m.tolist(), bool(0 <= lo[0] < 1 < hi[0] <= 2)
+    ([1.0], True)
+    """
+    x = np.asarray(counts, dtype=float)  # (n, K)
+    n = len(x)
+    if n == 0:
+        nan = np.full(x.shape[1], np.nan)
+        return nan, nan, nan
+    draws = rng.multinomial(n, np.full(n, 1.0 / n), size=resamples)  # (R, n) times each image is drawn
+    means = draws @ x / n  # (R, K)
+    lo, hi = np.quantile(means, [0.025, 0.975], axis=0)  # (K,) each
+    return x.mean(axis=0), np.clip(lo, x.min(axis=0), None), np.clip(hi, None, x.max(axis=0))
+
+
+def weighted_median(x: np.ndarray, w: np.ndarray | None = None) -> float | None:
+    """The weighted median: the smallest x whose cumulative weight reaches half the total; with
+    no weights, np.median. None without a value of positive weight.
+
+    >>> x = np.array([1.0, 2.0, 3.0])
+    >>> weighted_median(x), weighted_median(x, np.array([1, 1, 4.0]))
+    (2.0, 3.0)
+    """
+    x = np.asarray(x, dtype=float)
+    if w is None:
+        return float(np.median(x)) if len(x) else None
+    w = np.asarray(w, dtype=float)
+    keep = w > 0
+    if not keep.any():
+        return None
+    order = np.argsort(x[keep], kind="stable")
+    cum = np.cumsum(w[keep][order])
+    return float(x[keep][order][np.searchsorted(cum, cum[-1] / 2)])
+
+
+def crop_photometry(rgb: np.ndarray, box: np.ndarray) -> dict[str, float] | None:
+    """Brightness, saturation, black and white levels and sharpness (module docstring) of the
+    crop of ``rgb`` (H, W, 3) inside ``box`` (x1, y1, x2, y2 pixels); None for an empty crop.
+
+    >>> rgb = np.zeros((60, 60, 3), np.uint8); rgb[:, 30:] = (255, 0, 0)
+    >>> p = crop_photometry(rgb, np.array([0, 0, 60, 60.0]))
+    >>> round(p["brightness"], 1), round(p["saturation"], 1), p["black"], p["white"], p["sharpness"] > 0
+    (38.0, 127.5, 0.0, 76.0, True)
+    """
+    h, w = rgb.shape[:2]
+    x0, y0 = max(0, int(math.floor(box[0]))), max(0, int(math.floor(box[1])))
+    x1, y1 = min(w, int(math.ceil(box[2]))), min(h, int(math.ceil(box[3])))
+    if x1 - x0 < 2 or y1 - y0 < 2:
+        return None
+    crop = np.ascontiguousarray(rgb[y0:y1, x0:x1])
+    grey = cv2.cvtColor(crop, cv2.COLOR_RGB2GRAY)
+    sat = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV)[..., 1]
+    black, white = np.percentile(grey, [5, 95])
+    return {
+        "brightness": float(grey.mean()),
+        "saturation": float(sat.mean()),
+        "black": float(black),
+        "white": float(white),
+        "sharpness": float(cv2.Laplacian(grey.astype(np.float64), cv2.CV_64F).var()),
+    }
+
+
+# ---------------------------------------------------------------------------- one side
+
+
+@dataclass(kw_only=True)
+class Side:
+    """The labelled hazmat placards of one side (photos or renders), one entry each, and the
+    false detections of each image."""
+
+    label: np.ndarray  # (n,) class index
+    side_px: np.ndarray  # (n,) shorter side of the labelled box
+    right: np.ndarray  # (n,) paired with a detection of its own label
+    placard: np.ndarray  # (n,) paired with a detection of any hazmat label
+    image: np.ndarray  # (n,) index of its image
+    box: np.ndarray  # (n, 4) xyxy pixels
+    false: np.ndarray  # (n_img, len(RESCUE_CLASSES)) false detections an image, by detected class
+    detections: int  # at the operating confidence, every class
+    by_size: list[dict]  # hazmat placards' unweighted recall a size band (recall_by_size)
+    photometry: list[dict[str, float] | None] = field(default_factory=list)  # per placard; None: too small
+
+    @property
+    def images(self) -> int:
+        return len(self.false)
+
+
+def side_outcomes(results: Sequence[ImageBoxes], conf: float, bins: Sequence[float] = SIZE_BINS_PX) -> Side:
+    """Every labelled hazmat placard of ``results`` with its outcome at ``conf``
+    (:func:`eval.detector.photos.outcome`), each image's false detections by detected class, and
+    the placards' recall in each band of ``bins`` (:func:`eval.detector.metrics.recall_by_size`)."""
+    label, side, right, placard, image, boxes = [], [], [], [], [], []
+    false = np.zeros((len(results), len(RESCUE_CLASSES)), dtype=np.int64)
+    detections = 0
+    for k, im in enumerate(results):
+        o = outcome(im, conf)
+        b = o.boxes
+        detections += len(b.det_boxes)
+        np.add.at(false[k], b.det_classes[o.false].astype(int), 1)
+        paired = dict(o.pairs)
+        for g, xyxy in enumerate(b.gt_boxes):
+            t = int(b.gt_classes[g])
+            if t not in HAZMAT_IDS:
+                continue
+            p = int(b.det_classes[paired[g]]) if g in paired else -1
+            label.append(t)
+            side.append(min(xyxy[2] - xyxy[0], xyxy[3] - xyxy[1]))
+            right.append(p == t)
+            placard.append(p in HAZMAT_IDS)
+            image.append(k)
+            boxes.append(xyxy)
+    return Side(
+        label=np.array(label, dtype=np.int64),
+        side_px=np.array(side, dtype=float),
+        right=np.array(right, dtype=bool),
+        placard=np.array(placard, dtype=bool),
+        image=np.array(image, dtype=np.int64),
+        box=np.array(boxes, dtype=float).reshape(-1, 4),
+        false=false,
+        detections=detections,
+        by_size=[
+            r
+            for r in recall_by_size(list(results), GROUPS, conf, tuple(bins), iou_min=IOU_MIN, classes_first=True)
+            if r["group"] == "hazmat label"
+        ],
+    )
+
+
+def measure_photometry(side: Side, images: Sequence[LabelledImage], min_px: float = PHOTOMETRY_MIN_PX) -> None:
+    """Fill ``side.photometry``: :func:`crop_photometry` of each placard with a shorter side of at
+    least ``min_px``, None for the others; each image read once."""
+    side.photometry = [None] * len(side.label)
+    for k in np.unique(side.image[side.side_px >= min_px]):
+        bgr = cv2.imread(str(images[k].path))
+        if bgr is None:
+            raise DetectorQualityError(f"{images[k].path}: not a readable image")
+        rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        for i in np.flatnonzero((side.image == k) & (side.side_px >= min_px)):
+            side.photometry[i] = crop_photometry(rgb, side.box[i])
+
+
+def photo_labels(folders: Sequence[PhotoFolder]) -> list[str]:
+    """The hazmat labels the photo folders label, in RESCUE_CLASSES order; a folder with no
+    labelled placard is an error naming it."""
+    seen: set[int] = set()
+    for f in folders:
+        here = {int(c) for im in f.images for c in im.classes if int(c) in HAZMAT_IDS}
+        if not here:
+            raise DetectorQualityError(
+                f"{f.root}: no labelled hazmat placard in {len(f.images)} images (labels/*.txt, classes 0-15)"
+            )
+        seen |= here
+    return [RESCUE_CLASSES[c] for c in sorted(seen)]
+
+
+# ---------------------------------------------------------------------------- the card
+
+
+def _side_shares(side: Side, sel: np.ndarray, w: np.ndarray | None) -> dict:
+    out = {}
+    for key, hits in (("recall_right", side.right), ("recall_placard", side.placard)):
+        s = weighted_share(hits[sel], None if w is None else w[sel])
+        out[key] = None if s is None else s.to_dict()
+    return out
+
+
+def _rates(side: Side, rng: np.random.Generator, labels: list[str]) -> dict:
+    """False detections an image: any class, a hazmat label, another type, and each of ``labels``
+    (by detected class)."""
+    hz = np.array([i in HAZMAT_IDS for i in range(len(RESCUE_CLASSES))])
+    cols = [side.false.sum(axis=1), side.false[:, hz].sum(axis=1), side.false[:, ~hz].sum(axis=1)]
+    cols += [side.false[:, RESCUE_CLASSES.index(c)] for c in labels]
+    mean, lo, hi = rate_interval(np.stack(cols, axis=1), rng)  # (3 + L,) each
+
+    def entry(j: int) -> dict:
+        return {"value": round(float(mean[j]), 4), "ci95": [round(float(lo[j]), 4), round(float(hi[j]), 4)]}
+
+    return {
+        "images": side.images,
+        "any": entry(0),
+        "hazmat": entry(1),
+        "other": entry(2),
+        "by_label": {c: entry(3 + j) for j, c in enumerate(labels)},
+    }
+
+
+def _photometry(side: Side, w: np.ndarray | None) -> dict:
+    ok = [i for i, p in enumerate(side.photometry) if p is not None]
+    out: dict = {"crops": len(ok)}
+    for key in PHOTOMETRY_KEYS:
+        x = np.array([side.photometry[i][key] for i in ok])
+        m = weighted_median(x, None if w is None else w[ok]) if ok else None
+        out[key] = None if m is None else round(m, 1)
+    return out
+
+
+def sim2real_card(
+    photos: Side,
+    renders: Side,
+    labels: list[str],
+    *,
+    seed: int,
+    bins: Sequence[float] = SIZE_BINS_PX,
+) -> dict:
+    """Every figure of the card (module docstring), from the two sides' placards and images.
+
+    ``labels`` are the hazmat labels the card reports (the photos'); placards of other labels
+    on either side are left out of the recalls. Rows of the per-label table are sorted by the
+    size of the gap, labels with too few placards last."""
+    row_of = {RESCUE_CLASSES.index(c): j for j, c in enumerate(labels)}  # class index -> row of labels
+    row_p = np.array([row_of.get(int(c), -1) for c in photos.label], dtype=np.int64)  # (n_photo,)
+    row_r = np.array([row_of.get(int(c), -1) for c in renders.label], dtype=np.int64)  # (n_render,)
+    keep_p, keep_r = row_p >= 0, row_r >= 0
+    bin_p, bin_r = size_bins(photos.side_px, bins), size_bins(renders.side_px, bins)
+    cw = cell_weights(
+        np.stack([row_p[keep_p], bin_p[keep_p]], axis=1),
+        np.stack([row_r[keep_r], bin_r[keep_r]], axis=1),
+        (len(labels), len(bins) - 1),
+    )
+    # w_i = w_cb of rendered placard i's cell; 0 for a label the card does not report
+    w_r = np.where(keep_r, cw.weight[np.maximum(row_r, 0), bin_r], 0.0)  # (n_render,)
+    rng = np.random.default_rng([seed, 59])
+    rates_p, rates_r = _rates(photos, rng, labels), _rates(renders, rng, labels)
+    per_label = []
+    for j, c in enumerate(labels):
+        sel_p, sel_r = row_p == j, row_r == j
+        ph = weighted_share(photos.right[sel_p])
+        rm = weighted_share(renders.right[sel_r], w_r[sel_r])
+        gap = newcombe_gap(rm, ph) if ph is not None and rm is not None else None
+        per_label.append(
+            {
+                "label": c,
+                "photos": {**_side_shares(photos, sel_p, None), "false_per_image": rates_p["by_label"][c]},
+                "renders": {**_side_shares(renders, sel_r, None), "false_per_image": rates_r["by_label"][c]},
+                "renders_matched": _side_shares(renders, sel_r, w_r),
+                "covered": None if cw.covered(j) is None else round(cw.covered(j), 4),
+                "gap": None if gap is None else round(gap[0], 4),
+                "gap_ci95": None if gap is None else [round(gap[1], 4), round(gap[2], 4)],
+                "too_few": bool(sel_p.sum() < TOO_FEW or sel_r.sum() < TOO_FEW),
+            }
+        )
+    per_label.sort(key=lambda r: (r["too_few"], r["gap"] is None, -abs(r["gap"] or 0.0), r["label"]))
+    ph_all, rm_all = weighted_share(photos.right[keep_p]), weighted_share(renders.right[keep_r], w_r[keep_r])
+    gap_all = newcombe_gap(rm_all, ph_all) if ph_all is not None and rm_all is not None else None
+    photo_mix = cw.photo.sum(axis=0)
+    render_mix = cw.render.sum(axis=0)
+    return {
+        "labels": labels,
+        "size_bins_px": [size_band_label(b, tuple(bins)) for b in range(len(bins) - 1)],
+        "size_mix": [
+            {
+                "band_px": size_band_label(b, tuple(bins)),
+                "photos": int(photo_mix[b]),
+                "renders": int(render_mix[b]),
+                "p_photo": round(float(photo_mix[b] / max(photo_mix.sum(), 1)), 4),
+                "p_render": round(float(render_mix[b] / max(render_mix.sum(), 1)), 4),
+            }
+            for b in range(len(bins) - 1)
+        ],
+        "weights": {c: [round(float(v), 4) for v in cw.weight[j]] for j, c in enumerate(labels)},
+        "covered": None if cw.covered() is None else round(cw.covered(), 4),
+        "n_eff_renders_matched": round(kish_n_eff(w_r[keep_r]), 1),
+        "overall": {
+            "photos": {**_side_shares(photos, keep_p, None), "false_per_image": _drop_labels(rates_p)},
+            "renders": {**_side_shares(renders, keep_r, None), "false_per_image": _drop_labels(rates_r)},
+            "renders_matched": _side_shares(renders, keep_r, w_r),
+            "gap": None if gap_all is None else round(gap_all[0], 4),
+            "gap_ci95": None if gap_all is None else [round(gap_all[1], 4), round(gap_all[2], 4)],
+        },
+        "per_label": per_label,
+        "by_size": {
+            "photos": photos.by_size,
+            "renders": renders.by_size,
+        },
+        "photometry": {
+            "min_side_px": PHOTOMETRY_MIN_PX,
+            "photos": _photometry(photos, None),
+            "renders": _photometry(renders, None),
+            "renders_matched": _photometry(renders, w_r),
+        },
+        "intervals": INTERVALS,
+        "false_detection": FALSE_DETECTION,
+        "too_few": TOO_FEW,
+    }
+
+
+def _drop_labels(rates: dict) -> dict:
+    return {k: v for k, v in rates.items() if k != "by_label"}
+
+
+# ---------------------------------------------------------------------------- output
+
+OVERLAY_NAME = "misses.jpg"
+
+
+def misses(
+    folder: PhotoFolder, results: Sequence[ImageBoxes], conf: float
+) -> tuple[PhotoFolder, list[ImageBoxes]]:
+    """``folder`` cut to its images with a labelled hazmat placard not found with its label, and
+    their results (for :func:`eval.detector.photos.write_overlay`)."""
+    keep = []
+    for k, im in enumerate(results):
+        o = outcome(im, conf)
+        b = o.boxes
+        paired = dict(o.pairs)
+        if any(
+            int(t) in HAZMAT_IDS and (g not in paired or int(b.det_classes[paired[g]]) != int(t))
+            for g, t in enumerate(b.gt_classes)
+        ):
+            keep.append(k)
+    cut = PhotoFolder(
+        root=folder.root,
+        name=f"{folder.name}: misses",
+        images=[folder.images[k] for k in keep],
+        without_labels=0,
+        total_images=len(folder.images),
+    )
+    return cut, [results[k] for k in keep]
+
+
+def _pct(s: dict | None, with_n: str = "n") -> str:
+    if s is None:
+        return "-"
+    lo, hi = s["ci95"]
+    n = f"n {s['n']}" if with_n == "n" else f"n_eff {s['n_eff']:.0f} of {s['n']}"
+    return f"{100 * s['value']:.1f}% ({100 * lo:.1f}-{100 * hi:.1f}; {n})"
+
+
+def _short_pct(s: dict | None) -> str:
+    return "-" if s is None else f"{100 * s['value']:.0f}% ({100 * s['ci95'][0]:.0f}-{100 * s['ci95'][1]:.0f})"
+
+
+def _rate(r: dict | None) -> str:
+    return "-" if r is None else f"{r['value']:.2f} ({r['ci95'][0]:.2f}-{r['ci95'][1]:.2f})"
+
+
+def _points(gap: float | None, ci: list[float] | None) -> str:
+    if gap is None or ci is None:
+        return "-"
+    return f"{100 * gap:+.1f} ({100 * ci[0]:+.1f} to {100 * ci[1]:+.1f})"
+
+
+def format_card(card: dict) -> str:
+    """The card as Markdown: the headline, the gaps per label, the size mix, the photometry."""
+    o = card["overall"]
+    ph, rd, rm = o["photos"], o["renders"], o["renders_matched"]
+    src = card["photos"]
+    rnd = card["renders"]
+    held = f", held-back images of {card['holdout_of']} only" if card.get("holdout_of") else ""
+    out = [
+        "# sim2real card",
+        "",
+        f"Detector {card['model']}"
+        + (f" with {card['label_model']}" if card.get("label_model") else "")
+        + f", confidence >= {card['conf']}, matched at IoU >= {IOU_MIN}"
+        + (", labels folded into the photo set's classes (--absent map)" if card.get("absent") == "map" else "")
+        + ".",
+        f"Photos: {', '.join(f['name'] for f in src['folders'])} ({src['images']} images, {src['placards']} "
+        f"placards{held}). Renders: {rnd['scenes']} trial-looking scenes x {rnd['views']} views, trial camera, "
+        f"seed {rnd['seed']} ({rnd['images']} images, {rnd['placards']} placards of the photos' "
+        f"{len(card['labels'])} labels).",
+        "",
+    ]
+    if card.get("error"):
+        out += [f"**Error: {card['error']}**", ""]
+    out += [
+        "| | photos | renders | renders at the photos' sizes |",
+        "|---|---|---|---|",
+        f"| right-label recall | {_pct(ph['recall_right'])} | {_pct(rd['recall_right'])} "
+        f"| {_pct(rm['recall_right'], 'n_eff')} |",
+        f"| recall as a placard (any hazmat label) | {_pct(ph['recall_placard'])} | {_pct(rd['recall_placard'])} "
+        f"| {_pct(rm['recall_placard'], 'n_eff')} |",
+        f"| false detections an image, any class | {_rate(ph['false_per_image']['any'])} "
+        f"| {_rate(rd['false_per_image']['any'])} | - |",
+        f"| - of a hazmat label | {_rate(ph['false_per_image']['hazmat'])} "
+        f"| {_rate(rd['false_per_image']['hazmat'])} | - |",
+        f"| - of another type (on photos: may be unlabelled objects) | {_rate(ph['false_per_image']['other'])} "
+        f"| {_rate(rd['false_per_image']['other'])} | - |",
+        f"| gap, right-label recall (points) | | | {_points(o['gap'], o['gap_ci95'])} |",
+        "",
+        f"The renders at the photos' sizes weigh each rendered placard by p_photo(label, size bin) / "
+        f"p_render(label, size bin), size bins of the box's shorter side {', '.join(card['size_bins_px'])} px; "
+        f"{100 * (card['covered'] or 0):.1f}% of the photo placards fall in cells the renders have. "
+        "False detections are not reweighted; on the photos, detections of other types (qr, door...) may be "
+        "objects really there but unlabelled.",
+        "",
+        f"## Per label: the gap (renders at the photos' sizes minus photos, right label), largest first; "
+        f"'too few': under {card['too_few']} placards on a side",
+        "",
+        "| label | placards: photos / renders | photos | renders | renders at photos' sizes | gap (points) "
+        "| as a placard: photos / renders at photos' sizes | false an image: photos / renders | covered |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in card["per_label"]:
+        p, q, m = r["photos"], r["renders"], r["renders_matched"]
+        n_p = p["recall_right"]["n"] if p["recall_right"] else 0
+        n_r = q["recall_right"]["n"] if q["recall_right"] else 0
+        covered = "-" if r["covered"] is None else f"{100 * r['covered']:.0f}%"
+        out.append(
+            f"| {r['label']}{' (too few)' if r['too_few'] else ''} | {n_p} / {n_r} "
+            f"| {_short_pct(p['recall_right'])} "
+            f"| {_short_pct(q['recall_right'])} | {_short_pct(m['recall_right'])} "
+            f"| {_points(r['gap'], r['gap_ci95'])} | {_short_pct(p['recall_placard'])} / "
+            f"{_short_pct(m['recall_placard'])} | {p['false_per_image']['value']:.3f} / "
+            f"{q['false_per_image']['value']:.3f} | {covered} |"
+        )
+    out += [
+        "",
+        "## Box sizes (shorter side, px): placards and right-label recall, unweighted",
+        "",
+        "| band | photos | renders | photos' share | renders' share |",
+        "|---|---|---|---|---|",
+    ]
+    by_p = {r["band_px"]: r for r in card["by_size"]["photos"]}
+    by_r = {r["band_px"]: r for r in card["by_size"]["renders"]}
+    for m in card["size_mix"]:
+        b = m["band_px"]
+        cp = f"{m['photos']} ({100 * by_p[b]['right_class']:.0f}%)" if b in by_p else "0"
+        cr = f"{m['renders']} ({100 * by_r[b]['right_class']:.0f}%)" if b in by_r else "0"
+        out.append(f"| {b} | {cp} | {cr} | {100 * m['p_photo']:.1f}% | {100 * m['p_render']:.1f}% |")
+    pm = card["photometry"]
+    out += [
+        "",
+        f"## Photometry of the placard crops (shorter side >= {pm['min_side_px']:g} px), medians",
+        "",
+        "| | photos | renders | renders at the photos' sizes |",
+        "|---|---|---|---|",
+    ]
+    for key, text in (
+        ("crops", "crops"),
+        ("brightness", "brightness (mean grey, 0-255)"),
+        ("saturation", "saturation (mean HSV S, 0-255)"),
+        ("black", "black level (5th percentile grey)"),
+        ("white", "white level (95th percentile grey)"),
+        ("sharpness", "sharpness (Laplacian variance)"),
+    ):
+        cells = [pm[s][key] for s in ("photos", "renders", "renders_matched")]
+        out.append(f"| {text} | " + " | ".join("-" if v is None else f"{v:g}" for v in cells) + " |")
+    out += ["", f"Intervals: {card['intervals']}.", "", f"Definition: {card['false_detection']}."]
+    if card.get("cpu_s"):
+        c = card["cpu_s"]
+        out += ["", "CPU seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in c.items()) + "."]
+    return "\n".join(out)
+
+
+def write_card(
+    out: Path,
+    card: dict,
+    sides: Sequence[tuple[PhotoFolder, Sequence[ImageBoxes]]],
+    overlay_images: int,
+    seed: int,
+) -> str:
+    """card.json, card.md and, with ``overlay_images`` > 0, misses.jpg (that many images of each
+    side with a missed or misnamed placard, :func:`eval.detector.photos.write_overlay`) in ``out``;
+    returns the Markdown."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "card.json").write_text(json.dumps(card, indent=1) + "\n", encoding="utf-8")
+    md = format_card(card)
+    (out / "card.md").write_text(md + "\n", encoding="utf-8")
+    if overlay_images > 0:
+        cut = [misses(f, r, card["conf"]) for f, r in sides]
+        write_overlay(
+            out / OVERLAY_NAME, [f for f, _ in cut], [r for _, r in cut], card["conf"], overlay_images, seed
+        )
+    return md

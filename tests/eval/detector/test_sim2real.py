@@ -1,0 +1,336 @@
+"""poibench sim2real: the card's weights and intervals by hand, its bad-input errors, and the command
+end to end on a few rendered frames with a constant ONNX detector."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+
+from eval.cli.main import main
+from eval.detector.label_eval import wilson
+from eval.detector.metrics import ImageBoxes
+from eval.detector.quality import DetectorQualityError
+from eval.detector.sim2real import (
+    cell_weights,
+    kish_n_eff,
+    newcombe_gap,
+    rate_interval,
+    side_outcomes,
+    sim2real_card,
+    weighted_median,
+    weighted_share,
+)
+from poi.core.names import CLASS_INDEX, RESCUE_CLASSES
+
+sys.path.insert(0, str(Path(__file__).parents[2] / "poi" / "detectors"))
+import onnx_models  # noqa: E402
+
+C = CLASS_INDEX
+
+
+def _placard(label: str, side: float, hit: bool) -> ImageBoxes:
+    """One image holding one placard of ``side`` px, found with its label or not at all."""
+    box = np.array([[0.0, 0.0, side, side]])
+    return ImageBoxes(
+        gt_boxes=box,
+        gt_classes=np.array([C[label]]),
+        det_boxes=box if hit else np.zeros((0, 4)),
+        det_classes=np.array([C[label]] if hit else [], int),
+        det_scores=np.array([0.9] if hit else []),
+    )
+
+
+def _side(rows: list[tuple[str, float, int, int]], false_images: int = 0):
+    """(label, side px, placards, of which found) rows as one image a placard, plus images holding
+    one false poison detection and no placard."""
+    ims = [_placard(lab, s, k < hits) for lab, s, n, hits in rows for k in range(n)]
+    empty = ImageBoxes(
+        gt_boxes=np.zeros((0, 4)),
+        gt_classes=np.zeros(0, int),
+        det_boxes=np.array([[0.0, 0.0, 30.0, 30.0]]),
+        det_classes=np.array([C["poison"]]),
+        det_scores=np.array([0.9]),
+    )
+    return side_outcomes(ims + [empty] * false_images, conf=0.5)
+
+
+def test_weights_and_weighted_recall_by_hand():
+    # photos: poison 4 at 50 px (2 found) and 4 at 100 px (4 found); explosive 2 at 50 px (none);
+    # one image with a false detection. Renders: poison 6 at 50 px (3 found) and 2 at 100 px
+    # (2 found); explosive 4 at 50 px (1 found).
+    photos = _side([("poison", 50, 4, 2), ("poison", 100, 4, 4), ("explosive", 50, 2, 0)], false_images=1)
+    renders = _side([("poison", 50, 6, 3), ("poison", 100, 2, 2), ("explosive", 50, 4, 1)])
+    card = sim2real_card(photos, renders, ["explosive", "poison"], seed=0)
+    # cells (label, band): p_photo / p_render = poison 40-80: 0.4 / 0.5 = 0.8; poison 80-160:
+    # 0.4 / (2/12) = 2.4; explosive 40-80: 0.2 / (4/12) = 0.6
+    assert card["weights"]["poison"] == [0.0, 0.0, 0.8, 2.4, 0.0]
+    assert card["weights"]["explosive"] == [0.0, 0.0, 0.6, 0.0, 0.0]
+    assert card["size_bins_px"] == ["0-20", "20-40", "40-80", "80-160", "160+"]
+    assert card["covered"] == 1.0
+    by = {r["label"]: r for r in card["per_label"]}
+    # poison at the photos' sizes: (3 * 0.8 + 2 * 2.4) / (6 * 0.8 + 2 * 2.4) = 7.2 / 9.6
+    assert by["poison"]["renders_matched"]["recall_right"]["value"] == 0.75
+    assert by["poison"]["renders"]["recall_right"]["value"] == 0.625  # 5 / 8 unweighted
+    assert by["poison"]["photos"]["recall_right"]["value"] == 0.75  # 6 / 8
+    assert by["poison"]["gap"] == 0.0
+    assert by["explosive"]["renders_matched"]["recall_right"]["value"] == 0.25
+    assert by["explosive"]["gap"] == 0.25
+    # all labels: (7.2 + 0.6) / (9.6 + 2.4) = 0.65, the photos' label mix: 0.8 * 0.75 + 0.2 * 0.25
+    o = card["overall"]
+    assert o["renders_matched"]["recall_right"]["value"] == 0.65
+    # n_eff = 12^2 / (6 * 0.8^2 + 2 * 2.4^2 + 4 * 0.6^2) = 144 / 16.8
+    assert o["renders_matched"]["recall_right"]["n_eff"] == round(144 / 16.8, 1)
+    assert o["photos"]["recall_right"]["value"] == 0.6  # 6 / 10
+    assert o["gap"] == 0.05
+    # the false detection: one in 11 photos, of a hazmat label, poison
+    assert o["photos"]["false_per_image"]["any"]["value"] == round(1 / 11, 4)
+    assert o["photos"]["false_per_image"]["hazmat"]["value"] == round(1 / 11, 4)
+    assert by["poison"]["photos"]["false_per_image"]["value"] == round(1 / 11, 4)
+    assert o["renders"]["false_per_image"]["any"]["value"] == 0.0
+    assert all(r["too_few"] for r in card["per_label"])  # under 20 placards a side
+    # sorted by the size of the gap: explosive (0.25) before poison (0)
+    assert [r["label"] for r in card["per_label"]] == ["explosive", "poison"]
+    assert {(r["band_px"], r["n"], r["right_class"]) for r in card["by_size"]["renders"]} == {
+        ("40-80", 10, 0.4),
+        ("80-160", 2, 1.0),
+    }
+
+
+def test_cells_without_renders_are_left_out_and_counted():
+    # photos in 40-80 and 160+, renders only in 40-80: half the photos' placards are covered
+    w = cell_weights(np.array([[0, 2], [0, 4]]), np.array([[0, 2], [0, 2]]), (1, 5))
+    assert w.weight.tolist() == [[0.0, 0.0, 0.5, 0.0, 0.0]]
+    assert w.covered() == 0.5 and w.covered(0) == 0.5
+
+
+def test_wilson_at_kish_n_holds_its_point_inside_0_1():
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        n = int(rng.integers(1, 60))
+        hits = rng.random(n) < rng.random()
+        w = rng.gamma(0.5, 2.0, size=n) if rng.random() < 0.7 else None
+        s = weighted_share(hits, w)
+        if s is None:  # every weight 0 cannot happen with gamma draws
+            continue
+        assert 0.0 <= s.lo <= s.value <= s.hi <= 1.0
+        assert 0 < s.n_eff <= n + 1e-9  # Kish: never more than the placards
+    # all hits and no hits: the interval reaches 1 and 0 and stays there
+    assert weighted_share(np.ones(5, bool)).hi == 1.0 and weighted_share(np.zeros(5, bool)).lo == 0.0
+    # unweighted, it is Wilson's interval of k / n
+    s = weighted_share(np.array([True, False, False, False]))
+    assert (s.lo, s.hi) == pytest.approx(wilson(1, 4))
+    # equal weights leave n_eff at n; one weight of 0 drops its placard from n_eff
+    assert kish_n_eff(np.full(7, 3.0)) == pytest.approx(7.0)
+    assert kish_n_eff(np.array([1.0, 1.0, 0.0])) == pytest.approx(2.0)
+    assert weighted_share(np.array([True]), np.array([0.0])) is None
+
+
+def test_gap_interval_and_false_detection_interval_bounds():
+    rng = np.random.default_rng(2)
+    for _ in range(200):
+        a = weighted_share(rng.random(int(rng.integers(1, 40))) < rng.random())
+        b = weighted_share(rng.random(int(rng.integers(1, 40))) < rng.random())
+        d, lo, hi = newcombe_gap(a, b)
+        assert -1.0 <= lo <= d <= hi <= 1.0
+    counts = rng.poisson(0.4, size=(50, 3))
+    mean, lo, hi = rate_interval(counts, np.random.default_rng(0))
+    assert np.all(lo >= 0) and np.all(lo <= mean) and np.all(mean <= hi)
+    # seeded: the same draw gives the same interval
+    assert np.array_equal(rate_interval(counts, np.random.default_rng(0))[1], lo)
+    assert weighted_median(np.array([4.0, 1.0, 9.0]), np.array([0.0, 1.0, 1.0])) == 1.0
+
+
+# ---------------------------------------------------------------------------- the command
+
+BOX = (100, 80, 180, 160)  # where the constant model's poison lands in a 640x480 image
+
+
+def _photo(root: Path, name: str, labels: list[tuple[str, tuple[int, int, int, int]]]) -> None:
+    """A grey 640x480 PNG and its YOLO labels (class, xyxy pixels)."""
+    (root / "images").mkdir(parents=True, exist_ok=True)
+    (root / "labels").mkdir(parents=True, exist_ok=True)
+    assert cv2.imwrite(str(root / "images" / f"{name}.png"), np.full((480, 640, 3), 90, np.uint8))
+    lines = [
+        f"{C[c]} {(x0 + x1) / 1280:.6f} {(y0 + y1) / 960:.6f} {(x1 - x0) / 640:.6f} {(y1 - y0) / 480:.6f}"
+        for c, (x0, y0, x1, y1) in labels
+    ]
+    (root / "labels" / f"{name}.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def _model(path: Path, score: float, metadata: dict[str, str] | None = None) -> Path:
+    """A constant detector: one poison at BOX, scoring ``score`` (the 640x480 image is scaled by
+    0.5 into 320x320 and padded 40 px at the top)."""
+    scores = np.zeros((1, len(RESCUE_CLASSES)), np.float32)
+    scores[0, C["poison"]] = score
+    cx, cy, w, h = (BOX[0] + BOX[2]) / 2, (BOX[1] + BOX[3]) / 2, BOX[2] - BOX[0], BOX[3] - BOX[1]
+    out = onnx_models.yolov8_output([[cx * 0.5, cy * 0.5 + 40, w * 0.5, h * 0.5]], scores, 8)
+    meta = {"names": str(dict(enumerate(RESCUE_CLASSES))), **(metadata or {})}
+    return onnx_models.make_constant_model(path, out, metadata=meta)
+
+
+@pytest.fixture
+def photos(tmp_path) -> Path:
+    """a: poison at BOX (found) and a 50 px explosive (missed); b: explosive at BOX (found, named
+    poison); c: a 42 px poison (missed), the model's poison a false detection."""
+    root = tmp_path / "photos"
+    _photo(root, "a", [("poison", BOX), ("explosive", (300, 200, 350, 250))])
+    _photo(root, "b", [("explosive", BOX)])
+    _photo(root, "c", [("poison", (400, 300, 442, 342))])
+    return root
+
+
+def _run(photos: Path, model: Path, out: Path, *extra: str) -> int:
+    """sim2real on one scene of 3 views; seed 1002's show an explosive and a poison placard."""
+    argv = ["sim2real", "--photos", str(photos), "--model", str(model), "--out", str(out), "--quiet"]
+    return main([*argv, "--scenes", "1", "--views", "3", "--seed", "1002", "--overlay", "2", *extra])
+
+
+@pytest.mark.slow
+def test_sim2real_end_to_end(photos, tmp_path, capsys):
+    model = _model(tmp_path / "m.onnx", 0.9)
+    out = tmp_path / "card"
+    assert _run(photos, model, out) == 0
+    card = json.loads((out / "card.json").read_text())
+    for key in ("model", "conf", "photos", "renders", "labels", "size_mix", "weights", "overall", "per_label"):
+        assert key in card
+    assert card["labels"] == ["explosive", "poison"] and card["error"] is None
+    ph = card["overall"]["photos"]
+    assert (ph["recall_right"]["value"], ph["recall_right"]["n"]) == (0.25, 4)  # a's poison
+    assert ph["recall_placard"]["value"] == 0.5  # and b's explosive, named poison
+    assert ph["false_per_image"]["any"]["value"] == round(1 / 3, 4)  # c's
+    assert ph["recall_right"]["ci95"] == [round(v, 4) for v in wilson(1, 4)]
+    assert card["renders"]["placards"] >= 2
+    for side in ("photos", "renders", "renders_matched"):
+        s = card["overall"][side]["recall_right"]
+        assert 0.0 <= s["ci95"][0] <= s["value"] <= s["ci95"][1] <= 1.0
+    # the renders hang only the photos' labels, with the trial's looks and camera
+    spec = yaml.safe_load((out / "renders" / "dataset.yaml").read_text())["spec"]
+    assert spec["hazmat_labels"] == ["explosive", "poison"] and spec["camera"] is None
+    assert spec["msaa"] == 0 and spec["print_saturation"] is None
+    hazmat = {int(line.split()[0]) for p in (out / "renders" / "labels").rglob("*.txt") for line in p.open()}
+    assert {RESCUE_CLASSES[c] for c in hazmat if c < 16} <= {"explosive", "poison"}
+    # every render shows the model's one box: paired or false, never more than one false an image
+    assert card["renders"]["images"] == 3 and card["overall"]["renders"]["false_per_image"]["any"]["value"] <= 1.0
+    pm = card["photometry"]["photos"]  # four flat grey crops of 40 px or more
+    assert (pm["crops"], pm["brightness"], pm["saturation"], pm["black"], pm["sharpness"]) == (4, 90, 0, 90, 0)
+    md = (out / "card.md").read_text()
+    assert "| right-label recall | 25.0% " in md and "0-20, 20-40, 40-80, 80-160, 160+ px" in md
+    sheet = cv2.imread(str(out / "misses.jpg"))
+    assert sheet is not None and sheet.shape[1] == 6 * 300
+    assert "card.md, card.json and misses.jpg" in capsys.readouterr().out
+
+    # a model that boxes nothing: the card says so, the command fails in one line (renders reused)
+    blind = _model(tmp_path / "blind.onnx", 0.0)
+    assert _run(photos, blind, out) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"poibench sim2real: error: {blind} boxed nothing at confidence >= ")
+    assert err.count("\n") == 1
+    assert json.loads((out / "card.json").read_text())["error"].startswith(f"{blind} boxed nothing")
+    assert "**Error: " in (out / "card.md").read_text()
+
+
+def _error(capsys, argv: list[str]) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    return err
+
+
+def test_bad_input_is_one_line(photos, tmp_path, capsys):
+    model = _model(tmp_path / "m.onnx", 0.9)
+    base = ["sim2real", "--model", str(model), "--out", str(tmp_path / "o"), "--quiet"]
+    # a folder without labels/
+    bare = tmp_path / "bare"
+    (bare / "images").mkdir(parents=True)
+    cv2.imwrite(str(bare / "images" / "x.png"), np.zeros((10, 10, 3), np.uint8))
+    assert f"{bare}: no labels/ folder" in _error(capsys, [*base, "--photos", str(bare)])
+    # a folder labelling no placard (a QR code only)
+    qr = tmp_path / "qr"
+    _photo(qr, "q", [("qr", BOX)])
+    assert f"{qr}: no labelled hazmat placard in 1 images" in _error(capsys, [*base, "--photos", str(qr)])
+    # a class index outside RESCUE_CLASSES: file and line
+    lab = photos / "labels" / "b.txt"
+    good = lab.read_text()
+    lab.write_text(good + "24 0.5 0.5 0.1 0.1\n")
+    assert f"{lab}:2: class 24 is not in 0..23" in _error(capsys, [*base, "--photos", str(photos)])
+    lab.write_text(good)
+    # --holdout-of a run that held back other folders
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "holdout.json").write_text(json.dumps({"folders": {str(tmp_path / "elsewhere"): ["a.png"]}}))
+    err = _error(capsys, [*base, "--photos", str(photos), "--holdout-of", str(run)])
+    assert "none of which is a --photos folder" in err and str(run) in err
+    # a model trained on scenes of the default seed
+    seeded = _model(tmp_path / "s.onnx", 0.9, {"poibench_dataset_seed": "1000"})
+    argv = ["sim2real", "--model", str(seeded), "--photos", str(photos), "--out", str(tmp_path / "o2")]
+    assert "trained on scenes from seed 1000; evaluate on another --seed" in _error(capsys, argv)
+    # --option for an ONNX model; a label model trained on these photos without --holdout-of
+    err = _error(capsys, [*base, "--photos", str(photos), "--option", "conf=0.3"])
+    assert "--option is for a Python detector" in err
+    W = np.zeros((3, 17))
+    meta = {"poibench_photo_folders": str(photos.resolve())}
+    labels = onnx_models.make_colour_label_model(tmp_path / "l.onnx", W, metadata=meta)
+    err = _error(capsys, [*base, "--photos", str(photos), "--label-model", str(labels)])
+    assert f"{labels} was trained on part of {photos}; give --holdout-of its run folder" in err
+    assert not (tmp_path / "o").exists() and not (tmp_path / "o2").exists()  # nothing rendered
+
+
+def test_held_back_images_only(photos, tmp_path):
+    from eval.detector.label_eval import load_folders
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "holdout.json").write_text(json.dumps({"folders": {str(photos.resolve()): ["b.png"]}}))
+    ((folder, cut),) = load_folders([photos], run)
+    assert cut and [im.path.name for im in folder.images] == ["b.png"]
+    with pytest.raises(DetectorQualityError, match="held-back images are not in the folder"):
+        (run / "holdout.json").write_text(json.dumps({"folders": {str(photos.resolve()): ["zz.png"]}}))
+        load_folders([photos], run)
+
+
+def test_evaluate_photos_scores_a_photo_trained_detector_on_its_held_back_images_only(photos, tmp_path, capsys):
+    """A detector whose metadata names the photo folder (poibench train --holdout) is refused on
+    the whole folder and scored on the held-back image with --holdout-of."""
+    meta = {"poibench_photo_folders": str(photos.resolve())}
+    model = _model(tmp_path / "m.onnx", 0.9, meta)
+    argv = ["evaluate-photos", "--images", str(photos), "--model", str(model), "--label-model", "none", "--quiet"]
+    err = _error(capsys, [*argv, "--out", str(tmp_path / "o1")])
+    assert f"{model} was trained on part of {photos}; give --holdout-of its run folder" in err
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "holdout.json").write_text(json.dumps({"folders": {str(photos.resolve()): ["a.png"]}}))
+    assert main([*argv, "--out", str(tmp_path / "o2"), "--holdout-of", str(run)]) == 0
+    (folder,) = json.loads((tmp_path / "o2" / "summary.json").read_text())["folders"]
+    # a.png alone: its poison found at BOX, its explosive missed; no false detection
+    assert (folder["images"], folder["hazmat"]["boxes"], folder["hazmat"]["right"], folder["false"]) == (
+        1,
+        2,
+        1,
+        0,
+    )
+    err = _error(capsys, [*argv, "--out", str(tmp_path / "o3"), "--holdout-of", str(run), "--limit", "1"])
+    assert "--limit does not go with --holdout-of" in err
+
+
+def test_train_stamps_the_photo_folders_it_trained_on(photos, tmp_path):
+    """poibench train's export carries the photo folders (and a rendered dataset's seed) in its
+    metadata, which evaluate-photos and sim2real read to refuse a folder without --holdout-of."""
+    from eval.detector.quality import _model_metadata
+    from eval.detector.train import _stamp_metadata
+
+    src = _model(tmp_path / "m.onnx", 0.9)
+    dataset = tmp_path / "d"
+    dataset.mkdir()
+    (dataset / "dataset.yaml").write_text(yaml.safe_dump({"spec": {"seed": 77}}))
+    _stamp_metadata(src, tmp_path / "out.onnx", dataset / "data.yaml", [str(photos.resolve())])
+    meta = _model_metadata(tmp_path / "out.onnx")
+    assert meta["poibench_photo_folders"] == str(photos.resolve()) and meta["poibench_dataset_seed"] == "77"
+    assert "names" in meta  # the model's own metadata kept
+    _stamp_metadata(src, tmp_path / "plain.onnx", tmp_path / "none" / "data.yaml", [])
+    assert "poibench_photo_folders" not in _model_metadata(tmp_path / "plain.onnx")
