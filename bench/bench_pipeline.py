@@ -31,14 +31,16 @@ import time
 
 import numpy as np
 
+from eval.trial.episode import Observer, Tick, run_episode
+from eval.trial.sources import SimulationSource
 from poi.config import apply_overrides, load_config
 from poi.core.geometry import matrix_to_quat_wxyz
 from poi.core.names import CLASSES, MAPPING_TYPES, TYPES, class_to_identity
 from poi.core.types import Detection, Observation
+from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 from poi.pipeline import Pipeline
 from sim.oracle import OracleDetector, OracleSettings
 from sim.scenario import load_scenario
-from sim.simulator import Simulation
 
 CHUNK = 100
 
@@ -52,8 +54,8 @@ def main() -> None:
     ap.add_argument("--slam", action="store_true", help="run the pipeline with localize.mode=slam")
     ap.add_argument("--landmarks", type=int, default=40, help="landmarks in the SLAM-alone timing (default 40)")
     args = ap.parse_args()
-    sim = Simulation(load_scenario("default"))
-    n = sim.n_frames if args.frames is None else min(args.frames, sim.n_frames)
+    source = SimulationSource(load_scenario("default"), args.frames, chunk=CHUNK)
+    sim, n = source.sim, source.n_frames
     T = sim.T_tracker_optical_nominal
     q = matrix_to_quat_wxyz(T[:3, :3])
     cfg = apply_overrides(
@@ -64,16 +66,50 @@ def main() -> None:
         ]
         + (["localize.mode=slam"] if args.slam else []),
     )
-    oracle = OracleDetector(OracleSettings(seed=0))
-    DETECTED_TYPES = tuple(t for t in TYPES if t not in MAPPING_TYPES)  # the map's landmarks have no class
-    pipe = Pipeline(cfg, [oracle])
-    # seed live tracks spread over the maze
+    source.oracle = OracleDetector(OracleSettings(seed=0))  # fed each frame's truth by the source
+    pipe = Pipeline(cfg, [source.oracle])
+    seed_tracks(pipe, args.tracks)
+    timer = StageTimer()
+    observers: list[Observer] = [timer]
+    onnx = None
+    if args.model:
+        onnx = OnnxTimer(onnx_detector(args.model, args.label_model))
+        observers.append(onnx)
+    try:
+        run_episode(source, pipe, observers, desc="bench")
+    finally:
+        source.close()
+    stages, total = timer.stages, timer.total
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} cores; {n} frames at 640x480, "
+        f"{len(pipe.tracks())} live tracks at the end ({args.tracks} seeded out of sight)"
+    )
+    for k, v in stages.items():
+        print(f"{k:28s} mean {np.mean(v):7.3f} ms   p90 {np.percentile(v, 90):7.3f} ms")
+    print(
+        f"{'whole pipeline (oracle)':28s} mean {np.mean(total):7.3f} ms   p90 {np.percentile(total, 90):7.3f} ms"
+    )
+    if onnx is not None and onnx.ms:
+        # the first call includes onnxruntime's warm-up and is left out
+        ms = onnx.ms[1:]
+        print(
+            f"{'onnx detector':28s} mean {np.mean(ms):7.3f} ms   p90 {np.percentile(ms, 90):7.3f} ms"
+            f"   ({len(onnx.ms) - 1} frames, {np.mean(onnx.boxes[1:]):.2f} placards a frame)"
+        )
+        for k, v in onnx.stages.items():
+            print(f"  {k:26s} mean {np.mean(v[1:]):7.3f} ms   p90 {np.percentile(v[1:], 90):7.3f} ms")
+    for shared in (False, True):
+        bench_slam(args.landmarks, shared)
+
+
+def seed_tracks(pipe: Pipeline, n_tracks: int) -> None:
+    """``n_tracks`` live tracks of every type, spread over the maze but under the floor: gated
+    against and tested for view every frame, never seen, so all of them stay alive."""
+    detected_types = tuple(t for t in TYPES if t not in MAPPING_TYPES)  # the map's landmarks have no class
     rng = np.random.default_rng(0)
     seeds = []
-    for i in range(args.tracks):
-        # every type, spread over the maze but under the floor: gated against and tested for
-        # view every frame, never seen, so all of them stay alive
-        typ = DETECTED_TYPES[i % len(DETECTED_TYPES)]
+    for i in range(n_tracks):
+        typ = detected_types[i % len(detected_types)]
         cls = next(c for c in CLASSES if class_to_identity(c)[0] == typ)
         det = Detection(class_name=cls, type=typ, text="", box_xyxy=(0, 0, 10, 10), confidence=0.9)
         p = np.array([rng.uniform(-1, 8), rng.uniform(-8, 1), -2.0])
@@ -90,64 +126,56 @@ def main() -> None:
         )
     pipe.tracker.step(seeds, 0.0, set())
     pipe.tracker.cfg.t_max = 1e9  # keep them alive through the run
-    stages: dict[str, list[float]] = {}
-    total = []
-    onnx = None
-    if args.model:
-        from poi.detectors import build_detector
 
-        spec = {"name": "onnx", "model": args.model}
-        if args.model == "default":
-            from eval.trial.run import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 
-            spec["model"] = str(DEFAULT_MODEL)
-            if DEFAULT_LABEL_MODEL.exists():
-                spec["label_model"] = str(DEFAULT_LABEL_MODEL)
-        if args.label_model:
-            spec["label_model"] = args.label_model
-        onnx = build_detector(spec)
-        print(f"onnx detector: {spec['model']}" + (f" + {spec['label_model']}" if "label_model" in spec else ""))
-    onnx_ms = []
-    onnx_stages: dict[str, list[float]] = {}
-    onnx_boxes = []
-    with sim:
-        for start in range(0, n, CHUNK):
-            data = list(sim.frames(start, min(start + CHUNK, n)))
-            for frame, truth in data:
-                oracle.set_truth(truth)
-                t = time.perf_counter()
-                res = pipe.process(frame)
-                total.append(1e3 * (time.perf_counter() - t))
-                for k, v in res.timing_ms.items():
-                    stages.setdefault(k, []).append(v)
-            if onnx is not None:
-                for frame, _ in data[:: max(1, len(data) // 10)]:
-                    t = time.perf_counter()
-                    dets = onnx.detect(frame)
-                    onnx_ms.append(1e3 * (time.perf_counter() - t))
-                    onnx_boxes.append(sum(d.type == "hazmat" for d in dets))
-                    for k, v in onnx.last_timing_ms.items():
-                        onnx_stages.setdefault(k, []).append(v)
-    print(
-        f"machine: {platform.machine()}, {os.cpu_count()} cores; {n} frames at 640x480, "
-        f"{len(pipe.tracks())} live tracks at the end ({args.tracks} seeded out of sight)"
-    )
-    for k, v in stages.items():
-        print(f"{k:28s} mean {np.mean(v):7.3f} ms   p90 {np.percentile(v, 90):7.3f} ms")
-    print(
-        f"{'whole pipeline (oracle)':28s} mean {np.mean(total):7.3f} ms   p90 {np.percentile(total, 90):7.3f} ms"
-    )
-    if onnx_ms:
-        # the first call includes onnxruntime's warm-up and is left out
-        ms = onnx_ms[1:]
-        print(
-            f"{'onnx detector':28s} mean {np.mean(ms):7.3f} ms   p90 {np.percentile(ms, 90):7.3f} ms"
-            f"   ({len(onnx_ms) - 1} frames, {np.mean(onnx_boxes[1:]):.2f} placards a frame)"
-        )
-        for k, v in onnx_stages.items():
-            print(f"  {k:26s} mean {np.mean(v[1:]):7.3f} ms   p90 {np.percentile(v[1:], 90):7.3f} ms")
-    for shared in (False, True):
-        bench_slam(args.landmarks, shared)
+def onnx_detector(model: str, label_model: str | None):
+    """The ONNX detector ``model`` names ('default': the shipped one, with its label classifier)."""
+    from poi.detectors import build_detector
+
+    spec = {"name": "onnx", "model": model}
+    if model == "default":
+        spec["model"] = str(DEFAULT_MODEL)
+        if DEFAULT_LABEL_MODEL.exists():
+            spec["label_model"] = str(DEFAULT_LABEL_MODEL)
+    if label_model:
+        spec["label_model"] = label_model
+    print(f"onnx detector: {spec['model']}" + (f" + {spec['label_model']}" if "label_model" in spec else ""))
+    return build_detector(spec)
+
+
+class StageTimer(Observer):
+    """Each frame's pipeline time and its stages' (``res.timing_ms``), in milliseconds."""
+
+    def __init__(self) -> None:
+        self.stages: dict[str, list[float]] = {}
+        self.total: list[float] = []
+
+    def on_frame(self, tick: Tick) -> None:
+        self.total.append(tick.process_ms)
+        for k, v in tick.res.timing_ms.items():
+            self.stages.setdefault(k, []).append(v)
+
+
+class OnnxTimer(Observer):
+    """The ONNX detector timed, stage by stage, on every tenth frame."""
+
+    EVERY = 10
+
+    def __init__(self, detector) -> None:
+        self.detector = detector
+        self.ms: list[float] = []
+        self.stages: dict[str, list[float]] = {}
+        self.boxes: list[int] = []
+
+    def on_frame(self, tick: Tick) -> None:
+        if tick.frame.index % self.EVERY:
+            return
+        t = time.perf_counter()
+        dets = self.detector.detect(tick.frame)
+        self.ms.append(1e3 * (time.perf_counter() - t))
+        self.boxes.append(sum(d.type == "hazmat" for d in dets))
+        for k, v in self.detector.last_timing_ms.items():
+            self.stages.setdefault(k, []).append(v)
 
 
 def bench_slam(n_landmarks: int, shared: bool, visible: int = 5, steps: int = 500) -> None:

@@ -133,6 +133,108 @@ class CenterSigmaConfig:
     b: float = number(CENTER_SIGMA_B, lo=0.0)
 
 
+SHAPES = ("flat", "turned-square", "body", "leaf")  # poi.estimation.shapes registers one class each
+FLAT_SHAPES = ("flat", "turned-square")
+
+
+@dataclass(kw_only=True)
+class TypeShapeConfig:
+    """One type's row of ``localize.types``: the shape that localises it and its numbers
+    (poi.estimation.shapes: flat, a flat sign; turned-square, a diamond placard hung at any
+    in-plane turn; body, a solid 3-D item; leaf, a 3-D item whose hidden part goes on along its
+    depth plane, a door's leaf or a doll lying on the floor)."""
+
+    # The geometry that localises the type (poi.estimation.shapes): flat, turned-square, body or leaf.
+    shape: Literal["flat", "turned-square", "body", "leaf"] = "body"
+    # A flat shape's width over its height (poi.estimation.box_cuts.hidden_lengths_px).
+    aspect: float | None = number(None, lo=0.0, lo_open=True)
+    # A 3-D shape's width (m) its box spans in full view, at its centre's depth; null: not known
+    # (poi.estimation.box_cuts.hidden_solid_px).
+    box_width_m: float | None = number(None, lo=0.0, hi=10.0, lo_open=True, hi_open=True)
+    # The same of its height.
+    box_height_m: float | None = number(None, lo=0.0, hi=10.0, lo_open=True, hi_open=True)
+    # From the surface the depth hits to the reference point (m), along the camera ray;
+    # negative: before it (poi.estimation.projection.surface_to_center).
+    surface_to_center_m: float = number(0.0, lo=-1.0, hi=1.0, lo_open=True, hi_open=True)
+    # The reference point's spread (m) across the camera ray
+    # (poi.estimation.localize.extent_covariance).
+    extent_sigma_m: float = number(0.0, lo=0.0, hi=1.0, hi_open=True)
+    # Its spread (m) along the camera ray; null: as across.
+    extent_ray_sigma_m: float | None = number(None, lo=0.0, hi=1.0, hi_open=True)
+
+    def __post_init__(self) -> None:
+        flat = self.shape in FLAT_SHAPES
+        if flat and self.aspect is None:
+            raise FieldError("aspect", f"a {self.shape} shape needs its width / height ratio")
+        if not flat and self.aspect is not None:
+            raise FieldError(
+                "aspect", f"a {self.shape} shape has no aspect (a {' or '.join(FLAT_SHAPES)} one has)"
+            )
+        for key in ("box_width_m", "box_height_m"):
+            if flat and getattr(self, key) is not None:
+                raise FieldError(key, f"a {self.shape} shape: its cut is judged by its aspect, not a size")
+        if self.shape == "leaf" and self.box_width_m is None and self.box_height_m is None:
+            raise FieldError("shape", "a leaf needs box_width_m or box_height_m (its cut goes on along its plane)")
+
+
+def _row(shape: str, **numbers: float) -> TypeShapeConfig:
+    return TypeShapeConfig(shape=shape, **numbers)  # type: ignore[arg-type]
+
+
+def default_type_shapes() -> dict[str, TypeShapeConfig]:
+    """``localize.types`` as poi/configs/default.yaml gives it (its comments say whence each number)."""
+    return {
+        "hazmat": _row("turned-square", aspect=1.0),
+        "qr": _row("flat", aspect=1.0),
+        "fire-extinguisher-sign": _row("flat", aspect=1.0),
+        "exit-sign": _row("flat", aspect=2.0),
+        "door": _row(
+            "leaf",
+            box_width_m=0.793,
+            box_height_m=1.362,
+            surface_to_center_m=0.064,
+            extent_sigma_m=0.032,
+            extent_ray_sigma_m=0.038,
+        ),
+        "baby-doll": _row(
+            "leaf",
+            box_width_m=0.37,
+            box_height_m=0.165,
+            surface_to_center_m=0.059,
+            extent_sigma_m=0.008,
+            extent_ray_sigma_m=0.031,
+        ),
+        "valve": _row(
+            "body",
+            box_width_m=0.256,
+            box_height_m=0.256,
+            surface_to_center_m=-0.056,
+            extent_sigma_m=0.011,
+            extent_ray_sigma_m=0.047,
+        ),
+        "fire-extinguisher": _row(
+            "body",
+            box_width_m=0.164,
+            box_height_m=0.524,
+            surface_to_center_m=0.065,
+            extent_sigma_m=0.011,
+            extent_ray_sigma_m=0.001,
+        ),
+        "heat-source": _row(
+            "body",
+            box_width_m=0.328,
+            box_height_m=0.357,
+            surface_to_center_m=0.102,
+            extent_sigma_m=0.008,
+            extent_ray_sigma_m=0.037,
+        ),
+        "pillar-blue": _row("body", surface_to_center_m=0.025),
+        "pillar-red": _row("body", surface_to_center_m=0.025),
+        "pillar-green": _row("body", surface_to_center_m=0.025),
+        "ball": _row("body", surface_to_center_m=0.105),
+    }
+
+
 @dataclass(kw_only=True)
 class LocalizeConfig:
     """Depth reading and deprojection ([Avevor2022]_ section 2.2, [Bouda2025]_ section 2.1.3)."""
@@ -160,96 +262,13 @@ class LocalizeConfig:
     # RMS length (px) of the depth image's registration error against the colour image, the
     # same all run long (poi.estimation.localize.registration_depth_variance).
     registration_sigma_px: float = number(1.0, lo=0.0, hi=20.0)
-    # How J1's depth gradient (dd/du, dd/dv) is read: plane (a least-squares plane through the
-    # valid depths of the inner box, poi.estimation.localize.box_depth_plane) or central
-    # (central differences at the box centre's pixel, poi.estimation.covariance.depth_jacobian).
-    depth_gradient: Literal["plane", "central"] = "plane"
     # Side (px) of the window over which the depth camera's errors correlate (the stereo
     # matching window): the depth plane's slope variances are scaled by its square.
     depth_window_px: float = number(7.0, lo=1.0)
-    # Per type, the spread (m) of the reference point about the observation across the camera
-    # ray (a 3-D object's silhouette centre is not its centroid's projection).
-    extent_sigma_m: dict[str, float] = field(
-        default_factory=lambda: {
-            "door": 0.032,
-            "valve": 0.011,
-            "fire-extinguisher": 0.011,
-            "baby-doll": 0.008,
-            "heat-source": 0.008,
-        }
-    )
-    # Per type, the spread (m) along the camera ray: how far behind the surface the depth hits
-    # the reference point lies varies with the side seen. A type listed only in extent_sigma_m
-    # spreads as much along the ray as across it.
-    extent_ray_sigma_m: dict[str, float] = field(
-        default_factory=lambda: {
-            "door": 0.038,
-            "valve": 0.047,
-            "fire-extinguisher": 0.001,
-            "baby-doll": 0.031,
-            "heat-source": 0.037,
-        }
-    )
-    # Per type, how far behind the surface the depth hits its reference point lies (m), on
-    # average over the sides seen: the radius of a round object, half the depth of a box;
-    # along the camera ray, or across the face for a type in planar_center.
-    surface_to_center_m: dict[str, float] = field(
-        default_factory=lambda: {
-            "pillar-blue": 0.025,
-            "pillar-red": 0.025,
-            "pillar-green": 0.025,
-            "ball": 0.105,
-            "fire-extinguisher": 0.065,
-            "baby-doll": 0.059,
-            "heat-source": 0.102,
-            "door": 0.064,
-            "valve": -0.056,
-        }
-    )
-    # Per 3-D type, the width and the height (m) its box spans when the item is in full view,
-    # at the depth of its centre: a box touching the image border on an axis is short of it by
-    # the hidden length, and its centre sigma on that axis grows by half of it
-    # (poi.estimation.localize.hidden_solid_px). A flat type is judged by its ``aspect``.
-    box_width_m: dict[str, float] = field(
-        default_factory=lambda: {
-            "door": 0.793,
-            "valve": 0.256,
-            "fire-extinguisher": 0.164,
-            "baby-doll": 0.37,
-            "heat-source": 0.328,
-        }
-    )
-    box_height_m: dict[str, float] = field(
-        default_factory=lambda: {
-            "door": 1.362,
-            "valve": 0.256,
-            "fire-extinguisher": 0.524,
-            "baby-doll": 0.165,
-            "heat-source": 0.357,
-        }
-    )
-    # Per flat type, its width over its height (a square QR code, hazmat placard or
-    # fire-extinguisher sign: 1; an exit sign: 2). A box shorter on one axis than this shape,
-    # foreshortened as the depth plane says, was cut by the image border or an occluder: its
-    # centre is uncertain by half the hidden length on that axis (poi.estimation.localize).
-    aspect: dict[str, float] = field(
-        default_factory=lambda: {"hazmat": 1.0, "qr": 1.0, "fire-extinguisher-sign": 1.0, "exit-sign": 2.0}
-    )
-    # A flat item of ``aspect`` is placed at its centre measured on the depth plane (undoing
-    # the perspective that puts its box's centre off its centre's image), not at the box centre.
-    flat_center: bool = True
-    # A flat item's depth at its box centre: plane (its depth plane's there,
-    # poi.estimation.localize.DepthPlane.depth_at) or median (the median of its inner box).
-    flat_depth: Literal["plane", "median"] = "plane"
-    # The variance of a flat item's plane depth: plane (the plane fit's own under the
-    # window-correlated noise, poi.estimation.localize.DepthPlane.depth_variance_at) or pixel
-    # (one pixel's sigma_z^2).
-    flat_depth_variance: Literal["plane", "pixel"] = "plane"
-    # The variance of a median depth (a 3-D item's, or a flat item's not read on its plane):
-    # window (one pixel's sigma_z^2 times the share that the block's pixels within sigma_z of
-    # the median leave, poi.estimation.localize.median_variance_fraction) or pixel (one pixel's
-    # sigma_z^2).
-    median_depth_variance: Literal["window", "pixel"] = "window"
+    # Per type, its shape (poi.estimation.shapes) and that shape's numbers: one row a type
+    # (TypeShapeConfig). A type without a row is a body of no known size, its depth's surface
+    # its reference point.
+    types: dict[str, TypeShapeConfig] = field(default_factory=default_type_shapes)
     # A flat item is measured on the depth plane (centre, truncation) only when the plane's
     # tilt is known to this standard deviation (of its tangent) or better.
     flat_max_slope_sigma: float = number(0.2, lo=0.0)
@@ -261,75 +280,23 @@ class LocalizeConfig:
     # A flat item's box touches the border also when its side lies within this many of its
     # centre sigmas beyond border_px (a cut box's edge jitters inward with the box).
     flat_border_sigmas: float = number(2.5, lo=0.0)
-    # The same for a 3-D body (a type with a box size, not in hidden_on_plane).
+    # The same for a 3-D body's box (a body shape with a box size; a leaf keeps border_px).
     body_border_sigmas: float = number(2.5, lo=0.0)
     # A 3-D item's box is cut on an axis also where a surface more than this much (m) nearer
-    # borders it there (poi.estimation.localize.occluded_sides), and a flat item's may be
-    # (flat_cut_needs_cause); 0 turns the check off.
+    # borders it there (poi.estimation.box_cuts.occluded_sides), and a flat item's only where
+    # such a surface or the image border does; 0 turns the check off.
     occluder_margin_m: float = number(0.15, lo=0.0)
-    # The 3-D types whose part a cut box leaves out goes on along the box's depth plane (a
-    # door's leaf, a doll lying along the floor). Any other 3-D type's hidden part keeps its
-    # visible part's depth (poi.estimation.localize.localize).
-    hidden_on_plane: list[str] = field(default_factory=lambda: ["door", "baby-doll"])
-    # The 3-D types whose reference point lies behind the middle of a flat face (a door's
-    # leaf): placed as a flat item's centre is, on the plane of that face (flat_center), then
-    # surface_to_center_m behind it across the face; any other 3-D type sits on the ray
-    # through its box's centre.
-    planar_center: list[str] = field(default_factory=list)
-    # A flat item's box counts as cut on an axis only where the image border or a nearer
-    # surface (occluder_margin_m) borders it; false: wherever its shape falls short.
-    flat_cut_needs_cause: bool = True
-    # A flat item whose box touches the image border on both axes gives no observation.
-    flat_reject_corner: bool = True
-    # A flat item cut by the image border on one side: its centre is the whole item's (the box
-    # gone on past the border by the hidden length); false: the visible part's, widened by half
-    # the hidden length both ways.
-    flat_border_shift: bool = True
     # The hidden length's own error, as a fraction of it, beyond what the box's shape error
     # gives (the plane's tilt, a slanted sign's perspective); half of it adds to the centre's.
     hidden_length_sigma: float = number(0.25, lo=0.0)
-    # The flat types of ``aspect`` that are diamonds (a box touches them at its sides' middles).
-    diamond_types: list[str] = field(default_factory=lambda: ["hazmat"])
-    # The diamond types hung at an unknown in-plane turn: centred as the mean over the turns of a
-    # square, and that centre's spread added to its sigma (poi.estimation.localize.flat_item).
-    turned_types: list[str] = field(default_factory=lambda: ["hazmat"])
     # A box counts as cut on an axis when it is shorter than the aspect says by more than this
     # fraction (the detector's box sizes jitter: the oracle's by 5% a side, 7% in the ratio).
     truncation_tolerance: float = number(0.05, lo=0.0, hi=1.0, hi_open=True)
 
     def __post_init__(self) -> None:
-        # negative surface_to_center_m: the reference point lies in front of the surface the depth reads
-        check_per_type(
-            "surface_to_center_m", self.surface_to_center_m, lambda r: -1.0 < r < 1.0, "metres in (-1, 1)"
-        )
-        for key in ("extent_sigma_m", "extent_ray_sigma_m"):
-            check_per_type(key, getattr(self, key), lambda r: 0.0 <= r < 1.0, "metres in [0, 1)")
-        check_per_type("aspect", self.aspect, lambda r: r > 0.0, "a width / height ratio > 0")
-        for key in ("box_width_m", "box_height_m"):
-            check_per_type(key, getattr(self, key), lambda r: 0.0 < r < 10.0, "metres in (0, 10)")
-            for t in getattr(self, key):
-                if t in self.aspect:
-                    raise FieldError(f"{key}.{t}", "a flat type: its cut is judged by localize.aspect, not a size")
-        for i, t in enumerate(self.diamond_types):
-            if t not in self.aspect:
-                raise FieldError(
-                    f"diamond_types[{i}]", f"{t!r} has no aspect; expected one of {', '.join(self.aspect)}"
-                )
-        for i, t in enumerate(self.turned_types):
-            if t not in self.diamond_types:
-                raise FieldError(
-                    f"turned_types[{i}]",
-                    f"{t!r} is no diamond type; expected one of {', '.join(self.diamond_types) or 'none'}",
-                )
-        sized = {**self.box_width_m, **self.box_height_m}
-        for key in ("hidden_on_plane", "planar_center"):
-            for i, t in enumerate(getattr(self, key)):
-                if t not in sized:
-                    raise FieldError(
-                        f"{key}[{i}]",
-                        f"{t!r} is no 3-D type with a box size (box_width_m / box_height_m); expected one of "
-                        f"{', '.join(sized) or 'none'}",
-                    )
+        for t in self.types:
+            if t not in TYPES:
+                raise FieldError(f"types.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
         if self.max_depth_m <= self.min_depth_m:
             raise FieldError(
                 "max_depth_m", f"expected a value > min_depth_m ({self.min_depth_m:g}), got {self.max_depth_m!r}"
@@ -571,10 +538,32 @@ def flatten_config(data: dict, prefix: str = "") -> Iterator[tuple[str, Any]]:
             yield key, v
 
 
+@dataclass(frozen=True)
+class _Rows:
+    """A mapping whose values are settings rows (``localize.types``): any key, each a ``row``."""
+
+    row: type
+
+
+def _below(cls: Any, part: str, here: str, nxt: str) -> Any:
+    """The settings class below key ``part`` of ``cls`` (None: an open mapping, any key and
+    value); ``nxt`` the key to be set below it, for the error on a single setting."""
+    if isinstance(cls, _Rows):
+        return cls.row
+    tp = _hints(cls)[part]
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+        return tp
+    if typing.get_origin(tp) is dict:
+        row = typing.get_args(tp)[1]
+        return _Rows(row) if isinstance(row, type) and dataclasses.is_dataclass(row) else None
+    raise ConfigError(f"{here}: is a single setting, it has no key {nxt!r}")
+
+
 def apply_overrides(cfg: PipelineConfig, items: Iterable[str]) -> PipelineConfig:
     """A new config with ``KEY=VALUE`` items applied; values are parsed as YAML and validated.
 
-    ``tracker.gates.door=4`` sets an entry of an open mapping; any other unknown key is refused.
+    ``tracker.gates.door=4`` sets an entry of an open mapping, ``localize.types.door.
+    box_width_m=0.8`` a number of a type's row; any other unknown key is refused.
     """
     data = config_to_dict(cfg)
     for item in items:
@@ -589,24 +578,16 @@ def apply_overrides(cfg: PipelineConfig, items: Iterable[str]) -> PipelineConfig
         for depth, part in enumerate(parts):
             here = ".".join(parts[: depth + 1])
             last = depth == len(parts) - 1
-            if cls is None:  # inside an open mapping (gates, options): any key
-                if last:
-                    node[part] = value
-                    break
+            if cls is None and not last:  # inside an open mapping (gates, options): any key
                 raise ConfigError(f"{here}: cannot set a key below {here}")
-            names = {f.name for f in dataclasses.fields(cls)}
-            if part not in names:
-                raise ConfigError(f"{here}: unknown key; expected one of {', '.join(sorted(names))}")
+            if cls is not None and not isinstance(cls, _Rows):
+                names = {f.name for f in dataclasses.fields(cls)}
+                if part not in names:
+                    raise ConfigError(f"{here}: unknown key; expected one of {', '.join(sorted(names))}")
             if last:
                 node[part] = value
                 break
-            tp = _hints(cls)[part]
-            if dataclasses.is_dataclass(tp):
-                cls = tp
-            elif typing.get_origin(tp) is dict:
-                cls = None
-            else:
-                raise ConfigError(f"{here}: is a single setting, it has no key {parts[depth + 1]!r}")
+            cls = _below(cls, part, here, parts[depth + 1])
             if node.get(part) is None:
                 node[part] = {}
             node = node[part]

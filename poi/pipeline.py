@@ -99,6 +99,17 @@ def find_qr_reader() -> Callable | None:
     return _find_qr_reader()[0]
 
 
+def skip_reason(frame: Frame) -> str | None:
+    """Why a frame cannot be localised ("no pose", "no depth", "pose not finite"), else None."""
+    if frame.pose is None:
+        return "no pose"
+    if frame.depth_m is None:
+        return "no depth"
+    if not np.all(np.isfinite(frame.pose)):
+        return "pose not finite"
+    return None
+
+
 class Pipeline:
     """Frames in, tracked objects out; ``detectors`` have ``detect(frame) -> list[Detection]``.
 
@@ -191,29 +202,10 @@ class Pipeline:
             detections = attach_landolt_text(frame.rgb, detections)
         t1 = time.perf_counter()
         timing["detect"] = 1e3 * (t1 - t0)
-        reason = None
+        reason = skip_reason(frame)
         pose = frame.pose
-        if pose is None:
-            reason = "no pose"
-        elif frame.depth_m is None:
-            reason = "no depth"
-        elif not np.all(np.isfinite(pose)):
-            reason = "pose not finite"
         if reason is not None or pose is None:
-            qr_tried = self._unread_qr(detections) if self._qr_reader is not None else []
-            if self._qr_reader is not None:
-                detections = self._read_qr(self._qr_reader, frame.rgb, detections, qr_tried)
-            timing["qr"] = 1e3 * (time.perf_counter() - t1)
-            return FrameResult(
-                frame_index=frame.index,
-                timestamp_s=frame.timestamp_s,
-                detections=detections,
-                observations=[],
-                newly_confirmed=[],
-                skipped_reason=reason,
-                timing_ms=timing,
-                qr_tried=qr_tried,
-            )
+            return self._skipped(frame, detections, reason or "no pose", timing, t1)
 
         observations: list[Observation] = []
         det_of_obs: list[int] = []
@@ -268,6 +260,26 @@ class Pipeline:
             observed=list(det_of_obs),
             qr_tried=[det_of_obs[i] for i in todo],
             innovations=step.innovations,
+        )
+
+    def _skipped(
+        self, frame: Frame, detections: list[Detection], reason: str, timing: dict[str, float], t1: float
+    ) -> FrameResult:
+        """The result of a frame that cannot be localised (:func:`skip_reason`): its QR codes are
+        read all the same, nothing is tracked."""
+        qr_tried = self._unread_qr(detections) if self._qr_reader is not None else []
+        if self._qr_reader is not None:
+            detections = self._read_qr(self._qr_reader, frame.rgb, detections, qr_tried)
+        timing["qr"] = 1e3 * (time.perf_counter() - t1)
+        return FrameResult(
+            frame_index=frame.index,
+            timestamp_s=frame.timestamp_s,
+            detections=detections,
+            observations=[],
+            newly_confirmed=[],
+            skipped_reason=reason,
+            timing_ms=timing,
+            qr_tried=qr_tried,
         )
 
     def confirmed(self) -> list[TrackSnapshot]:

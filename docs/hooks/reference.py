@@ -131,14 +131,20 @@ class Row:
 
 
 def dataclass_in(tp: Any) -> type | None:
-    """The dataclass a field's type holds (``X`` or ``X | None``), else None."""
+    """The dataclass a field's type holds (``X``, ``X | None`` or ``dict[str, X]``), else None."""
     if dataclasses.is_dataclass(tp):
         return tp
+    if get_origin(tp) is dict and dataclasses.is_dataclass(get_args(tp)[1]):
+        return get_args(tp)[1]
     if get_origin(tp) in (typing.Union, types.UnionType):
         for a in get_args(tp):
             if dataclasses.is_dataclass(a):
                 return a
     return None
+
+
+def _kind_of(tp: Any, sub: type) -> str:
+    return f"a mapping of {sub.__name__} rows" if get_origin(tp) is dict else f"a mapping ({sub.__name__}) or null"
 
 
 def describe_type(tp: Any) -> str:
@@ -160,9 +166,22 @@ def show_value(value: Any) -> str:
         return "(section)"
     if isinstance(value, tuple):
         value = list(value)
+    if isinstance(value, dict) and any(dataclasses.is_dataclass(v) for v in value.values()):
+        # a table of rows (localize.types): each row's settings that are not its defaults
+        value = {k: _row_settings(v) for k, v in value.items()}
     text = yaml.safe_dump(value, default_flow_style=True, width=10_000, sort_keys=False).strip()
     text = text.removesuffix("...").strip()
     return f"`{text}`"
+
+
+def _row_settings(row: Any) -> dict[str, Any]:
+    """A row's settings that differ from its class's defaults (the key that must be given, kept)."""
+    out = {}
+    for f in dataclasses.fields(row):
+        value, default = getattr(row, f.name), default_of(f)
+        if value != default or f.name == "shape":
+            out[f.name] = value
+    return out
 
 
 def default_of(f: dataclasses.Field) -> Any:
@@ -194,7 +213,7 @@ def walk(cls: type, prefix: str, yaml_comments: dict[str, str]) -> list[tuple[st
         tp = hints[f.name]
         sub = dataclass_in(tp)
         if sub is not None:
-            nested += walk(sub, key + ".", yaml_comments)
+            nested += walk(sub, key + (".<type>." if get_origin(tp) is dict else "."), yaml_comments)
             if dataclasses.is_dataclass(tp):
                 continue  # an always-present section: its own table
         rng = f.metadata.get("range")
@@ -205,7 +224,7 @@ def walk(cls: type, prefix: str, yaml_comments: dict[str, str]) -> list[tuple[st
         rows.append(
             Row(
                 key=key,
-                kind=describe_type(tp) if sub is None else f"a mapping ({sub.__name__}) or null",
+                kind=describe_type(tp) if sub is None else _kind_of(tp, sub),
                 default="required" if default is dataclasses.MISSING else show_value(default),
                 range=rng.describe() if rng is not None and rng.describe() else "",
                 meaning=meaning,

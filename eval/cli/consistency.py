@@ -1,7 +1,7 @@
 """``poibench consistency [SCENARIO] [--suite NAME] [--frames N|all] [--runs M] [--seed S] [--fit-extents]``.
 
 Monte Carlo NEES of the pipeline's covariances against the simulator's truth
-(:mod:`eval.consistency`): prints the table (quantity, N, d, mean NEES, its chi-square 99%
+(:mod:`eval.experiments.consistency`): prints the table (quantity, N, d, mean NEES, its chi-square 99%
 interval, inside?) and writes ``consistency.json`` and ``consistency.png`` to ``--out``.
 ``--frames all`` runs each scenario to its end (what happens late in a run, such as the
 T265's loop closures, is outside the first few hundred frames).
@@ -10,7 +10,7 @@ S, S + 1, ...; ``--suite`` (repeatable) runs the first ``--runs`` scenarios of e
 their own seeds (or S, S + 1, ... when ``--seed`` is given: other mazes of the same kind; then
 ``--runs`` may exceed the suite's size, its scenarios taken again in turn with fresh seeds). ``--fit-extents``
 also prints the 3-D types' centre offsets and extent spreads that would make their camera-frame
-R consistent on these runs (:mod:`eval.extent_fit`), as ``--set`` settings.
+R consistent on these runs (:mod:`eval.experiments.extent_fit`), as ``--set`` settings.
 """
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ def suite_runs(names: list[str], runs: int, seed: int | None, sim_sets: list[str
     """The scenarios ``--suite`` runs: the first ``runs`` of each suite, noise on, with their
     own seeds; with ``seed``, seeds seed, seed + 1, ... and, past a suite's size, its
     scenarios again in turn (new mazes of the same kind)."""
-    from eval.consistency import ConsistencyError
+    from eval.experiments.consistency import ConsistencyError
     from eval.experiments.suites import load_suite
     from eval.trial.scenarios import apply_scenario_settings
     from sim.scenario import apply_settings, with_noise
@@ -107,7 +107,7 @@ def suite_runs(names: list[str], runs: int, seed: int | None, sim_sets: list[str
 
 
 def cmd_consistency(args: argparse.Namespace) -> int:
-    from eval.consistency import ConsistencyError, format_table, run_consistency, write_outputs
+    from eval.experiments.consistency import ConsistencyError, format_table, run_consistency, write_outputs
     from eval.trial.scenarios import resolve_scenario, split_settings
     from sim.scenario import apply_settings
 
@@ -137,7 +137,7 @@ def cmd_consistency(args: argparse.Namespace) -> int:
     sys.stdout.write(format_table(result.rows))
     extra = {}
     if args.fit_extents:
-        from eval.extent_fit import fit_extents, fitted_settings, format_fits
+        from eval.experiments.extent_fit import fit_extents, fitted_settings, format_fits
         from poi.config import apply_overrides, load_config
 
         if not result.samples.extent:

@@ -738,7 +738,7 @@ def _photo_detector(args) -> None:
     shipped label model unless --label-model says otherwise; 'none': the detector alone), its
     files checked and a Python detector's --option items with it (:func:`_options`)."""
     from eval.detector.quality import DetectorQualityError
-    from eval.trial.run import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
+    from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 
     shipped = args.model is None
     if shipped:

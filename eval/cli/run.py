@@ -117,7 +117,7 @@ def counted(n: int, noun: str, plural: str | None = None) -> str:
 def check_detector(choice: str) -> None:
     """Refuse a ``--detector`` that names nothing before the trial starts. A ``python:`` module is
     also looked for in the working folder (a console script does not have it on sys.path)."""
-    from eval.trial.run import check_detector_choice
+    from eval.trial.detectors import check_detector_choice
 
     here = os.getcwd()
     if choice.startswith("python:") and here not in sys.path and "" not in sys.path:

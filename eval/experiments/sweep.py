@@ -175,7 +175,7 @@ def trial_id(scenario: str, settings: dict[str, str]) -> str:
 
 def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     """Grid x scenarios, settings outer, scenarios inner; scenario settings applied to the scenario."""
-    from eval.trial.run import refuse_detector_model
+    from eval.trial.pipeline_config import refuse_detector_model
     from eval.trial.scenarios import SettingError, apply_scenario_settings, split_settings
     from poi.config import ConfigError, apply_overrides, load_config
     from poi.detectors import DetectorConfigError

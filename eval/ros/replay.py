@@ -1,8 +1,9 @@
 """``poibench replay``: the pipeline over a robot's recording, with a trial's outputs.
 
 The frames come from :func:`eval.ros.reader.open_recording`; the pipeline is
-:class:`poi.pipeline.Pipeline` with the detectors :func:`eval.trial.run.make_detectors` builds, and
-the outputs are written as :func:`eval.trial.run.run_trial` writes them (one
+:class:`poi.pipeline.Pipeline` with the detectors :func:`eval.trial.detectors.make_detectors` builds,
+in an episode (:mod:`eval.trial.episode`) whose source is the recording (:class:`RecordingSource`),
+and the outputs are written by the observers :func:`eval.trial.run.run_trial` attaches (one
 :class:`eval.trial.outputs.TrialOutputs`): ``pois.csv`` (streamed, then finished atomically),
 ``trial.mp4`` (the annotated view), ``live/`` (what ``poibench view`` replays), ``map.png`` (the
 path and the reports), ``replay.json`` (what was read and how fast) and, with a ground truth,
@@ -16,9 +17,10 @@ the trial config's scenario (``--config``), else the recording's name.
 
 from __future__ import annotations
 
-import contextlib
+import itertools
 import json
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,9 +31,12 @@ from eval.ros.reader import Recording
 from eval.scoring.map_plot import MapReport, draw_map, score_layers
 from eval.scoring.report import live_summary, to_json_dict
 from eval.scoring.scorer import score
+from eval.trial.episode import Step, run_episode
+from eval.trial.observers import FunnelObserver, LiveObserver, PoiStream, RobotPath, SkipCounter, VideoObserver
 from eval.trial.outputs import TrialOutputs
 from poi.core.geometry import matrix_to_quat_wxyz
 from poi.core.poi_file import read_poi_file
+from poi.models import detector_label, shipped_settings
 
 
 class ReplayError(ValueError):
@@ -54,7 +59,7 @@ class ReplayResult:
 
 @dataclass
 class _NoWorld:
-    """What :func:`eval.trial.run.make_detectors` and :class:`eval.live.record.LiveRecorder` ask of a
+    """What :func:`eval.trial.detectors.make_detectors` and :class:`eval.live.record.LiveRecorder` ask of a
     simulation, for a recording: no known objects, no walls, its frame count and rate."""
 
     n_frames: int
@@ -83,8 +88,10 @@ def mount_sets(T: np.ndarray) -> list[str]:
 
 
 def replay_config(rec: Recording, config_path: str | None, detector: str | None, sets: list[str]):
-    """(pipeline config, detector choice, mission name) for the replay of ``rec``."""
-    from eval.trial.run import DEFAULT_CALIBRATION, DEFAULT_LABEL_MODEL, DEFAULT_MODEL
+    """(pipeline config, detector choice, mission name) for the replay of ``rec``: a trial's
+    ``config.yaml`` as it is (it names its own label model and calibration), else the defaults
+    with the shipped detector's (:func:`poi.models.shipped_settings`); the recording's mount and
+    ``sets`` on top."""
     from poi.config import apply_overrides, load_config
 
     mission = rec.path.stem if rec.path.is_file() else rec.path.name
@@ -95,22 +102,57 @@ def replay_config(rec: Recording, config_path: str | None, detector: str | None,
         cfg = doc.pipeline
         detector = detector or (doc.detector if "detector" in given else "default")
         mission = doc.scenario.name
-        defaults = False  # the config names its own label model and calibration
     else:
         cfg = load_config()
         detector = detector or "default"
-        defaults = detector == "default" and DEFAULT_MODEL.exists()
     if detector == "oracle":
         raise ReplayError("--detector oracle needs the simulator's ground truth; a recording has none")
     extra = list(sets)
     if rec.T_tracker_camera is not None:
         extra = mount_sets(rec.T_tracker_camera) + extra
     cfg = apply_overrides(cfg, extra)
-    if defaults and cfg.detector.label_model is None and DEFAULT_LABEL_MODEL.exists():
-        cfg = apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"])
-    if defaults and cfg.calibration is None and DEFAULT_CALIBRATION.exists():
-        cfg = apply_overrides(cfg, [f"calibration={DEFAULT_CALIBRATION}"])
+    if not config_path:
+        cfg = apply_overrides(cfg, shipped_settings(detector, cfg))
     return cfg, detector, mission
+
+
+class RecordingSource:
+    """A recording's frames (:class:`eval.ros.reader.Recording`), the first ``n_frames`` of them,
+    as an episode's source (:mod:`eval.trial.episode`). With the truth's ``positions`` (id ->
+    map position) each step carries the views of the objects by the recording's own pose
+    (:func:`eval.trial.funnel_recorder.projected_views`: a recording has no truth boxes)."""
+
+    def __init__(self, rec: Recording, n_frames: int, *, positions=None, T_tracker_camera=None, visibility=None):
+        self.rec = rec
+        self.n_frames = n_frames
+        self.positions = positions
+        self.T_tracker_camera = T_tracker_camera
+        self.visibility = visibility
+
+    def steps(self) -> Iterator[Step]:
+        from eval.trial.funnel_recorder import projected_views
+
+        for frame in itertools.islice(self.rec.frames(), self.n_frames):
+            views = None
+            if self.positions is not None:
+                views = projected_views(self.positions, frame, self.T_tracker_camera, self.visibility)
+            yield Step(frame=frame, views=views)
+
+
+def report_layers(final) -> dict:
+    """``map.png``'s layers without a ground truth: the confirmed objects, each identified."""
+    reports = [
+        MapReport(
+            id=s.report_id,
+            type=s.type,
+            x=float(s.position_map[0]),
+            y=float(s.position_map[1]),
+            status="identified",
+            text=s.text,
+        )
+        for s in final
+    ]
+    return {"reports": reports, "truth": []}
 
 
 def replay(
@@ -129,13 +171,11 @@ def replay(
 ) -> ReplayResult:
     """Run the pipeline over ``rec`` and write the outputs in ``out_dir``."""
     from eval.live.record import LiveRecorder
-    from eval.progress import progress_bar
     from eval.scoring.funnel import funnel_json
-    from eval.trial.funnel_recorder import FunnelRecorder, projected_views
-    from eval.trial.run import detector_label, funnel_objects, make_detectors, write_funnel_csv
-    from poi.annotate import annotate
+    from eval.trial.detectors import make_detectors
+    from eval.trial.funnel_recorder import FunnelRecorder, funnel_objects, write_funnel_csv
+    from eval.trial.run import poi_writer
     from poi.pipeline import Pipeline
-    from poi.report import PoiWriter, ReportHeader
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -143,27 +183,29 @@ def replay(
     notes = list(rec.notes)
     cfg, detector, mission = replay_config(rec, config_path, detector, list(pipeline_sets))
     n = rec.n_frames if max_frames is None else min(max_frames, rec.n_frames)
-    fps = rec.fps
-    world = _NoWorld(n_frames=n, fps=fps)
+    world = _NoWorld(n_frames=n, fps=rec.fps)
     detectors, _ = make_detectors(detector, cfg, world, notes)
     pipe = Pipeline(cfg, detectors)
     notes.extend(pipe.notes)
     truth_file = read_poi_file(truth_path) if truth_path else None
+    observers = []
     recorder = positions = None
     if truth_file is not None:  # the funnel, with views of the truth's positions by the recording's pose
         recorder = FunnelRecorder(funnel_objects(truth_file.rows), cfg, rules)
         positions = {int(r.id): np.array([r.x, r.y, r.z], dtype=float) for r in truth_file.rows}
+        observers.append(FunnelObserver(recorder))
     else:
         notes.append("funnel: no ground truth (--truth), so no stage can be checked against the objects")
-    header = ReportHeader(
-        team=cfg.report.team,
-        country=cfg.report.country,
-        mission=mission,
-        start=rec.start,
-        version=cfg.report.poi_version,
+    source = RecordingSource(
+        rec, n, positions=positions, T_tracker_camera=pipe.T_tracker_camera, visibility=cfg.visibility
     )
-    writer = PoiWriter(out / "pois.csv", header, robot=cfg.report.robot, mode=cfg.report.mode)
-    vid = H264Writer(out / "trial.mp4", rec.color_k.width, rec.color_k.height, fps) if video else None
+    writer = poi_writer(cfg, mission, rec.start, out / "pois.csv")
+    skips, path = SkipCounter(), RobotPath()
+    observers += [skips, path, PoiStream(writer)]
+    if video:
+        observers.append(
+            VideoObserver(H264Writer(out / "trial.mp4", rec.color_k.width, rec.color_k.height, rec.fps), outputs)
+        )
 
     def running_score() -> dict | None:
         if truth_file is None:
@@ -171,50 +213,12 @@ def replay(
         return live_summary(score(read_poi_file(out / "pois.csv"), truth_file, rules))
 
     live = LiveRecorder(out, world, title=f"{mission} (replay)", score_fn=running_score, record=record_live)
-    path: list[list[float]] = []
-    skipped = 0
-    streaming = True
+    observers.append(LiveObserver(live, outputs, record=record_live))
     t0, c0 = time.perf_counter(), time.process_time()
-    k = 0
-    try:
-        frames = rec.frames()
-        for frame in progress_bar(frames, total=n, desc="replay", unit="frame", quiet=not progress):
-            if k >= n:
-                break
-            res = pipe.process(frame)
-            if recorder is not None:
-                views = projected_views(positions, frame, pipe.T_tracker_camera, cfg.visibility)
-                recorder.on_frame(views, None, frame, res)
-            skipped += res.skipped_reason is not None
-            if res.pose_map is not None:
-                T = res.pose_map @ pipe.T_tracker_camera
-                path.append([float(T[0, 3]), float(T[1, 3])])
-            for snap in res.newly_confirmed:
-                if streaming:
-                    try:
-                        writer.append(snap)
-                    except OSError:
-                        streaming = False
-            view = annotate(frame.rgb, res.detections, pipe.confirmed(), frame.timestamp_s)
-            if vid is not None:
-                try:
-                    vid.write(view)
-                except OSError as e:
-                    outputs.fail("trial.mp4", e)
-                    with contextlib.suppress(OSError):
-                        vid.close()
-                    vid = None
-            live.on_frame(frame, res, pipe, view)
-            k += 1
-    finally:
-        if vid is not None:
-            outputs.write("trial.mp4", lambda _: vid.close(), atomic=False)
-        if record_live:
-            outputs.write("live/", lambda _: live.close(), atomic=False)
-        else:
-            live.close()
+    k = run_episode(source, pipe, observers, progress=progress, desc="replay")
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0  # all threads of the process (the encoder's ffmpeg is a child: not counted)
+    skipped = skips.skipped
     final = pipe.confirmed()
     outputs.write("pois.csv", lambda _: writer.finalize(final), atomic=False)
     result = funnel = None
@@ -227,22 +231,7 @@ def replay(
             outputs.write("funnel.csv", lambda p: write_funnel_csv(p, funnel))
         doc["replay"] = {"recording": str(rec.path), "frames": k, "skipped_frames": skipped, "notes": notes}
         outputs.write("score.json", lambda p: p.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8"))
-        layers = score_layers(result)
-    else:
-        layers = {
-            "reports": [
-                MapReport(
-                    id=s.report_id,
-                    type=s.type,
-                    x=float(s.position_map[0]),
-                    y=float(s.position_map[1]),
-                    status="identified",
-                    text=s.text,
-                )
-                for s in final
-            ],
-            "truth": [],
-        }
+    layers = score_layers(result) if result is not None else report_layers(final)
     info = {
         "recording": str(rec.path),
         "layout": rec.layout,
@@ -263,7 +252,7 @@ def replay(
     title = f"{mission} (replay of {rec.path.name})" + (f": {result.headline()}" if result is not None else "")
     outputs.write(
         "map.png",
-        lambda p: draw_map(p, walls=[], robot_path=np.asarray(path).reshape(-1, 2), title=title, **layers),
+        lambda p: draw_map(p, walls=[], robot_path=path.array(), title=title, **layers),
     )
     outputs.check()
     return ReplayResult(

@@ -29,6 +29,7 @@ References
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -50,7 +51,7 @@ from eval.scoring.rules import AnyRules
 from eval.scoring.scorer import ScoreResult
 from poi.core.geometry import greedy_pairs, iou_matrix
 from poi.core.types import Detection, Frame, TrackSnapshot
-from poi.estimation.localize import box_depth
+from poi.estimation.box_depth import box_depth
 
 # sources of the helpers that run beside a trial's detector (heat, Landolt-C rings, QR finder):
 # their boxes do not say whether the detector itself boxes anything
@@ -97,7 +98,7 @@ def projected_views(
     recording's ``frame`` shows by its own pose: the pipeline's in-view test
     (:func:`poi.estimation.visibility.in_view`, with the ``visibility`` settings) on each."""
     from poi.core.geometry import invert_transform, transform_points
-    from poi.estimation.localize import project_point_to_pixel
+    from poi.estimation.projection import project_point_to_pixel
     from poi.estimation.visibility import in_view
 
     if frame.pose is None:
@@ -283,3 +284,32 @@ class FunnelRecorder:
             self.activity.highest_score = round(float(max(scores)), 4)
         ids = {oid: oid for oid in self.traces}
         return attribute(list(self.traces.values()), self.tracks, result, ids, self.activity)
+
+
+def funnel_objects(rows) -> list[tuple[int, str, str, int | None]]:
+    """(id, type, text, modules across) of each truth row; modules for a QR code only (its
+    quiet zone included, maze_assets.qr), None where the text cannot be drawn."""
+    from maze_assets.qr import QUIET_MODULES, QrTextureError, qr_modules
+
+    out = []
+    for r in rows:
+        modules = None
+        if r.type == "qr" and r.text:
+            try:
+                modules = int(qr_modules(r.text).shape[0]) + 2 * QUIET_MODULES
+            except (QrTextureError, ValueError):
+                modules = None
+        out.append((int(r.id), str(r.type), str(r.text), modules))
+    return out
+
+
+def write_funnel_csv(path: Path, funnel: Funnel) -> None:
+    """``funnel.csv``: one row an object, one a charged false report (eval.scoring.funnel.CSV_COLUMNS)."""
+    import csv
+
+    from eval.scoring.funnel import CSV_COLUMNS, funnel_rows
+
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(CSV_COLUMNS), lineterminator="\n")
+        w.writeheader()
+        w.writerows(funnel_rows(funnel))

@@ -4,7 +4,7 @@ A sweep or a tuning study runs the same scenarios again and again with settings 
 the stages after detection read (``tracker.*``, ``slam.*``, ``localize.*``, ``visibility.*``,
 ``detector.conf`` at or above :data:`CONF_FLOOR`, ``calibration``). Rendering and detection,
 about 90% of a trial's CPU, give the same result each time, so they run once per scenario:
-:func:`eval.trial.run.record_perception` runs the simulator and the detectors and keeps, per
+:func:`eval.trial.sources.record_perception` runs the simulator and the detectors and keeps, per
 frame, what the pipeline after detection reads (:class:`FrameRecord`):
 
 * the detections of every detector, the ONNX detector's down to :data:`CONF_FLOOR`;
@@ -76,7 +76,9 @@ ROOT = Path(__file__).resolve().parents[2]
 FINGERPRINT_DIRS = ("sim", "maze_assets", "poi/detectors", "poi/core")
 FINGERPRINT_FILES = (
     "eval/trial/perception_cache.py",
-    "eval/trial/run.py",
+    "eval/trial/sources.py",
+    "eval/trial/detectors.py",
+    "eval/trial/episode.py",
     "eval/scoring/truth.py",
     "eval/scoring/funnel.py",
 )
@@ -482,7 +484,7 @@ def load_or_record(
     cache: PerceptionCache, key: str, record: Callable[[str], PerceptionRecord]
 ) -> PerceptionRecord:
     """The record of ``key`` from ``cache``; when missing, torn, corrupt or stale, ``record(key)``
-    makes it and it is stored (eval.trial.run.cached_perception). A cache that cannot be
+    makes it and it is stored (eval.trial.sources.cached_perception). A cache that cannot be
     written (a full disk, a Ray node without the folder) costs the next trial its record,
     never this trial its result."""
     rec = cache.load(key)

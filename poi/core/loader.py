@@ -437,55 +437,75 @@ def _fail(src: Source, path: str, msg: str) -> LoadError:
 
 
 def _convert(tp: Any, value: Any, src: Source, path: str) -> Any:
+    """``value`` checked against type ``tp`` and converted; a LoadError naming ``path`` if it does not fit."""
     origin = get_origin(tp)
     if tp is Any:
         return value
     if origin in (typing.Union, types.UnionType):
-        args = get_args(tp)
-        if value is None and type(None) in args:
-            return None
-        errors = []
-        for a in args:
-            if a is type(None):
-                continue
-            try:
-                return _convert(a, value, src, path)
-            except LoadError as e:
-                errors.append(e)
-        if len(errors) == 1:  # X | None: X's own error says what is wrong, and where
-            raise errors[0]
-        raise _fail(src, path, f"expected {describe(tp)}, got {show(value)}")
+        return _convert_union(tp, value, src, path)
     if origin is Literal:
         if not any(value == a and type(value) is type(a) for a in get_args(tp)):
             raise _fail(src, path, f"expected {describe(tp)}, got {show(value)}")
         return value
     if origin in (list, tuple) or tp in (list, tuple):
-        if not isinstance(value, (list, tuple)):
-            raise _fail(src, path, f"expected a list, got {show(value)}")
-        args = get_args(tp)
-        if (origin is tuple or tp is tuple) and args and args[-1] is not Ellipsis:
-            if len(value) != len(args):
-                what = "numbers" if all(a in (int, float) for a in args) else "values"
-                raise _fail(src, path, f"expected a list of {len(args)} {what}, got {show(value)}")
-            return tuple(
-                _convert(a, v, src, f"{path}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True))
-            )
-        inner = args[0] if args else Any
-        out = [_convert(inner, v, src, f"{path}[{i}]") for i, v in enumerate(value)]
-        return tuple(out) if (origin is tuple or tp is tuple) else out
+        return _convert_sequence(tp, value, src, path)
     if origin is dict or tp is dict:
-        if not isinstance(value, dict):
-            raise _fail(src, path, f"expected a mapping, got {show(value)}")
-        kt, vt = get_args(tp) or (Any, Any)
-        out_d = {}
-        for k, v in value.items():
-            sub = f"{path}.{k}" if path else str(k)
-            if kt is str and not isinstance(k, str):
-                raise _fail(src, sub, f"expected a string key, got {show(k)}")
-            out_d[_convert(kt, k, src, sub)] = _convert(vt, v, src, sub)
-        return out_d
+        return _convert_mapping(tp, value, src, path)
     if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return _build(tp, value, src, path)
+    return _convert_scalar(tp, value, src, path)
+
+
+def _convert_union(tp: Any, value: Any, src: Source, path: str) -> Any:
+    """``X | Y | None``: the first of its types ``value`` fits."""
+    args = get_args(tp)
+    if value is None and type(None) in args:
+        return None
+    errors = []
+    for a in args:
+        if a is type(None):
+            continue
+        try:
+            return _convert(a, value, src, path)
+        except LoadError as e:
+            errors.append(e)
+    if len(errors) == 1:  # X | None: X's own error says what is wrong, and where
+        raise errors[0]
+    raise _fail(src, path, f"expected {describe(tp)}, got {show(value)}")
+
+
+def _convert_sequence(tp: Any, value: Any, src: Source, path: str) -> Any:
+    """A list, or a tuple of fixed length (``tuple[float, float]``) or of any (``tuple[X, ...]``)."""
+    origin = get_origin(tp)
+    if not isinstance(value, (list, tuple)):
+        raise _fail(src, path, f"expected a list, got {show(value)}")
+    args = get_args(tp)
+    if (origin is tuple or tp is tuple) and args and args[-1] is not Ellipsis:
+        if len(value) != len(args):
+            what = "numbers" if all(a in (int, float) for a in args) else "values"
+            raise _fail(src, path, f"expected a list of {len(args)} {what}, got {show(value)}")
+        return tuple(_convert(a, v, src, f"{path}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True)))
+    inner = args[0] if args else Any
+    out = [_convert(inner, v, src, f"{path}[{i}]") for i, v in enumerate(value)]
+    return tuple(out) if (origin is tuple or tp is tuple) else out
+
+
+def _convert_mapping(tp: Any, value: Any, src: Source, path: str) -> dict:
+    """A mapping, each key and value converted (``dict[str, X]``)."""
+    if not isinstance(value, dict):
+        raise _fail(src, path, f"expected a mapping, got {show(value)}")
+    kt, vt = get_args(tp) or (Any, Any)
+    out_d = {}
+    for k, v in value.items():
+        sub = f"{path}.{k}" if path else str(k)
+        if kt is str and not isinstance(k, str):
+            raise _fail(src, sub, f"expected a string key, got {show(k)}")
+        out_d[_convert(kt, k, src, sub)] = _convert(vt, v, src, sub)
+    return out_d
+
+
+def _convert_scalar(tp: Any, value: Any, src: Source, path: str) -> Any:
+    """A bool, an int, a finite float (an int or an exponent string taken) or a str."""
     if tp is bool:
         if not isinstance(value, bool):
             raise _fail(src, path, f"expected true or false, got {show(value)}")

@@ -173,8 +173,33 @@ def parse_poi_text(text: str, *, source: str = "<text>") -> PoiFile:
     text = text.removeprefix("\ufeff")
     lines = text.splitlines()
     warnings: list[Problem] = []
+    _check_magic(lines, source)
+    values, column_index = _header_lines(lines, source)
+    header = _make_header(values, warnings)
+    column_cells = _cells(lines[column_index])
+    if _is_column_line(column_cells):
+        layout = _layout(column_cells, column_index + 1, source, header.version)
+        for name in dict.fromkeys(n for n in layout if n not in COLUMNS):
+            warnings.append(
+                Problem(
+                    line=column_index + 1,
+                    message=f"{source}: column {name!r} is not a POI column ({','.join(COLUMNS)}): "
+                    "its cells are kept aside, not scored",
+                )
+            )
+    else:
+        layout = _positional_layout_13(lines[column_index + 1 :])
+    text_optional = layout == COLUMNS_13_TYPED and not _is_column_line(column_cells)
+    col = {name: i for i, name in enumerate(layout)}
+    problems: list[Problem] = []
+    rows = _rows(lines, column_index, layout, col, text_optional, problems, warnings)
+    return PoiFile(
+        header=header, rows=rows, problems=problems, warnings=warnings, source=source, typed="type" in col
+    )
 
-    # Line 1: "pois".
+
+def _check_magic(lines: list[str], source: str) -> None:
+    """Line 1 must be "pois"; else a PoiFileError."""
     first = _header_value(lines[0]) if lines else ""
     if first is None or first.lower() != POI_MAGIC:
         shown = lines[0][:40] if lines else ""
@@ -184,7 +209,10 @@ def parse_poi_text(text: str, *, source: str = "<text>") -> PoiFile:
             else f"{source}: not a POI file: it is empty, expected {POI_MAGIC!r} on line 1"
         )
 
-    # Header values, then the column line.
+
+def _header_lines(lines: list[str], source: str) -> tuple[list[str], int]:
+    """The header values after line 1 and the index of the column line (for Hector's 1.3, which
+    has none, the line before the first row)."""
     values: list[str] = []
     column_index = -1
     for i in range(1, len(lines)):
@@ -212,25 +240,20 @@ def parse_poi_text(text: str, *, source: str = "<text>") -> PoiFile:
         values.pop()
     if len(values) != len(HEADER_FIELDS):
         values = [v for v in values if v != ""]
-    header = _make_header(values, warnings)
-    column_cells = _cells(lines[column_index])
-    if _is_column_line(column_cells):
-        layout = _layout(column_cells, column_index + 1, source, header.version)
-        for name in dict.fromkeys(n for n in layout if n not in COLUMNS):
-            warnings.append(
-                Problem(
-                    line=column_index + 1,
-                    message=f"{source}: column {name!r} is not a POI column ({','.join(COLUMNS)}): "
-                    "its cells are kept aside, not scored",
-                )
-            )
-    else:
-        layout = _positional_layout_13(lines[column_index + 1 :])
-    text_optional = layout == COLUMNS_13_TYPED and not _is_column_line(column_cells)
-    col = {name: i for i, name in enumerate(layout)}
+    return values, column_index
 
+
+def _rows(
+    lines: list[str],
+    column_index: int,
+    layout: tuple[str, ...],
+    col: dict[str, int],
+    text_optional: bool,
+    problems: list[Problem],
+    warnings: list[Problem],
+) -> list[PoiRow]:
+    """The rows after the column line; a row's problems and warnings appended to the lists."""
     rows: list[PoiRow] = []
-    problems: list[Problem] = []
     seen_ids: dict[int, int] = {}
     for i in range(column_index + 1, len(lines)):
         line_no = i + 1
@@ -251,9 +274,7 @@ def parse_poi_text(text: str, *, source: str = "<text>") -> PoiFile:
         else:
             seen_ids[row.id] = line_no
         rows.append(row)
-    return PoiFile(
-        header=header, rows=rows, problems=problems, warnings=warnings, source=source, typed="type" in col
-    )
+    return rows
 
 
 def _cells(line: str) -> list[str]:

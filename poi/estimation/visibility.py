@@ -24,7 +24,7 @@ import numpy as np
 
 from poi.core.geometry import invert_transform, transform_points
 from poi.core.types import Frame, Intrinsics
-from poi.estimation.localize import project_point_to_pixel
+from poi.estimation.projection import project_point_to_pixel
 
 MIN_VIEW_DEPTH_M = 0.05  # points closer than this to the camera plane are not projected
 DEFAULT_OCCLUSION_TOLERANCE_M = 0.3

@@ -71,7 +71,7 @@ def test_static_object_seen_five_times_is_confirmed_once_at_the_right_place():
     (snap,) = pipe.confirmed()
     # p_c = (0, 0, 2) straight ahead, moved a door's surface_to_center_m further; default mount:
     # optical z -> tracker x, 45 mm up; identity pose: map = tracker frame
-    x = 2.0 + cfg.localize.surface_to_center_m["door"]
+    x = 2.0 + cfg.localize.types["door"].surface_to_center_m
     assert snap.position_map.tolist() == pytest.approx([x, 0.0, 0.045], abs=1e-9)
     assert snap.type == "door" and snap.n_detections == 5
     assert res.detections[0].track_id == snap.track_id

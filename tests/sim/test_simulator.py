@@ -10,7 +10,7 @@ from maze_assets.models import BACKING_M, QUAD_OFFSET_M, body_rotation, flat_ext
 from maze_assets.models import FLAT_TYPES as FLAT_MODEL_TYPES
 from poi.core.geometry import invert_transform, transform_points
 from poi.core.names import RESCUE_TYPES
-from poi.estimation.localize import BOX_CORNER_TO_CENTER_PX, project_point_to_pixel
+from poi.estimation.projection import BOX_CORNER_TO_CENTER_PX, project_point_to_pixel
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
 

@@ -72,23 +72,20 @@ def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
     fits = {f["type"]: f for f in doc["extent_fit"]["fits"]}
     assert fits["valve"]["n"] >= 3 and fits["valve"]["objects"] == 1
     sets = doc["extent_fit"]["settings"]
-    assert [s.split("=")[0] for s in sets] == [
-        "localize.surface_to_center_m",
-        "localize.extent_ray_sigma_m",
-        "localize.extent_sigma_m",
-        "localize.box_width_m",
-        "localize.box_height_m",
+    valve = [s.split("=")[0] for s in sets if s.startswith("localize.types.valve.")]
+    assert valve == [
+        f"localize.types.valve.{k}" for k in ("surface_to_center_m", "extent_ray_sigma_m", "extent_sigma_m")
     ]
     cfg = apply_overrides(load_config(), sets)  # the printed settings load as they are
-    assert cfg.localize.extent_sigma_m["valve"] == round(fits["valve"]["sigma_lat_m"], 3)
+    assert cfg.localize.types["valve"].extent_sigma_m == round(fits["valve"]["sigma_lat_m"], 3)
     # its three boxes here are all cut (localize's box_cut: the image border or a nearer
     # surface), so no full-view size is fitted and the printed one is the pipeline's
     assert fits["valve"]["box_height_m"] is None
-    assert cfg.localize.box_height_m["valve"] == load_config().localize.box_height_m["valve"]
-    before = load_config().localize.surface_to_center_m.get("valve", 0.0)
-    assert cfg.localize.surface_to_center_m["valve"] == round(before + fits["valve"]["offset_change_m"], 3)
+    assert cfg.localize.types["valve"].box_height_m == load_config().localize.types["valve"].box_height_m
+    before = load_config().localize.types["valve"].surface_to_center_m
+    assert cfg.localize.types["valve"].surface_to_center_m == round(before + fits["valve"]["offset_change_m"], 3)
     # no 3-D type in the pipeline's settings: nothing to fit, said in one line
-    none = ["localize.surface_to_center_m={}", "localize.extent_sigma_m={}", "localize.extent_ray_sigma_m={}"]
+    none = ["localize.types={qr: {shape: flat, aspect: 1.0}}"]
     args = ["consistency", "--frames", "1", "--runs", "1", "--fit-extents", "--out", str(tmp_path / "d")]
     assert main(args + [a for s in none for a in ("--set", s)]) == 2
     assert capsys.readouterr().err.strip().endswith("--fit-extents: no observation of a 3-D type in these runs")
@@ -96,7 +93,7 @@ def test_fit_extents_prints_settings_the_pipeline_takes(tmp_path, capsys):
 
 def test_suite_runs_past_the_suite_size_take_its_scenarios_again_with_fresh_seeds():
     from eval.cli.consistency import suite_runs
-    from eval.consistency import ConsistencyError
+    from eval.experiments.consistency import ConsistencyError
     from eval.experiments.suites import load_suite
 
     suite = load_suite("rrl-hard")

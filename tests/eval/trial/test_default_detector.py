@@ -7,10 +7,10 @@ import yaml
 
 from eval.cli.main import main
 from eval.detector.quality import EVAL_SEED, model_training_seeds
-from eval.trial.run import DEFAULT_CALIBRATION, DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 from poi.core.names import CLASSES, HAZMAT_LABELS, RESCUE_CLASSES, RESCUE_TYPES
 from poi.detectors import OnnxYoloDetector
 from poi.estimation.covariance import load_calibration
+from poi.models import DEFAULT_CALIBRATION, DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 
 MAX_SHIPPED_BYTES = 12 * 2**20  # the limit for what poi/models/ ships
 

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import eval.trial.run as trial_run
+import eval.trial.sources as trial_sources
 from eval.cli.main import main
 from eval.experiments.suites import load_suite
 from eval.experiments.sweep import read_rows
@@ -26,7 +26,8 @@ from eval.trial.perception_cache import (
     TiledDepth,
     perception_key,
 )
-from eval.trial.run import cached_perception, run_trial
+from eval.trial.run import run_trial
+from eval.trial.sources import cached_perception
 from poi.config import apply_overrides, load_config
 from sim.scenario import apply_settings
 
@@ -84,8 +85,8 @@ def test_a_torn_corrupt_or_foreign_record_is_recomputed_never_trusted(tmp_path, 
     sc, cfg = apply_settings(_smoke(0), ["robot.max_duration_s=1"]), load_config()
     cache = PerceptionCache(tmp_path / "c")
     made = []
-    real = trial_run.record_perception
-    monkeypatch.setattr(trial_run, "record_perception", lambda *a: made.append(1) or real(*a))
+    real = trial_sources.record_perception
+    monkeypatch.setattr(trial_sources, "record_perception", lambda *a: made.append(1) or real(*a))
     rec = cached_perception(cache, sc, cfg, "oracle", None)
     assert len(made) == 1 and rec.n_frames == 11 and len(rec.frames) == 11  # 1 s at 10 frames per second
     path = cache.path(rec.key)
@@ -155,7 +156,7 @@ def test_a_replayed_trial_writes_the_full_trials_files_byte_for_byte(tmp_path, m
     def no_recording(*a):
         raise AssertionError("the record was made again")
 
-    monkeypatch.setattr(trial_run, "record_perception", no_recording)
+    monkeypatch.setattr(trial_sources, "record_perception", no_recording)
     replay = run_trial(sc, tmp_path / "replay", pipeline_sets=sets, perception_cache=cache, **kw)
     assert len(full.score.reports) > 0  # objects were found and reported
     for name in ("pois.csv", "score.json", "truth.csv", "config.yaml"):

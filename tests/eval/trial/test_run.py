@@ -102,7 +102,7 @@ def test_detector_model_is_refused_with_one_line_naming_detector(tmp_path, capsy
     assert "--detector FILE.onnx" in err
     assert not out.exists()
     # make_detectors (the trial's and the ROS replay's) refuses it too, before any detector is built
-    from eval.trial.run import make_detectors
+    from eval.trial.detectors import make_detectors
     from poi.config import apply_overrides, load_config
     from poi.detectors import DetectorConfigError
 
@@ -244,7 +244,7 @@ def test_a_rescue_model_in_the_arena_falls_back_to_the_oracle_with_a_note(tmp_pa
 
     import numpy as np
 
-    import eval.trial.run
+    import poi.models
     from poi.core.names import RESCUE_CLASSES
 
     helpers = Path(__file__).parents[2] / "poi" / "detectors" / "onnx_models.py"
@@ -255,7 +255,7 @@ def test_a_rescue_model_in_the_arena_falls_back_to_the_oracle_with_a_note(tmp_pa
     model = onnx_models.make_constant_model(
         tmp_path / "rescue.onnx", out, metadata={"names": str(dict(enumerate(RESCUE_CLASSES)))}
     )
-    monkeypatch.setattr(eval.trial.run, "DEFAULT_MODEL", model)
+    monkeypatch.setattr(poi.models, "DEFAULT_MODEL", model)
     args = ["run", "turtlebot-goal", "--max-frames", "5", "--quiet", "--no-video"]
     assert main([*args, "--out", str(tmp_path / "a")]) == 0
     err = capsys.readouterr().err

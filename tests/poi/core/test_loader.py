@@ -387,8 +387,8 @@ def test_pipeline_overrides_refuse_non_finite_and_huge_numbers():
     with pytest.raises(ConfigError, match="--set tracker.gate:1:1: not valid YAML: anchors"):
         apply_overrides(cfg, ["tracker.gate=&a 3"])
     # an earlier item that replaced a mapping (found by bench/bench_fuzz_loaders.py)
-    with pytest.raises(ConfigError, match="localize.extent_sigma_m: expected a mapping to set 'door' in, got"):
-        apply_overrides(cfg, ["localize.extent_sigma_m=[1]", "localize.extent_sigma_m.door=0.3"])
+    with pytest.raises(ConfigError, match="localize.types: expected a mapping to set 'door' in, got"):
+        apply_overrides(cfg, ["localize.types=[1]", "localize.types.door.extent_sigma_m=0.3"])
 
 
 def test_rules_and_calibration_refuse_integers_beyond_float_range(tmp_path):

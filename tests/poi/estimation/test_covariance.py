@@ -26,7 +26,7 @@ from poi.estimation.covariance import (
     load_calibration,
     map_covariance,
 )
-from poi.estimation.localize import deproject_pixel_to_point
+from poi.estimation.projection import deproject_pixel_to_point
 
 # A plane tilted in the image: d = 2 + 0.1 col + 0.2 row (metres).
 ROWS, COLS = np.mgrid[0:5, 0:6]

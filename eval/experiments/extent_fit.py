@@ -1,8 +1,9 @@
 """Fit a 3-D object type's centre offset and extent spreads from camera-frame errors.
 
-A 3-D object's observation is the surface the depth hits, moved ``localize.surface_to_center_m``
-along the camera ray r; R gets the spread of what remains, ``extent_ray_sigma_m`` along r and
-``extent_sigma_m`` across it (:func:`poi.estimation.localize.extent_covariance`). Given the
+A 3-D object's observation is the surface the depth hits, moved its type's
+``surface_to_center_m`` (``localize.types``) along the camera ray r; R gets the spread of what
+remains, ``extent_ray_sigma_m`` along r and ``extent_sigma_m`` across it
+(:func:`poi.estimation.localize.extent_covariance`). Given the
 camera-frame errors e = observation - truth of many observations of one type, each with its
 sensor covariance Sigma_c (the detection and depth model alone) and its ray r, this module finds
 the values that make them consistent (``poibench consistency --fit-extents``):
@@ -17,8 +18,8 @@ the values that make them consistent (``poibench consistency --fit-extents``):
 each 0 when the sensor model alone already brings its NEES down to the target. The fit is the
 method of moments on the NEES, so a few gross errors weigh in full, as they do in the NEES.
 
-It also gives the width and height a type's box spans in full view (``localize.box_width_m``,
-``box_height_m``: how much of an item the image border hides, :func:`poi.estimation.localize.
+It also gives the width and height a type's box spans in full view (its row's ``box_width_m``,
+``box_height_m``: how much of an item the image border hides, :func:`poi.estimation.box_cuts.
 hidden_solid_px`): the 75th percentile of w z / fx and h z / fy over the boxes that touch no
 image border.
 """
@@ -152,30 +153,21 @@ def fit_extents(samples: list[ExtentSample]) -> list[ExtentFit]:
 
 
 def fitted_settings(fits: list[ExtentFit], cfg) -> list[str]:
-    """The ``localize`` settings the fits give, from the pipeline config ``cfg`` the samples
-    were taken with (its offsets are where the new ones start from)."""
-    lc = cfg.localize
-    offsets = dict(lc.surface_to_center_m)
-    ray = dict(lc.extent_ray_sigma_m)
-    lat = dict(lc.extent_sigma_m)
-    box_w, box_h = dict(lc.box_width_m), dict(lc.box_height_m)
+    """The ``localize.types`` settings the fits give, one ``KEY=VALUE`` a number of a type's row,
+    from the pipeline config ``cfg`` the samples were taken with (its offsets are where the new
+    ones start from; a type without a row gets one, a body)."""
+    out = []
     for f in fits:
-        offsets[f.type] = round(offsets.get(f.type, 0.0) + f.offset_change_m, 3)
-        ray[f.type] = round(f.sigma_ray_m, 3)
-        lat[f.type] = round(f.sigma_lat_m, 3)
+        row = cfg.localize.types.get(f.type)
+        values = {
+            "surface_to_center_m": round((0.0 if row is None else row.surface_to_center_m) + f.offset_change_m, 3),
+            "extent_ray_sigma_m": round(f.sigma_ray_m, 3),
+            "extent_sigma_m": round(f.sigma_lat_m, 3),
+        }
         if f.box_width_m is not None:
-            box_w[f.type], box_h[f.type] = round(f.box_width_m, 3), round(f.box_height_m, 3)
-
-    def flow(d: dict[str, float]) -> str:
-        return "{" + ", ".join(f"{k}: {v:g}" for k, v in d.items()) + "}"
-
-    return [
-        f"localize.surface_to_center_m={flow(offsets)}",
-        f"localize.extent_ray_sigma_m={flow(ray)}",
-        f"localize.extent_sigma_m={flow(lat)}",
-        f"localize.box_width_m={flow(box_w)}",
-        f"localize.box_height_m={flow(box_h)}",
-    ]
+            values.update(box_width_m=round(f.box_width_m, 3), box_height_m=round(f.box_height_m, 3))
+        out += [f"localize.types.{f.type}.{k}={v:g}" for k, v in values.items()]
+    return out
 
 
 def format_fits(fits: list[ExtentFit]) -> str:

@@ -1,4 +1,4 @@
-"""eval.consistency: NEES and its chi-square interval, and Monte Carlo checks that the
+"""eval.experiments.consistency: NEES and its chi-square interval, and Monte Carlo checks that the
 pipeline's observation R and track Sigma are consistent with the noise they describe
 ([BarShalom2001]_ 5.4).
 
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from eval.consistency import (
+from eval.experiments.consistency import (
     ConsistencyError,
     Row,
     Samples,
@@ -33,12 +33,13 @@ from eval.consistency import (
     pose_part_nees,
     run_scatter_count,
 )
-from poi.config import apply_overrides, load_config
+from poi.config import load_config
 from poi.core.geometry import R_BODY_OPTICAL, make_transform
 from poi.core.sensor_noise import CENTER_SIGMA_A_PX, CENTER_SIGMA_B, center_sigma_px, depth_sigma_m
 from poi.core.types import Frame, Intrinsics
 from poi.detectors.base import make_detection
-from poi.estimation.localize import deproject_pixel_to_point, localize
+from poi.estimation.localize import localize
+from poi.estimation.projection import deproject_pixel_to_point
 from poi.estimation.tracker import kalman_update
 
 K = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=319.5, ppy=239.5)
@@ -237,10 +238,10 @@ def _observation_samples(rng, n: int, noise_scale: float = 1.0) -> list[float]:
     """NEES of localize's camera-frame covariance over n boxes drawn with the oracle's centre
     noise and the D435's depth noise (times ``noise_scale``), on a flat target: the simulator's
     per-pixel noise, correlated over the stereo matching window, which a sign's depth plane
-    averages (``localize.flat_depth_variance: plane``)."""
+    averages (poi.estimation.box_depth.plane_depth_variance)."""
     from sim.sensors.d435_depth import window_noise
 
-    cfg = apply_overrides(load_config(), ["localize.extent_sigma_m={}"])
+    cfg = load_config()
     lc = cfg.localize
     T_tc = make_transform(R_BODY_OPTICAL, [0.0, 0.0, 0.045])
     out = []
@@ -412,7 +413,7 @@ def test_the_pipelines_r_and_track_sigma_hold_their_errors_in_a_simulated_run():
     tracks' Sigma at confirmation and at the end hold the errors they make: each mean NEES is
     inside its 99% interval. The same errors judged against R half its size (every NEES
     doubled) put the two most-seen types, QR codes and placards, over theirs."""
-    from eval.consistency import run_consistency
+    from eval.experiments.consistency import run_consistency
     from sim.scenario import apply_settings, load_scenario, with_noise
 
     # the first 150 frames of the earlier sweeping tour (robot.pan.mode: sweep), which see the types below

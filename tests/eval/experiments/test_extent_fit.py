@@ -1,4 +1,4 @@
-"""eval.extent_fit: the offset and the spreads along and across the ray, recovered from errors
+"""eval.experiments.extent_fit: the offset and the spreads along and across the ray, recovered from errors
 drawn with known ones."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eval.extent_fit import ExtentSample, fit_extents, fit_type, fitted_settings
+from eval.experiments.extent_fit import ExtentSample, fit_extents, fit_type, fitted_settings
 from poi.config import apply_overrides, load_config
 
 
@@ -43,11 +43,20 @@ def test_fitted_settings_start_from_the_configs_offsets_and_load():
     fits = fit_extents(samples)
     assert [f.type for f in fits] == ["door", "valve"]
     new = apply_overrides(cfg, fitted_settings(fits, cfg)).localize
-    old = cfg.localize.surface_to_center_m
-    assert new.surface_to_center_m["valve"] == pytest.approx(old.get("valve", 0.0) - 0.1, abs=0.005)
-    assert new.surface_to_center_m["door"] == pytest.approx(old["door"] + 0.02, abs=0.005)
-    assert new.extent_ray_sigma_m["valve"] == pytest.approx(0.02, abs=0.003)
-    assert new.surface_to_center_m["ball"] == old["ball"]  # a type with no samples keeps its value
+    old = cfg.localize.types
+    assert new.types["valve"].surface_to_center_m == pytest.approx(
+        old["valve"].surface_to_center_m - 0.1, abs=0.005
+    )
+    assert new.types["door"].surface_to_center_m == pytest.approx(
+        old["door"].surface_to_center_m + 0.02, abs=0.005
+    )
+    assert new.types["valve"].extent_ray_sigma_m == pytest.approx(0.02, abs=0.003)
+    assert new.types["ball"] == old["ball"]  # a type with no samples keeps its row
+    assert new.types["door"].box_width_m == old["door"].box_width_m  # no box size fitted: kept
+    # a type without a row gets one, a body
+    (landolt,) = fit_extents(_samples("landolt-c", np.array([0.0, 0.0, 1.0]), 0.1, 0.02, 0.03, 200, 5))
+    row = apply_overrides(cfg, fitted_settings([landolt], cfg)).localize.types["landolt-c"]
+    assert row.shape == "body" and row.surface_to_center_m == round(landolt.offset_change_m, 3)
 
 
 def test_the_box_size_is_the_75th_percentile_of_the_uncut_boxes_and_loads():
@@ -61,11 +70,11 @@ def test_the_box_size_is_the_75th_percentile_of_the_uncut_boxes_and_loads():
     (fit,) = fit_extents(samples)
     assert (fit.box_width_m, fit.box_height_m) == pytest.approx((0.401, 0.802), abs=0.002)
     new = apply_overrides(cfg, fitted_settings([fit], cfg)).localize
-    assert (new.box_width_m["valve"], new.box_height_m["valve"]) == (
+    assert (new.types["valve"].box_width_m, new.types["valve"].box_height_m) == (
         round(fit.box_width_m, 3),
         round(fit.box_height_m, 3),
     )
-    assert new.box_height_m["door"] == cfg.localize.box_height_m["door"]  # no samples: kept
+    assert new.types["door"].box_height_m == cfg.localize.types["door"].box_height_m  # no samples: kept
     for s in samples:
         s.box_m = None
     assert fit_type(samples).box_width_m is None  # no box in full view: no size

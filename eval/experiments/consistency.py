@@ -74,7 +74,8 @@ import numpy as np
 from scipy.stats import chi2, norm
 from scipy.stats import t as student_t
 
-from eval.extent_fit import ExtentSample
+from eval.experiments.extent_fit import ExtentSample
+from eval.trial.episode import Observer, Tick
 from poi.core.geometry import invert_transform, planar_pose, transform_points, wrap_angle
 
 LEVEL = 0.99  # two-sided: chi2.ppf(0.005) and chi2.ppf(0.995)
@@ -332,104 +333,143 @@ def box_size_at_depth(obs, intr) -> tuple[float, float] | None:
     return w * z / intr.fx, h * z / intr.fy
 
 
-def pipeline_settings(sim, extra: list[str]) -> list[str]:
-    """The settings a consistency run gives the pipeline: the sensors as a trial gives them,
-    no thermal detector (the oracle boxes heat sources), then ``extra``."""
-    from eval.trial.sensor_settings import simulation_sensor_settings
+class NeesCollector(Observer):
+    """The NEES samples of one run (module docstring), an observer of its episode
+    (:mod:`eval.trial.episode`): per frame the observations against the truth of the objects
+    they box and the SLAM pose against the true tracker pose; at the end (:meth:`finish`) each
+    confirmed track's mu and Sigma, at confirmation and at the end."""
 
-    return simulation_sensor_settings(sim) + ["thermal.enabled=false", *extra]
+    def __init__(
+        self, samples: Samples, run: int, truth_map: dict[int, np.ndarray], solid_types: set[str]
+    ) -> None:
+        self.samples = samples
+        self.run = run
+        self.truth_map = truth_map
+        self.solid_types = solid_types
+        self.votes: dict[int, Counter] = defaultdict(Counter)
+        self.confirmed_at: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.pose_series: list[float] = []
+        self.last_pose: float | None = None
+
+    def on_frame(self, tick: Tick) -> None:
+        res, truth = tick.res, tick.step.truth
+        if res.skipped_reason:
+            return
+        self._observations(res, truth, tick.frame.intrinsics)
+        det_ids = match_detections(res.detections, truth.visible)
+        for det, oid in zip(res.detections, det_ids, strict=True):
+            if det.track_id is not None and oid is not None:
+                self.votes[det.track_id][oid] += 1
+        for snap in res.newly_confirmed:
+            self.confirmed_at[snap.track_id] = (snap.position_map.copy(), snap.covariance.copy())
+        slam = tick.pipe.slam
+        if slam is not None and slam.slam is not None:
+            self._pose(slam.slam, truth)
+
+    def _observations(self, res, truth, intrinsics) -> None:
+        samples, run = self.samples, self.run
+        ids = match_detections([o.detection for o in res.observations], truth.visible)
+        T_cam_map = invert_transform(truth.T_map_camera)
+        for obs, oid in zip(res.observations, ids, strict=True):
+            if oid is None:
+                continue
+            t = obs.detection.type
+            p_true = self.truth_map[oid]
+            e_cam = obs.position_cam - transform_points(T_cam_map, p_true)
+            Sigma_cam = obs.Sigma_c if obs.Sigma_extent_c is None else obs.Sigma_c + obs.Sigma_extent_c
+            run_object = (run, oid)  # this run's series of this object
+            if t in self.solid_types:
+                ray = obs.position_cam / float(np.linalg.norm(obs.position_cam))
+                samples.extent.append(
+                    ExtentSample(
+                        type=t,
+                        object_key=run_object,
+                        e_cam=e_cam,
+                        Sigma_c=obs.Sigma_c,
+                        ray=ray,
+                        box_m=box_size_at_depth(obs, intrinsics),
+                    )
+                )
+            samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam), run_object, run)
+            for axis, q in zip(AXES, axis_nees(e_cam, Sigma_cam), strict=True):
+                samples.add(f"R cam axis {axis}", 1, q, run_object, run)
+            samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R), run_object, run)
+
+    def _pose(self, s, truth) -> None:
+        run = self.run
+        e = s.pose - planar_pose(truth.T_map_tracker)
+        e[2] = wrap_angle(e[2])
+        self.last_pose = nees(e, s.pose_covariance)
+        self.samples.add("SLAM pose", POSE_DIM, self.last_pose, run, run)
+        for q, (d, value) in pose_part_nees(e, s.pose_covariance).items():
+            self.samples.add(f"SLAM pose {q}", d, value, run, run)
+        self.pose_series.append(self.last_pose)
+
+    def _object_of(self, track_id: int) -> int | None:
+        """The object most of a track's detections came from."""
+        votes = self.votes[track_id]
+        return votes.most_common(1)[0][0] if votes else None
+
+    def finish(self, confirmed, name: str) -> None:
+        """The tracks' samples, from the run's ``confirmed`` tracks at the end; ``name`` labels
+        the run's pose series."""
+        samples, run = self.samples, self.run
+        for tid, (mu, Sigma) in sorted(self.confirmed_at.items()):
+            oid = self._object_of(tid)
+            if oid is not None:
+                samples.add("track Sigma confirm", 3, nees(mu - self.truth_map[oid], Sigma), run=run)
+        for snap in confirmed:
+            oid = self._object_of(snap.track_id)
+            if oid is not None:
+                samples.add(
+                    "track Sigma end", 3, nees(snap.position_map - self.truth_map[oid], snap.covariance), run=run
+                )
+        if self.last_pose is not None:
+            samples.add("SLAM pose end", POSE_DIM, self.last_pose, run=run)
+            samples.pose_series.append((name, self.pose_series))
+
+
+def clean_oracle(sc, sim):
+    """The oracle a consistency run uses: ground-truth boxes with the pipeline's own centre
+    noise, no confusions, no false boxes (the arena's classes in the goal arena)."""
+    from sim.oracle import ARENA_MIN_BOX_PX, OracleDetector, OracleSettings
+
+    oracle_kw = {"seed": sc.seed, "confusion_rate": 0.0, "false_positives_per_frame": 0.0}
+    if sim.arena is not None:
+        from poi.core.names import ARENA_TYPES
+
+        oracle_kw.update(classes=ARENA_TYPES, min_box_px=ARENA_MIN_BOX_PX)
+    return OracleDetector(OracleSettings(**oracle_kw))
 
 
 def collect_run(sc, samples: Samples, *, frames: int | None, pipeline_sets: list[str] = ()) -> int:
     """Simulate ``sc`` (its noise as it is set) for up to ``frames`` frames through the pipeline
-    behind a clean oracle and add its NEES samples to ``samples``; returns the frames run."""
-    from poi.config import apply_overrides, load_config
+    behind a clean oracle (:func:`clean_oracle`) and add its NEES samples to ``samples``
+    (:class:`NeesCollector`); returns the frames run. The pipeline is configured as a trial's
+    (:func:`eval.trial.pipeline_config.trial_pipeline_config`), without the thermal detector (the
+    oracle boxes heat sources)."""
+    from eval.trial.episode import run_episode
+    from eval.trial.pipeline_config import trial_pipeline_config
+    from eval.trial.sources import SimulationSource
     from poi.pipeline import Pipeline
-    from sim.oracle import ARENA_MIN_BOX_PX, OracleDetector, OracleSettings
-    from sim.simulator import Simulation
 
     run = samples.runs
     samples.runs += 1
-    sim = Simulation(sc)
+    source = SimulationSource(sc, frames)
     try:
-        cfg = apply_overrides(load_config(), pipeline_settings(sim, list(pipeline_sets)))
+        sets = ["thermal.enabled=false", *pipeline_sets]
+        cfg = trial_pipeline_config("oracle", sets, sensor_sets=source.sensor_settings())
         lc = cfg.localize
-        solid_types = set(lc.surface_to_center_m) | set(lc.extent_sigma_m) | set(lc.extent_ray_sigma_m)
-        oracle_kw = {"seed": sc.seed, "confusion_rate": 0.0, "false_positives_per_frame": 0.0}
-        if sim.arena is not None:
-            from poi.core.names import ARENA_TYPES
-
-            oracle_kw.update(classes=ARENA_TYPES, min_box_px=ARENA_MIN_BOX_PX)
-        oracle = OracleDetector(OracleSettings(**oracle_kw))
-        pipe = Pipeline(cfg, [oracle])
-        truth_map = {o.id: np.asarray(o.position_map, dtype=float) for o in sim.truth_objects()}
-        n = sim.n_frames if frames is None else min(frames, sim.n_frames)
-        votes: dict[int, Counter] = defaultdict(Counter)
-        confirmed_at: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        pose_series: list[float] = []
-        last_pose: float | None = None
-        for frame, truth in sim.frames(0, n):
-            oracle.set_truth(truth)
-            res = pipe.process(frame)
-            if res.skipped_reason:
-                continue
-            ids = match_detections([o.detection for o in res.observations], truth.visible)
-            T_cam_map = invert_transform(truth.T_map_camera)
-            for obs, oid in zip(res.observations, ids, strict=True):
-                if oid is None:
-                    continue
-                t = obs.detection.type
-                p_true = truth_map[oid]
-                e_cam = obs.position_cam - transform_points(T_cam_map, p_true)
-                Sigma_cam = obs.Sigma_c if obs.Sigma_extent_c is None else obs.Sigma_c + obs.Sigma_extent_c
-                run_object = (run, oid)  # this run's series of this object
-                if t in solid_types:
-                    ray = obs.position_cam / float(np.linalg.norm(obs.position_cam))
-                    samples.extent.append(
-                        ExtentSample(
-                            type=t,
-                            object_key=run_object,
-                            e_cam=e_cam,
-                            Sigma_c=obs.Sigma_c,
-                            ray=ray,
-                            box_m=box_size_at_depth(obs, frame.intrinsics),
-                        )
-                    )
-                samples.add(f"R cam {t}", 3, nees(e_cam, Sigma_cam), run_object, run)
-                for axis, q in zip(AXES, axis_nees(e_cam, Sigma_cam), strict=True):
-                    samples.add(f"R cam axis {axis}", 1, q, run_object, run)
-                samples.add(f"R map {t}", 3, nees(obs.position_map - p_true, obs.R), run_object, run)
-            det_ids = match_detections(res.detections, truth.visible)
-            for det, oid in zip(res.detections, det_ids, strict=True):
-                if det.track_id is not None and oid is not None:
-                    votes[det.track_id][oid] += 1
-            for snap in res.newly_confirmed:
-                confirmed_at[snap.track_id] = (snap.position_map.copy(), snap.covariance.copy())
-            if pipe.slam is not None and pipe.slam.slam is not None:
-                s = pipe.slam.slam
-                e = s.pose - planar_pose(truth.T_map_tracker)
-                e[2] = wrap_angle(e[2])
-                last_pose = nees(e, s.pose_covariance)
-                samples.add("SLAM pose", POSE_DIM, last_pose, run, run)
-                for q, (d, value) in pose_part_nees(e, s.pose_covariance).items():
-                    samples.add(f"SLAM pose {q}", d, value, run, run)
-                pose_series.append(last_pose)
-        for tid, (mu, Sigma) in sorted(confirmed_at.items()):
-            if votes[tid]:
-                oid = votes[tid].most_common(1)[0][0]
-                samples.add("track Sigma confirm", 3, nees(mu - truth_map[oid], Sigma), run=run)
-        for snap in pipe.confirmed():
-            if votes[snap.track_id]:
-                oid = votes[snap.track_id].most_common(1)[0][0]
-                samples.add(
-                    "track Sigma end", 3, nees(snap.position_map - truth_map[oid], snap.covariance), run=run
-                )
-        if last_pose is not None:
-            samples.add("SLAM pose end", POSE_DIM, last_pose, run=run)
-            samples.pose_series.append((f"{sc.name} (seed {sc.seed})", pose_series))
-        return n
+        solid_types = {t for t, row in lc.types.items() if row.shape in ("body", "leaf")}
+        source.oracle = clean_oracle(sc, source.sim)
+        pipe = Pipeline(cfg, [source.oracle])
+        truth_map = {o.id: np.asarray(o.position_map, dtype=float) for o in source.sim.truth_objects()}
+        collector = NeesCollector(samples, run, truth_map, solid_types)
+        run_episode(source, pipe, [collector], desc="consistency")
+        collector.finish(pipe.confirmed(), f"{sc.name} (seed {sc.seed})")
+        return source.n_frames
     finally:
-        sim.close()
+        source.close()
 
 
 @dataclass(kw_only=True)
