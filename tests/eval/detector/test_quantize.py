@@ -11,9 +11,9 @@ import pytest
 
 from eval.cli.main import main
 from eval.detector.quantize import QUANTIZED_METADATA_KEY, QuantizeError, calibration_images, float_nodes
-from eval.trial.run import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 from poi.core.types import Frame, Intrinsics
 from poi.detectors import OnnxYoloDetector
+from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 
 FLOAT_MODEL = DEFAULT_MODEL.with_name("default_fp32.onnx")
 
