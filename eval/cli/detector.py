@@ -534,6 +534,7 @@ def cmd_evaluate_labels(args) -> int:
         confusion_summary,
         fold_confusion,
         label_confusion,
+        listed_folder,
         load_folders,
         size_matched_accuracy,
         write_outputs,
@@ -557,7 +558,7 @@ def cmd_evaluate_labels(args) -> int:
     folders = load_folders(args.data, args.holdout_of)
     rows = []
     for folder, cut in folders:
-        if str(folder.root.resolve()) in trained_on and not cut:
+        if listed_folder(folder.root, trained_on) is not None and not cut:
             raise DetectorQualityError(
                 f"{args.label_model} was trained on part of {folder.root}; give --holdout-of its run folder"
             )
@@ -756,6 +757,7 @@ def _photo_detector(args) -> None:
 def _refuse_trained_photos(models, folders) -> None:
     """Refuse a photo folder that a model (detector or label classifier) was trained on part of,
     unless it was cut to that training's held-back images (``--holdout-of RUN``)."""
+    from eval.detector.label_eval import listed_folder
     from eval.detector.quality import (
         PATH_SEPARATOR,
         PHOTO_FOLDERS_METADATA_KEY,
@@ -770,7 +772,7 @@ def _refuse_trained_photos(models, folders) -> None:
         meta = _model_metadata(model).get(PHOTO_FOLDERS_METADATA_KEY, "")
         trained_on = set(filter(None, meta.split(PATH_SEPARATOR)))
         for folder, cut in folders:
-            if str(folder.root.resolve()) in trained_on and not cut:
+            if listed_folder(folder.root, trained_on) is not None and not cut:
                 raise DetectorQualityError(
                     f"{model} was trained on part of {folder.root}; give --holdout-of its run folder"
                 )

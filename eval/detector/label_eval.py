@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 import cv2
@@ -214,11 +214,25 @@ def confusion_summary(conf: np.ndarray, top: int = TOP_CONFUSIONS) -> dict:
     }
 
 
+def listed_folder(root: Path, listed: Iterable[str]) -> str | None:
+    """The entry of ``listed`` (resolved folder paths, from a holdout file or a model's metadata)
+    that is folder ``root``: its own resolved path, else the one entry with its folder name, so a
+    photo set copied to another machine is still known (None: not listed)."""
+    listed = list(listed)
+    here = str(root.resolve())
+    if here in listed:
+        return here
+    same_name = [k for k in listed if Path(k).name == root.resolve().name]
+    return same_name[0] if len(same_name) == 1 else None
+
+
 def restrict_to_holdout(folder: PhotoFolder, held: dict[str, set[str]]) -> bool:
-    """Keep only ``folder``'s held-back images when the holdout lists it; whether it did."""
-    names = held.get(str(folder.root.resolve()))
-    if names is None:
+    """Keep only ``folder``'s held-back images when the holdout lists it (:func:`listed_folder`);
+    whether it did."""
+    key = listed_folder(folder.root, held)
+    if key is None:
         return False
+    names = held[key]
     keys = {image_key(folder.root, im): im for im in folder.images}
     missing = sorted(names - set(keys))
     if missing:

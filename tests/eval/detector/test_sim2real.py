@@ -334,3 +334,20 @@ def test_train_stamps_the_photo_folders_it_trained_on(photos, tmp_path):
     assert "names" in meta  # the model's own metadata kept
     _stamp_metadata(src, tmp_path / "plain.onnx", tmp_path / "none" / "data.yaml", [])
     assert "poibench_photo_folders" not in _model_metadata(tmp_path / "plain.onnx")
+
+
+def test_a_photo_set_moved_to_another_folder_is_known_by_its_name(photos, tmp_path):
+    """A holdout file or a model's metadata written on another machine names the photo set by a
+    path that does not exist here: the folder of the same name is taken for it."""
+    from eval.detector.label_eval import listed_folder, load_folders
+
+    elsewhere = f"/elsewhere/{photos.name}"
+    assert listed_folder(photos, [elsewhere, "/x/other"]) == elsewhere
+    assert listed_folder(photos, [str(photos.resolve()), elsewhere]) == str(photos.resolve())
+    assert listed_folder(photos, ["/x/other"]) is None
+    assert listed_folder(photos, [f"/a/{photos.name}", f"/b/{photos.name}"]) is None  # which one: neither
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "holdout.json").write_text(json.dumps({"folders": {elsewhere: ["b.png"]}}))
+    ((folder, cut),) = load_folders([photos], run)
+    assert cut and [im.path.name for im in folder.images] == ["b.png"]
