@@ -534,14 +534,12 @@ def cmd_evaluate_labels(args) -> int:
         confusion_summary,
         fold_confusion,
         label_confusion,
-        listed_folder,
         load_folders,
         size_matched_accuracy,
         write_outputs,
     )
-    from eval.detector.quality import DetectorQualityError, _model_metadata, model_training_seeds
+    from eval.detector.quality import DetectorQualityError, model_training_seeds
     from eval.detector.train import dataset_seed
-    from eval.detector.train_labels import PATH_SEPARATOR, PHOTO_FOLDERS_METADATA_KEY
     from eval.progress import progress_bar
     from poi.detectors.hazmat_labels import LABEL_CLASSES, HazmatLabelClassifier
 
@@ -552,16 +550,11 @@ def cmd_evaluate_labels(args) -> int:
     if not Path(args.label_model).is_file():
         raise DetectorQualityError(f"{args.label_model}: no such model file")
     classifier = HazmatLabelClassifier(model=args.label_model, threads=args.threads)
-    meta = _model_metadata(args.label_model)
-    trained_on = set(filter(None, meta.get(PHOTO_FOLDERS_METADATA_KEY, "").split(PATH_SEPARATOR)))
     seeds = model_training_seeds(args.label_model)
     folders = load_folders(args.data, args.holdout_of)
+    _refuse_trained_photos((args.label_model,), folders)
     rows = []
     for folder, cut in folders:
-        if listed_folder(folder.root, trained_on) is not None and not cut:
-            raise DetectorQualityError(
-                f"{args.label_model} was trained on part of {folder.root}; give --holdout-of its run folder"
-            )
         seed = dataset_seed(folder.root)
         if seed is not None and seed in seeds:
             print(f"note: {args.label_model} was trained on scenes of seed {seed}, as {folder.root} was rendered")
