@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import contextlib
+import html
 import importlib.util
 import io
 import os
@@ -259,3 +260,10 @@ def test_mkdocs_build_strict(tmp_path):
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     page = (tmp_path / "site" / "reference" / "configuration" / "index.html").read_text(encoding="utf-8")
     assert "tracker.gate" in page and "<!-- generated" not in page
+    # the results page shows the README's "Where it stands" table, row for row
+    results = (tmp_path / "site" / "results" / "index.html").read_text(encoding="utf-8")
+    rows = [line for line in load_hook().where_it_stands().splitlines() if line.startswith("| ")][2:]
+    assert len(rows) >= 5 and "<!-- generated" not in results
+    for row in rows:
+        figure = row.split(" | ")[1][:12]  # the "now" cell's opening words, e.g. "60 / 60, no "
+        assert html.escape(figure, quote=False) in results, figure

@@ -11,7 +11,9 @@ A page holds a marker comment where a generated part goes:
   its type, default and range, and its meaning from the comment beside or above the field in
   ``sim/scenario.py`` (a nested section's docstring heads its table);
 - ``<!-- generated: rules -->``: the keys of a points rules file (``eval.scoring.rules.Rules``);
-- ``<!-- generated: cli -->``: every ``poibench`` command's ``--help``, from its argparse parser.
+- ``<!-- generated: cli -->``: every ``poibench`` command's ``--help``, from its argparse parser;
+- ``<!-- generated: where-it-stands -->``: the README's "Where it stands" table of today's figures
+  (its lead paragraph and table), so the site's results page and the README cannot disagree.
 
 Nothing is copied by hand, so a key added, renamed or given a new range shows on the next build.
 The functions are plain Python; ``tests/test_docs_site.py`` calls them as well.
@@ -299,7 +301,33 @@ def cli() -> str:
     return "\n".join(out)
 
 
-GENERATORS = {"pipeline-config": pipeline_config, "scenario": scenario, "rules": rules, "cli": cli}
+def where_it_stands(readme: Path = ROOT / "README.md") -> str:
+    r"""The README's "Where it stands" section up to the end of its table: the lead paragraph and the
+    table of today's figures, each with the command that reproduces it.
+
+    >>> text = "## Where it stands\n\nMeasured.\n\n| a | b |\n| --- | --- |\n| 1 | 2 |\n\nMore.\n\n## Next\n"
+    >>> import tempfile; f = Path(tempfile.mkdtemp()) / "README.md"; _ = f.write_text(text)
+    >>> where_it_stands(f)
+    'Measured.\n\n| a | b |\n| --- | --- |\n| 1 | 2 |\n'
+    """
+    text = readme.read_text(encoding="utf-8")
+    m = re.search(r"^## Where it stands\n(.*?)(?=^## |\Z)", text, flags=re.S | re.M)
+    if m is None:
+        raise ValueError(f"{readme}: no '## Where it stands' section")
+    lines = m.group(1).strip("\n").splitlines()
+    last_row = max((i for i, line in enumerate(lines) if line.startswith("|")), default=None)
+    if last_row is None:
+        raise ValueError(f"{readme}: the 'Where it stands' section has no table")
+    return "\n".join(lines[: last_row + 1]) + "\n"
+
+
+GENERATORS = {
+    "pipeline-config": pipeline_config,
+    "scenario": scenario,
+    "rules": rules,
+    "cli": cli,
+    "where-it-stands": where_it_stands,
+}
 
 
 def on_page_markdown(markdown: str, **kwargs: Any) -> str:
