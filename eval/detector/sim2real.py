@@ -23,6 +23,13 @@ with p the share of each side's placards in cell (c, b), so the weighted renders
 photos' mix of labels and, within a label, of sizes; cells with photos but no renders are left
 out, and the share of photo placards in them is given (``covered``).
 
+A robot sees more placards obliquely than a photographer shoots them, and a foreshortened
+placard is harder to find, so the card also weighs the renders to the photos' mix of sizes **and
+box shapes**: the cells are (label, size bin, shape bin), the shape the box's shorter side over
+its longer (:data:`SHAPE_BINS`; a diamond seen face on is 1, one seen at 60 degrees off its
+normal about 0.5). That column compares like views with like, which is what says whether the
+renders look real; the size-matched one keeps the views a robot gets.
+
 Intervals (95%): a share of n placards, k hits, is given Wilson's score interval
 ([Wilson1927]_); a weighted share p_w = sum w h / sum w the same interval at Kish's effective
 sample size n_eff = (sum w)^2 / sum w^2 ([Kish1965]_, section 11.7), with p_w n_eff hits; both
@@ -80,6 +87,7 @@ from eval.detector.quality import DetectorQualityError, LabelledImage
 from poi.core.names import RESCUE_CLASSES
 
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, 160.0, float("inf"))  # shorter box side
+SHAPE_BINS: tuple[float, ...] = (0.0, 0.75, 0.9, float("inf"))  # shorter / longer box side
 TOO_FEW = 20  # placards a side below which a label's gap is flagged
 PHOTOMETRY_MIN_PX = 40.0  # crops with a shorter side under this are left out of the photometry
 BOOTSTRAP_RESAMPLES = 2000
@@ -287,6 +295,7 @@ class Side:
 
     label: np.ndarray  # (n,) class index
     side_px: np.ndarray  # (n,) shorter side of the labelled box
+    aspect: np.ndarray  # (n,) shorter over longer side of the labelled box, in (0, 1]
     right: np.ndarray  # (n,) paired with a detection of its own label
     placard: np.ndarray  # (n,) paired with a detection of any hazmat label
     image: np.ndarray  # (n,) index of its image
@@ -305,7 +314,7 @@ def side_outcomes(results: Sequence[ImageBoxes], conf: float, bins: Sequence[flo
     """Every labelled hazmat placard of ``results`` with its outcome at ``conf``
     (:func:`eval.detector.photos.outcome`), each image's false detections by detected class, and
     the placards' recall in each band of ``bins`` (:func:`eval.detector.metrics.recall_by_size`)."""
-    label, side, right, placard, image, boxes = [], [], [], [], [], []
+    label, side, aspect, right, placard, image, boxes = [], [], [], [], [], [], []
     false = np.zeros((len(results), len(RESCUE_CLASSES)), dtype=np.int64)
     detections = 0
     for k, im in enumerate(results):
@@ -320,7 +329,9 @@ def side_outcomes(results: Sequence[ImageBoxes], conf: float, bins: Sequence[flo
                 continue
             p = int(b.det_classes[paired[g]]) if g in paired else -1
             label.append(t)
-            side.append(min(xyxy[2] - xyxy[0], xyxy[3] - xyxy[1]))
+            w, h = xyxy[2] - xyxy[0], xyxy[3] - xyxy[1]
+            side.append(min(w, h))
+            aspect.append(min(w, h) / max(w, h, 1e-9))
             right.append(p == t)
             placard.append(p in HAZMAT_IDS)
             image.append(k)
@@ -328,6 +339,7 @@ def side_outcomes(results: Sequence[ImageBoxes], conf: float, bins: Sequence[flo
     return Side(
         label=np.array(label, dtype=np.int64),
         side_px=np.array(side, dtype=float),
+        aspect=np.array(aspect, dtype=float),
         right=np.array(right, dtype=bool),
         placard=np.array(placard, dtype=bool),
         image=np.array(image, dtype=np.int64),
@@ -428,6 +440,54 @@ def _photometry(side: Side, w: np.ndarray | None) -> dict:
     return out
 
 
+def _post_stratify(
+    row_p: np.ndarray, row_r: np.ndarray, cell_p: np.ndarray, cell_r: np.ndarray, shape: tuple[int, int]
+) -> tuple[CellWeights, np.ndarray]:
+    """:func:`cell_weights` on (label row, cell) of the placards of a reported label (row >= 0),
+    and each rendered placard's weight w_i (0 for a label the card does not report)."""
+    keep_p, keep_r = row_p >= 0, row_r >= 0
+    cw = cell_weights(
+        np.stack([row_p[keep_p], cell_p[keep_p]], axis=1), np.stack([row_r[keep_r], cell_r[keep_r]], axis=1), shape
+    )
+    return cw, np.where(keep_r, cw.weight[np.maximum(row_r, 0), cell_r], 0.0)
+
+
+def _gap_entry(key: str, gap: tuple[float, float, float] | None) -> dict:
+    return {
+        key: None if gap is None else round(gap[0], 4),
+        f"{key}_ci95": None if gap is None else [round(gap[1], 4), round(gap[2], 4)],
+    }
+
+
+def shape_band_labels() -> list[str]:
+    """The shape bins' names (:func:`eval.detector.metrics.size_band_label` on :data:`SHAPE_BINS`).
+
+    >>> shape_band_labels()
+    ['0-0.75', '0.75-0.9', '0.9+']
+    """
+    return [size_band_label(a, SHAPE_BINS) for a in range(len(SHAPE_BINS) - 1)]
+
+
+def _shape_mix(aspect_p: np.ndarray, aspect_r: np.ndarray, right_p: np.ndarray, right_r: np.ndarray) -> list[dict]:
+    """Placards and right-label recall of each side in each shape bin (:data:`SHAPE_BINS`), unweighted."""
+    a_p, a_r = size_bins(aspect_p, SHAPE_BINS), size_bins(aspect_r, SHAPE_BINS)
+    out = []
+    for a, name in enumerate(shape_band_labels()):
+        sp, sr = a_p == a, a_r == a
+        out.append(
+            {
+                "shape": name,
+                "photos": int(sp.sum()),
+                "renders": int(sr.sum()),
+                "p_photo": round(float(sp.mean()), 4) if len(sp) else None,
+                "p_render": round(float(sr.mean()), 4) if len(sr) else None,
+                "recall_photos": round(float(right_p[sp].mean()), 4) if sp.any() else None,
+                "recall_renders": round(float(right_r[sr].mean()), 4) if sr.any() else None,
+            }
+        )
+    return out
+
+
 def sim2real_card(
     photos: Side,
     renders: Side,
@@ -446,13 +506,12 @@ def sim2real_card(
     row_r = np.array([row_of.get(int(c), -1) for c in renders.label], dtype=np.int64)  # (n_render,)
     keep_p, keep_r = row_p >= 0, row_r >= 0
     bin_p, bin_r = size_bins(photos.side_px, bins), size_bins(renders.side_px, bins)
-    cw = cell_weights(
-        np.stack([row_p[keep_p], bin_p[keep_p]], axis=1),
-        np.stack([row_r[keep_r], bin_r[keep_r]], axis=1),
-        (len(labels), len(bins) - 1),
-    )
-    # w_i = w_cb of rendered placard i's cell; 0 for a label the card does not report
-    w_r = np.where(keep_r, cw.weight[np.maximum(row_r, 0), bin_r], 0.0)  # (n_render,)
+    cw, w_r = _post_stratify(row_p, row_r, bin_p, bin_r, (len(labels), len(bins) - 1))
+    # the (size, shape) cell: size bin b and shape bin a as one index b * A + a
+    n_shape = len(SHAPE_BINS) - 1
+    both_p = bin_p * n_shape + size_bins(photos.aspect, SHAPE_BINS)
+    both_r = bin_r * n_shape + size_bins(renders.aspect, SHAPE_BINS)
+    cws, w_rs = _post_stratify(row_p, row_r, both_p, both_r, (len(labels), (len(bins) - 1) * n_shape))
     rng = np.random.default_rng([seed, 59])
     rates_p, rates_r = _rates(photos, rng, labels), _rates(renders, rng, labels)
     per_label = []
@@ -460,22 +519,28 @@ def sim2real_card(
         sel_p, sel_r = row_p == j, row_r == j
         ph = weighted_share(photos.right[sel_p])
         rm = weighted_share(renders.right[sel_r], w_r[sel_r])
+        rs = weighted_share(renders.right[sel_r], w_rs[sel_r])
         gap = newcombe_gap(rm, ph) if ph is not None and rm is not None else None
+        gap_s = newcombe_gap(rs, ph) if ph is not None and rs is not None else None
         per_label.append(
             {
                 "label": c,
                 "photos": {**_side_shares(photos, sel_p, None), "false_per_image": rates_p["by_label"][c]},
                 "renders": {**_side_shares(renders, sel_r, None), "false_per_image": rates_r["by_label"][c]},
                 "renders_matched": _side_shares(renders, sel_r, w_r),
+                "renders_matched_shape": _side_shares(renders, sel_r, w_rs),
                 "covered": None if cw.covered(j) is None else round(cw.covered(j), 4),
-                "gap": None if gap is None else round(gap[0], 4),
-                "gap_ci95": None if gap is None else [round(gap[1], 4), round(gap[2], 4)],
+                "covered_shape": None if cws.covered(j) is None else round(cws.covered(j), 4),
+                **_gap_entry("gap", gap),
+                **_gap_entry("gap_shape", gap_s),
                 "too_few": bool(sel_p.sum() < TOO_FEW or sel_r.sum() < TOO_FEW),
             }
         )
     per_label.sort(key=lambda r: (r["too_few"], r["gap"] is None, -abs(r["gap"] or 0.0), r["label"]))
     ph_all, rm_all = weighted_share(photos.right[keep_p]), weighted_share(renders.right[keep_r], w_r[keep_r])
+    rs_all = weighted_share(renders.right[keep_r], w_rs[keep_r])
     gap_all = newcombe_gap(rm_all, ph_all) if ph_all is not None and rm_all is not None else None
+    gap_all_s = newcombe_gap(rs_all, ph_all) if ph_all is not None and rs_all is not None else None
     photo_mix = cw.photo.sum(axis=0)
     render_mix = cw.render.sum(axis=0)
     return {
@@ -492,14 +557,21 @@ def sim2real_card(
             for b in range(len(bins) - 1)
         ],
         "weights": {c: [round(float(v), 4) for v in cw.weight[j]] for j, c in enumerate(labels)},
+        "shape_bins": shape_band_labels(),
+        "shape_mix": _shape_mix(
+            photos.aspect[keep_p], renders.aspect[keep_r], photos.right[keep_p], renders.right[keep_r]
+        ),
         "covered": None if cw.covered() is None else round(cw.covered(), 4),
+        "covered_shape": None if cws.covered() is None else round(cws.covered(), 4),
         "n_eff_renders_matched": round(kish_n_eff(w_r[keep_r]), 1),
+        "n_eff_renders_matched_shape": round(kish_n_eff(w_rs[keep_r]), 1),
         "overall": {
             "photos": {**_side_shares(photos, keep_p, None), "false_per_image": _drop_labels(rates_p)},
             "renders": {**_side_shares(renders, keep_r, None), "false_per_image": _drop_labels(rates_r)},
             "renders_matched": _side_shares(renders, keep_r, w_r),
-            "gap": None if gap_all is None else round(gap_all[0], 4),
-            "gap_ci95": None if gap_all is None else [round(gap_all[1], 4), round(gap_all[2], 4)],
+            "renders_matched_shape": _side_shares(renders, keep_r, w_rs),
+            **_gap_entry("gap", gap_all),
+            **_gap_entry("gap_shape", gap_all_s),
         },
         "per_label": per_label,
         "by_size": {
@@ -564,6 +636,10 @@ def _short_pct(s: dict | None) -> str:
     return "-" if s is None else f"{100 * s['value']:.0f}% ({100 * s['ci95'][0]:.0f}-{100 * s['ci95'][1]:.0f})"
 
 
+def _share_pct(v: float | None) -> str:
+    return "-" if v is None else f"{100 * v:.1f}%"
+
+
 def _rate(r: dict | None) -> str:
     return "-" if r is None else f"{r['value']:.2f} ({r['ci95'][0]:.2f}-{r['ci95'][1]:.2f})"
 
@@ -577,7 +653,7 @@ def _points(gap: float | None, ci: list[float] | None) -> str:
 def format_card(card: dict) -> str:
     """The card as Markdown: the headline, the gaps per label, the size mix, the photometry."""
     o = card["overall"]
-    ph, rd, rm = o["photos"], o["renders"], o["renders_matched"]
+    ph, rd, rm, rs = o["photos"], o["renders"], o["renders_matched"], o["renders_matched_shape"]
     src = card["photos"]
     rnd = card["renders"]
     held = f", held-back images of {card['holdout_of']} only" if card.get("holdout_of") else ""
@@ -598,32 +674,37 @@ def format_card(card: dict) -> str:
     if card.get("error"):
         out += [f"**Error: {card['error']}**", ""]
     out += [
-        "| | photos | renders | renders at the photos' sizes |",
-        "|---|---|---|---|",
+        "| | photos | renders | renders at the photos' sizes | at the photos' sizes and box shapes |",
+        "|---|---|---|---|---|",
         f"| right-label recall | {_pct(ph['recall_right'])} | {_pct(rd['recall_right'])} "
-        f"| {_pct(rm['recall_right'], 'n_eff')} |",
+        f"| {_pct(rm['recall_right'], 'n_eff')} | {_pct(rs['recall_right'], 'n_eff')} |",
         f"| recall as a placard (any hazmat label) | {_pct(ph['recall_placard'])} | {_pct(rd['recall_placard'])} "
-        f"| {_pct(rm['recall_placard'], 'n_eff')} |",
+        f"| {_pct(rm['recall_placard'], 'n_eff')} | {_pct(rs['recall_placard'], 'n_eff')} |",
         f"| false detections an image, any class | {_rate(ph['false_per_image']['any'])} "
-        f"| {_rate(rd['false_per_image']['any'])} | - |",
+        f"| {_rate(rd['false_per_image']['any'])} | - | - |",
         f"| - of a hazmat label | {_rate(ph['false_per_image']['hazmat'])} "
-        f"| {_rate(rd['false_per_image']['hazmat'])} | - |",
+        f"| {_rate(rd['false_per_image']['hazmat'])} | - | - |",
         f"| - of another type (on photos: may be unlabelled objects) | {_rate(ph['false_per_image']['other'])} "
-        f"| {_rate(rd['false_per_image']['other'])} | - |",
-        f"| gap, right-label recall (points) | | | {_points(o['gap'], o['gap_ci95'])} |",
+        f"| {_rate(rd['false_per_image']['other'])} | - | - |",
+        f"| gap, right-label recall (points) | | | {_points(o['gap'], o['gap_ci95'])} "
+        f"| {_points(o['gap_shape'], o['gap_shape_ci95'])} |",
         "",
         f"The renders at the photos' sizes weigh each rendered placard by p_photo(label, size bin) / "
         f"p_render(label, size bin), size bins of the box's shorter side {', '.join(card['size_bins_px'])} px; "
         f"{100 * (card['covered'] or 0):.1f}% of the photo placards fall in cells the renders have. "
-        "False detections are not reweighted; on the photos, detections of other types (qr, door...) may be "
-        "objects really there but unlabelled.",
+        f"At the photos' sizes and box shapes the cells are (label, size bin, shape bin), the shape the box's "
+        f"shorter side over its longer, bins {', '.join(card['shape_bins'])} (a face-on diamond 1; "
+        f"{100 * (card['covered_shape'] or 0):.1f}% of the photo placards in cells the renders have): "
+        "like views against like. False detections are not reweighted; on the photos, detections of other "
+        "types (qr, door...) may be objects really there but unlabelled.",
         "",
         f"## Per label: the gap (renders at the photos' sizes minus photos, right label), largest first; "
         f"'too few': under {card['too_few']} placards on a side",
         "",
         "| label | placards: photos / renders | photos | renders | renders at photos' sizes | gap (points) "
-        "| as a placard: photos / renders at photos' sizes | false an image: photos / renders | covered |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| gap at sizes and shapes | as a placard: photos / renders at photos' sizes "
+        "| false an image: photos / renders | covered |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in card["per_label"]:
         p, q, m = r["photos"], r["renders"], r["renders_matched"]
@@ -634,7 +715,8 @@ def format_card(card: dict) -> str:
             f"| {r['label']}{' (too few)' if r['too_few'] else ''} | {n_p} / {n_r} "
             f"| {_short_pct(p['recall_right'])} "
             f"| {_short_pct(q['recall_right'])} | {_short_pct(m['recall_right'])} "
-            f"| {_points(r['gap'], r['gap_ci95'])} | {_short_pct(p['recall_placard'])} / "
+            f"| {_points(r['gap'], r['gap_ci95'])} | {_points(r['gap_shape'], r['gap_shape_ci95'])} "
+            f"| {_short_pct(p['recall_placard'])} / "
             f"{_short_pct(m['recall_placard'])} | {p['false_per_image']['value']:.3f} / "
             f"{q['false_per_image']['value']:.3f} | {covered} |"
         )
@@ -652,6 +734,18 @@ def format_card(card: dict) -> str:
         cp = f"{m['photos']} ({100 * by_p[b]['right_class']:.0f}%)" if b in by_p else "0"
         cr = f"{m['renders']} ({100 * by_r[b]['right_class']:.0f}%)" if b in by_r else "0"
         out.append(f"| {b} | {cp} | {cr} | {100 * m['p_photo']:.1f}% | {100 * m['p_render']:.1f}% |")
+    out += [
+        "",
+        "## Box shapes (shorter over longer side): placards and right-label recall, unweighted",
+        "",
+        "| shape | photos | renders | photos' share | renders' share |",
+        "|---|---|---|---|---|",
+    ]
+    for m in card["shape_mix"]:
+        cells = [(m["photos"], m["recall_photos"]), (m["renders"], m["recall_renders"])]
+        cp, cr = (f"{n} ({100 * r:.0f}%)" if r is not None else str(n) for n, r in cells)
+        shares = [m["p_photo"], m["p_render"]]
+        out.append(f"| {m['shape']} | {cp} | {cr} | " + " | ".join(_share_pct(v) for v in shares) + " |")
     pm = card["photometry"]
     out += [
         "",

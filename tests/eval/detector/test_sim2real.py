@@ -102,6 +102,44 @@ def test_weights_and_weighted_recall_by_hand():
     }
 
 
+def _placards(label: str, w: float, h: float, n: int, hits: int) -> list[ImageBoxes]:
+    """``n`` images of one ``w`` x ``h`` px placard, the first ``hits`` found with its label."""
+    box = np.array([[0.0, 0.0, w, h]])
+    return [
+        ImageBoxes(
+            gt_boxes=box,
+            gt_classes=np.array([C[label]]),
+            det_boxes=box if k < hits else np.zeros((0, 4)),
+            det_classes=np.array([C[label]] if k < hits else [], int),
+            det_scores=np.array([0.9] if k < hits else []),
+        )
+        for k in range(n)
+    ]
+
+
+def test_the_renders_at_the_photos_box_shapes_by_hand():
+    # photos: 4 poison placards seen face on (50 x 50 px), 2 found. Renders: 4 face on, 3 found,
+    # and 4 foreshortened to 50 x 100 px (shape 0.5), none found. Every placard's shorter side
+    # is 50 px: one size cell, so the size-matched recall is the renders' own, 3 / 8.
+    photos = side_outcomes(_placards("poison", 50, 50, 4, 2), conf=0.5)
+    renders = side_outcomes(_placards("poison", 50, 50, 4, 3) + _placards("poison", 50, 100, 4, 0), conf=0.5)
+    card = sim2real_card(photos, renders, ["poison"], seed=0)
+    o = card["overall"]
+    assert o["renders_matched"]["recall_right"]["value"] == 0.375
+    assert o["gap"] == -0.125
+    # shape cells: the photos all in 0.9+ (p 1), the renders half there (p 0.5): w = 2 on the
+    # face-on renders, 0 on the foreshortened ones, so the recall is 3 * 2 / (4 * 2)
+    assert card["shape_bins"] == ["0-0.75", "0.75-0.9", "0.9+"]
+    assert o["renders_matched_shape"]["recall_right"]["value"] == 0.75
+    assert o["renders_matched_shape"]["recall_right"]["n_eff"] == 4.0  # (4 * 2)^2 / (4 * 2^2)
+    assert o["gap_shape"] == 0.25
+    assert card["covered_shape"] == 1.0
+    assert card["per_label"][0]["gap_shape"] == 0.25
+    keys = ("photos", "renders", "recall_photos", "recall_renders")
+    mix = {m["shape"]: tuple(m[k] for k in keys) for m in card["shape_mix"]}
+    assert mix == {"0-0.75": (0, 4, None, 0.0), "0.75-0.9": (0, 0, None, None), "0.9+": (4, 4, 0.5, 0.75)}
+
+
 def test_cells_without_renders_are_left_out_and_counted():
     # photos in 40-80 and 160+, renders only in 40-80: half the photos' placards are covered
     w = cell_weights(np.array([[0, 2], [0, 4]]), np.array([[0, 2], [0, 2]]), (1, 5))
