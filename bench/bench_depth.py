@@ -34,8 +34,7 @@ from dataclasses import replace
 import numpy as np
 
 from poi.core.sensor_noise import depth_sigma_m
-from sim.scenario import DepthSpec
-from sim.sensors.d435_depth import DepthTrial, simulate_depth
+from sim.sensors.d435_depth import DepthSpec, DepthTrial, simulate_depth
 from sim.sensors.noise_pool import NoisePool
 
 FX_COLOUR = 612.4  # sim/scenario.py D435Spec.fx

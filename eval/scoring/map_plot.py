@@ -33,7 +33,7 @@ directly (no pyplot state).
 RMRC mapping fiducials (``fiducial``, [RMRC2025]_; docs/RULES.md "QR mapping by fiducials") are
 landmarks, not scored objects: the true ones are drawn as what the rule asks a map to show,
 "at least half a circle ... seen from above", a filled grey half-disc of the pipe's diameter
-(its truth text, :func:`sim.placement.fiducial_text`) whose flat side lies on the nearest wall;
+(its truth text, :func:`sim.world.placement.fiducial_text`) whose flat side lies on the nearest wall;
 a reported one as a dark grey half-disc of the middle diameter, 0.30 m.
 
 The TurtleBot goal arena's objects (not in the competition's conventions) are

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from poi.core.geometry import make_transform, rot_y
-from sim.scenario import ColourSpec
 from sim.sensors.d435_color import (
     ColourCamera,
+    ColourSpec,
     Exposure,
     image_motion_px,
     lagged_exposure,
