@@ -220,18 +220,6 @@ def _material(assets: SceneAssets, name: str, rgba, *, emission: float = 0.0, **
     return full
 
 
-def _quat_x_to(d) -> np.ndarray:
-    """Quaternion (w, x, y, z) turning +x onto the unit vector d (for boxes)."""
-    d = np.asarray(d, float) / np.linalg.norm(d)
-    x = np.array([1.0, 0.0, 0.0])
-    c = float(np.dot(x, d))
-    if c < -1 + 1e-12:
-        return np.array([0.0, 0.0, 0.0, 1.0])
-    axis = np.cross(x, d)
-    q = np.array([1.0 + c, *axis])
-    return q / np.linalg.norm(q)
-
-
 def body_rotation(obj: PlacedObject) -> Rotation:
     """An object body's orientation in the world: its yaw about z, the tilt lifting its face
     normal (+x) up, the roll about that normal."""

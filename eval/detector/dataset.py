@@ -50,7 +50,6 @@ from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES, identity_to_class
 from sim.world.placement import DEFAULT_COUNTS
 
 LIGHTING = ("bright", "dim", "uneven")
-FLOOR_MOUNTS = ("floor",)
 HAZMAT_PER_SCENARIO = 8
 SCENARIO_TRIES = 10
 RESCUE_CLASS_INDEX: dict[str, int] = {c: i for i, c in enumerate(RESCUE_CLASSES)}

@@ -74,7 +74,6 @@ from maze_assets.objects import fiducial_diameter_m
 from poi.annotate import DEFAULT_COLOR_RGB, TYPE_COLORS_RGB
 from poi.core.names import TYPES, display_name
 
-CELL_SIZE_M = 1.0
 GRID_STEP_M = 0.5
 MARKER_RADIUS_M = 0.175
 LOCATE_CIRCLE_M = 1.0

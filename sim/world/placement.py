@@ -238,7 +238,6 @@ SIZE_AT_RRL_M: dict[str, float] = {
     "heat-source": 0.30,
     "door": 0.80,
 }
-WALL_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign", "valve")
 FLOOR_TYPES = ("fire-extinguisher", "baby-doll", "heat-source")
 VALVE_PIPE_M = 0.12  # wheel centre stands this far off the wall at RRL scale
 BODY_TEMPERATURE_C = 37.0
@@ -248,13 +247,6 @@ QR_PREFIX = "Chart "
 
 class PlacementError(ValueError):
     """Objects that do not fit the maze."""
-
-
-@dataclass(kw_only=True)
-class _Slot:
-    face: object  # sim.world.maze.WallFace
-    height_m: float
-    offset_m: float
 
 
 def _scale(maze) -> float:

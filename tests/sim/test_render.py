@@ -212,3 +212,23 @@ def test_anisotropic_filtering_fails_soft_without_the_extension(monkeypatch):
         flat, most = _oblique_code(True)
     assert most == 1.0
     assert np.array_equal(flat, _oblique_code(False)[0])
+
+
+def test_a_gl_context_that_cannot_be_made_is_rendering_unavailable(monkeypatch):
+    """EGL present but no device for it (MuJoCo raises RuntimeError): one line naming what to install."""
+    import mujoco
+
+    from sim.gl import RenderingUnavailableError
+
+    def no_display(*args, **kwargs):
+        raise RuntimeError(
+            "Cannot initialize a EGL device display. This likely means that your EGL driver\ndoes not"
+        )
+
+    monkeypatch.setattr(mujoco, "GLContext", no_display)
+    m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><camera name="c"/></worldbody></mujoco>')
+    with pytest.raises(
+        RenderingUnavailableError, match=r"\(RuntimeError: Cannot initialize a EGL device display"
+    ) as e:
+        SceneRenderer(m, 64, 48, "c")
+    assert "\n" not in str(e.value) and "apt-get install libosmesa6" in str(e.value)
