@@ -20,7 +20,8 @@ from dataclasses import replace
 import numpy as np
 
 from poi.core.geometry import make_transform, rot_z
-from sim.sensors.t265 import PoseFunction, T265Spec, TrackingConditions, pose_interpolator, simulate_t265
+from sim.sensors.base import PoseFunction
+from sim.sensors.t265 import T265Spec, TrackingConditions, pose_interpolator, simulate_t265
 from sim.sensors.tracking_conditions import drift_multiplier
 from sim.world.world import LIGHT_LEVEL_LUX
 
