@@ -5,6 +5,11 @@ or generated), the lighting, the robot's route, the sensors' settings and the
 seed. Everything random in a trial is drawn from ``np.random.default_rng(seed)``
 made once at the top and passed down (docs/DESIGN.md "Randomness").
 
+Each section's settings class sits beside the model that reads it: a sensor's in its module
+under ``sim/sensors/``, the maze generator's, the arena's and the objects' under ``sim/world/``,
+the robot's in ``sim/motion/route.py``. This module composes them into :class:`Scenario` and
+reads, checks and edits scenario files (every error one line, :class:`ScenarioError`).
+
 Instead of a maze and its objects, a scenario can lay out the TurtleBot goal arena
 of [Bouda2025]_ section 1 (an open floor with a goal of two blue pillars, a ball before
 it, obstacles and other pillars; ``sim.world.arena``)::
