@@ -24,7 +24,7 @@ import numpy as np
 from sim.render import SceneRenderer
 from sim.scenario import load_scenario
 from sim.simulator import Simulation
-from sim.world import CAMERA_NAME
+from sim.world.world import CAMERA_NAME
 
 
 def render_cpu_ms(scenario: str, n_frames: int, repeats: int) -> dict[bool | str, float]:

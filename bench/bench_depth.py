@@ -34,11 +34,10 @@ from dataclasses import replace
 import numpy as np
 
 from poi.core.sensor_noise import depth_sigma_m
-from sim.scenario import DepthSpec
-from sim.sensors.d435_depth import DepthTrial, simulate_depth
+from sim.sensors.d435_depth import DepthSpec, DepthTrial, simulate_depth
 from sim.sensors.noise_pool import NoisePool
 
-FX_COLOUR = 612.4  # sim/scenario.py D435Spec.fx
+FX_COLOUR = 612.4  # sim/sensors/d435.py D435Spec.fx
 SEED = 2026
 DATASHEET_MIN_Z_1280_M = 0.28  # [IntelD400]: D435 minimum range at 1280x720
 FX_1280_PX = 425.0 * 1280 / 848  # the 848x480 focal length (docs/FACTS.md) scaled to 1280 wide

@@ -38,7 +38,7 @@ from sim.camera import d435_intrinsics, mujoco_camera_attrs
 from sim.render import SceneRenderer
 from sim.scenario import Scenario, apply_settings, load_scenario
 from sim.sensors.d435_color import ColourCamera, meter, steady_state_exposure
-from sim.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX, lux_of_decoded_one
+from sim.world.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX, lux_of_decoded_one
 
 TEXTURE_PX = 512  # the card's texture: ring 5's 0.33 mm gap is 2.6 texels
 TARGET_SPACING_M = 3.0  # cards side by side along y, far enough apart that one fills a crop
@@ -62,7 +62,7 @@ def build_scene(
     ET.SubElement(vis, "global", offwidth=str(intr.width), offheight=str(intr.height))
     ET.SubElement(vis, "map", znear="0.002", zfar="50")
     ET.SubElement(vis, "quality", shadowsize="0")
-    # the robot's lamp: a white card facing it renders at lamp_level (sim/world.py LAMP_WHITE_LEVEL)
+    # the robot's lamp: a white card facing it renders at lamp_level (sim/world/world.py LAMP_WHITE_LEVEL)
     ET.SubElement(vis, "headlight", ambient=fmt([lamp_level * 0.45] * 3), diffuse=fmt([lamp_level * 0.55] * 3))
     ET.SubElement(root, "statistic", extent="1", center="0 0 0")
     root.append(assets.asset)

@@ -49,7 +49,7 @@ from sim.camera import d435_intrinsics, mujoco_camera_attrs
 from sim.render import SceneRenderer
 from sim.scenario import Scenario, apply_settings, load_scenario
 from sim.sensors.d435_color import ColourCamera, meter, steady_state_exposure
-from sim.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX, lux_of_decoded_one
+from sim.world.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX, lux_of_decoded_one
 
 CARD_SPACING_M = 4.0  # cards side by side along y, far enough apart that one fills a crop
 WALL_GREY = 0.55

@@ -6,7 +6,7 @@ The geoms are 2 cm, on a grid 3 m in front of a 640x480 camera, so the pixels th
 few and the slope is the cost of a geom itself: MuJoCo's per-geom work and the vertices
 Mesa's llvmpipe transforms (a box is 12 triangles; a capsule, sphere or cylinder is
 tessellated by ``visual/quality`` numslices x numstacks: MuJoCo's 28 x 16 and the worlds'
-``sim.world.CURVE_SLICES`` x ``CURVE_STACKS``). CPU is the
+``sim.world.world.CURVE_SLICES`` x ``CURVE_STACKS``). CPU is the
 process's (the calling thread plus llvmpipe's rasteriser threads), ``time.process_time``.
 The default trial's world's geoms by type are printed beside, to read the fit against.
 
@@ -23,7 +23,7 @@ import mujoco
 import numpy as np
 
 from sim.render import SceneRenderer
-from sim.world import CURVE_SLICES, CURVE_STACKS
+from sim.world.world import CURVE_SLICES, CURVE_STACKS
 
 W, H = 640, 480
 COUNTS = (0, 100, 200, 400, 800)

@@ -30,7 +30,7 @@ import mujoco
 from sim.scenario import apply_settings, load_scenario  # noqa: E402
 from sim.sensors.d435_color import ColourCamera  # noqa: E402
 from sim.simulator import Simulation  # noqa: E402
-from sim.world import CAMERA_NAME  # noqa: E402
+from sim.world.world import CAMERA_NAME  # noqa: E402
 
 
 def _ms(fn, n):
@@ -168,7 +168,7 @@ def main() -> None:
     for k, v in res.items():
         print(f"{k:48s} {v:7.2f} ms/frame")
     if args.shadows:
-        print("shadows (sim/world.py SHADOW_MAP_PX), whole sensor set, off and on side by side:")
+        print("shadows (sim/world/world.py SHADOW_MAP_PX), whole sensor set, off and on side by side:")
         for preset in ("bright", "uneven"):
             cost = {}
             for on in (False, True):

@@ -20,10 +20,10 @@ from dataclasses import replace
 import numpy as np
 
 from poi.core.geometry import make_transform, rot_z
-from sim.scenario import T265Spec
-from sim.sensors.t265 import PoseFunction, TrackingConditions, pose_interpolator, simulate_t265
+from sim.sensors.base import PoseFunction
+from sim.sensors.t265 import T265Spec, TrackingConditions, pose_interpolator, simulate_t265
 from sim.sensors.tracking_conditions import drift_multiplier
-from sim.world import LIGHT_LEVEL_LUX
+from sim.world.world import LIGHT_LEVEL_LUX
 
 LAP_SIDES_M = (7.5, 5.0)
 SPEED_MPS = 0.5

@@ -385,7 +385,7 @@ def _maze_seeds() -> list[bytes]:
 
 
 def _load_maze(path: Path) -> object:
-    from sim.maze import load_maze
+    from sim.world.maze import load_maze
 
     return load_maze(path)
 

@@ -4,7 +4,7 @@ Crates, buckets, pipes, cables, cardboard boxes and debris stand against the wal
 (clear of every point of interest), so a detector meets the things that fooled it on
 real photos and the pipeline must not report them. They are geoms named
 ``clutter_{k}_{part}``: no ``poi_`` body, so the ground truth and the segmentation's
-object map leave them out (sim/world.py). Drawn from an explicit ``rng``.
+object map leave them out (sim/world/world.py). Drawn from an explicit ``rng``.
 """
 
 from __future__ import annotations
@@ -164,7 +164,7 @@ def build_clutter(items: list[ClutterItem], assets: SceneAssets) -> list[ET.Elem
 
 # --- milk crates beside placards (training scenes only) ----------------------------------------
 # Real placard photos show placards among clutter, milk crates most of all (issue 58); poibench
-# dataset stands open plastic crates near its placards (sim.world.SceneLooks.milk_crates), trials
+# dataset stands open plastic crates near its placards (sim.world.world.SceneLooks.milk_crates), trials
 # never. A crate is 33 x 33 x 28 cm, its sides an open grid of bars.
 MILK_CRATE_M = (0.33, 0.33, 0.28)
 MILK_CRATE_RGBA = (

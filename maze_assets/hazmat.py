@@ -552,16 +552,6 @@ CORROSIVE_SPLIT_Y = 0.5 - 38 * MM  # 172.558: white triangle's base 38 +- 5 mm a
 INHALATION_POINT_Y = 0.5 - 65 * MM  # 172.555: the upper diamond's lower point 65 mm above
 
 
-@dataclass(frozen=True)
-class _Layout:
-    """Where a placard's parts go: symbol box, words' centre line and cap height."""
-
-    sym_base: float = SYM_BASE_Y
-    sym_h: float = SYM_H
-    words_cy: float = 0.575
-    cap: float = WORD_CAP
-
-
 _FIELD: dict[str, Callable[[_Canvas, PlacardStyle], None]] = {
     "explosive": lambda c, st: c.rect(0, 0, 1, 1, ORANGE),
     "blasting-agent": lambda c, st: c.rect(0, 0, 1, 1, ORANGE),

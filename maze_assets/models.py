@@ -2,7 +2,7 @@
 
 ``build_object`` returns ``<body name="poi_{id}_{type}" pos="x y z" euler="0 0 yaw">``
 whose geoms are named ``poi_{id}_{type}_{part}`` (sim/objects.py). The euler angle
-is in radians: the scene must declare ``<compiler angle="radian"/>`` (sim/world.py
+is in radians: the scene must declare ``<compiler angle="radian"/>`` (sim/world/world.py
 does). Children use ``quat`` and ``fromto`` only, so they do not depend on it.
 
 Local frame (sim/objects.py): origin at the object's reference point, +x the way
@@ -18,7 +18,7 @@ Reference points and extents, for a characteristic size ``s = obj.size_m``:
 - fire-extinguisher: ``s`` tall (0.5 m at RRL scale), radius 0.14 s, the origin at
   half height (floor at z = -s/2).
 - valve: a hand wheel of diameter ``s`` centred on the origin, its axis along x, on a
-  pipe from the wall at x = -0.48 s (``VALVE_STANDOFF``, sim/placement.py uses
+  pipe from the wall at x = -0.48 s (``VALVE_STANDOFF``, sim/world/placement.py uses
   0.12 m for a 0.25 m wheel).
 - door: a leaf ``s`` wide and :func:`door_height_m` high centred on the origin on the
   wall's centre line, in a frame ``DOOR_FRAME_M`` wide (:func:`door_frame_extent_m`).
@@ -121,14 +121,14 @@ LANDOLT_BOARD_RGBA = (0.76, 0.62, 0.42, 1.0)  # light plywood
 LANDOLT_CABINET_M = (0.30, 0.30, 0.25, 0.012)
 LANDOLT_CABINET_RGBA = (0.35, 0.37, 0.40, 1.0)  # grey-painted sheet metal
 BOARD_THICKNESS_M = LANDOLT_BOARD_M[2]  # every board: 18 mm plywood
-# A crate holding a placard (sim/placement.py put_placards_in_crates): open to the front, standing
+# A crate holding a placard (sim/world/placement.py put_placards_in_crates): open to the front, standing
 # on the floor against a wall, the placard on the inside of its back panel. Inside it is
 # CRATE_INNER_SIDES placard sides wide and high (a square sheet at 45 degrees, sqrt(2) sides across,
 # fits) and CRATE_DEPTH_SIDES deep, with CRATE_WALL_M boards; rough pine, slats darker.
 CRATE_INNER_SIDES = 1.5
 CRATE_DEPTH_SIDES = 1.0
 CRATE_WALL_M = 0.012
-# A ramp holding a placard (sim/placement.py lay_placards_on_ramps): a solid wooden wedge against a
+# A ramp holding a placard (sim/world/placement.py lay_placards_on_ramps): a solid wooden wedge against a
 # wall, rising RAMP_SLOPE_DEG towards it (poibench's choice, a typical arena ramp's slope),
 # RAMP_RUN_SIDES placard sides out from the wall and RAMP_WIDTH_SIDES wide, the placard lying
 # in the middle of its slope.
@@ -218,18 +218,6 @@ def _material(assets: SceneAssets, name: str, rgba, *, emission: float = 0.0, **
         if emission:
             _set_asset_attr(assets, "material", full, emission=fmt(emission))
     return full
-
-
-def _quat_x_to(d) -> np.ndarray:
-    """Quaternion (w, x, y, z) turning +x onto the unit vector d (for boxes)."""
-    d = np.asarray(d, float) / np.linalg.norm(d)
-    x = np.array([1.0, 0.0, 0.0])
-    c = float(np.dot(x, d))
-    if c < -1 + 1e-12:
-        return np.array([0.0, 0.0, 0.0, 1.0])
-    axis = np.cross(x, d)
-    q = np.array([1.0 + c, *axis])
-    return q / np.linalg.norm(q)
 
 
 def body_rotation(obj: PlacedObject) -> Rotation:

@@ -20,7 +20,7 @@ import numpy as np
 from poi.core.names import TYPES
 
 MOUNTS = ("wall", "floor", "opening")
-# What a flat item may be fixed to, and which types each holder takes (sim/placement.py,
+# What a flat item may be fixed to, and which types each holder takes (sim/world/placement.py,
 # maze_assets.models.build_holder): a wooden board on the wall (a Landolt-C card alone, or a
 # group of a placard, a QR code and a Landolt-C card), a sensor cabinet (Landolt-C), an open
 # crate standing on the floor (a placard on the inside of its back panel) or a wooden ramp
@@ -71,7 +71,7 @@ class PlacedObject:
     # wall, not part of the object (maze_assets.models.build_page).
     page_m: tuple[float, float, float, float] | None = None
     module_m: float | None = None  # a QR code's module side, metres (None: whatever its size gives)
-    # What a flat item is fixed to (``HOLDER_TYPES``; sim/placement.py, maze_assets.models.
+    # What a flat item is fixed to (``HOLDER_TYPES``; sim/world/placement.py, maze_assets.models.
     # build_holder): None (the wall itself), "board" (a wooden board on the wall), "cabinet" (the
     # back of a sensor cabinet, a box open to the front hung on the wall), "crate" (the inside
     # of an open crate's back panel) or "ramp" (the slope of a ramp against a wall); drawn

@@ -8,7 +8,7 @@ textures have detail for a stereo depth camera to match (docs/FACTS.md "D435 dep
 low-texture surfaces read 0). Floors (:func:`draw_floor_kind`) are plywood, OSB or painted
 grey; :func:`draw_hall_wall` is the hall seen past the arena (blockwork under windows).
 All are drawn from an explicit ``rng`` (same generator state, same image) and tile
-seamlessly (everything wraps around the edges); sim/world.py picks the kinds per scenario.
+seamlessly (everything wraps around the edges); sim/world/world.py picks the kinds per scenario.
 
 >>> w = draw_plywood(64, np.random.default_rng(1))
 >>> w.shape, w.dtype.name
@@ -208,7 +208,7 @@ def draw_floor_kind(kind: str, size_px: int, rng: np.random.Generator) -> np.nda
 
 # Floors of the halls and buildings real placard photos are taken in (issue 58: on real photos the
 # shipped detector missed most placards lying on textured floors seen from above); poibench dataset
-# lays them on ``floor_textures`` of its scenarios (sim/world.py SceneLooks), trials never.
+# lays them on ``floor_textures`` of its scenarios (sim/world/world.py SceneLooks), trials never.
 DATASET_FLOOR_KINDS = ("terrazzo", "concrete", "carpet", "tile")
 DATASET_FLOOR_PX = 512  # one tile of SHEET_M: 2.4 mm a texel, for placards seen from close above
 TERRAZZO_BASE_RGB = ((205, 200, 190), (180, 178, 172), (150, 140, 128), (215, 205, 185))
@@ -265,7 +265,7 @@ def _carpet(n: int, rng: np.random.Generator) -> np.ndarray:
 
 def _tile(n: int, rng: np.random.Generator) -> np.ndarray:
     """Glazed floor tiles (30 or 40 cm in the sheet's 1.22 m: 4 or 3 across) with grout lines;
-    sim/world.py gives the floor a glossy material with it."""
+    sim/world/world.py gives the floor a glossy material with it."""
     across = int(rng.choice([3, 4]))
     base = np.array(TILE_RGB[int(rng.integers(len(TILE_RGB)))], np.float32)
     img = np.empty((n, n, 3), np.float32)

@@ -16,7 +16,8 @@ _CHOSEN: str | None = None
 
 
 class RenderingUnavailableError(RuntimeError):
-    """No usable OpenGL backend for headless rendering."""
+    """No usable OpenGL backend for headless rendering (sim.render.SceneRenderer could not make
+    its context); the message is one line that says what to install."""
 
 
 def _lib_available(name: str) -> bool:
@@ -37,7 +38,7 @@ def choose_backend() -> str:
         elif _lib_available("OSMesa"):
             backend = "osmesa"
         else:
-            backend = "egl"  # let MuJoCo report; render_check() turns it into a clear message
+            backend = "egl"  # let MuJoCo fail; sim.render turns that into RenderingUnavailableError
         os.environ["MUJOCO_GL"] = backend
     if backend in ("egl", "osmesa") and not os.environ.get("PYOPENGL_PLATFORM"):
         os.environ["PYOPENGL_PLATFORM"] = backend
@@ -46,9 +47,16 @@ def choose_backend() -> str:
 
 
 def missing_backend_message(err: BaseException) -> str:
-    """One-line explanation of what to install when no backend works."""
+    r"""One-line explanation of what to install when no backend works.
+
+    >>> msg = missing_backend_message(ImportError("libEGL.so.1: cannot open shared object file\nmore"))
+    >>> "(ImportError: libEGL.so.1: cannot open shared object file); install Mesa's EGL" in msg, "\n" in msg
+    (True, False)
+    """
+    first = (str(err).splitlines() or [""])[0]
     return (
-        f"headless rendering failed with MUJOCO_GL={os.environ.get('MUJOCO_GL')!r} ({err}); "
+        f"headless rendering failed with MUJOCO_GL={os.environ.get('MUJOCO_GL')!r} "
+        f"({type(err).__name__}: {first}); "
         "install Mesa's EGL (apt-get install libegl1 libgl1-mesa-dri) or OSMesa "
         "(apt-get install libosmesa6) and set MUJOCO_GL=egl or MUJOCO_GL=osmesa"
     )

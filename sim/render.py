@@ -51,7 +51,7 @@ import warnings
 import mujoco
 import numpy as np
 
-import sim.gl  # noqa: F401
+from sim.gl import RenderingUnavailableError, missing_backend_message
 
 GL_TEXTURE_MAX_ANISOTROPY_EXT = 0x84FE  # [GLAniso] "New Tokens"
 GL_MAX_TEXTURE_MAX_ANISOTROPY_EXT = 0x84FF
@@ -165,9 +165,12 @@ class SceneRenderer:
         self._camera.fixedcamid = cam_id
         self._option = mujoco.MjvOption()
         self._scene = mujoco.MjvScene(model, maxgeom=max_geom)
-        self._gl = mujoco.GLContext(width, height)
-        self._gl.make_current()
-        self._ctx = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
+        try:  # no EGL or OSMesa (or no device for them): one line that says what to install
+            self._gl = mujoco.GLContext(width, height)
+            self._gl.make_current()
+            self._ctx = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150)
+        except (ImportError, OSError, AttributeError, RuntimeError, mujoco.FatalError) as err:
+            raise RenderingUnavailableError(missing_backend_message(err)) from err
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._ctx)
         self._ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         self.max_anisotropy, self.anisotropy_note = 1.0, None

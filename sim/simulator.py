@@ -49,17 +49,38 @@ from poi.core.geometry import (
     transform_points,
 )
 from poi.core.types import Frame, Intrinsics
-from sim.arena import ArenaLayout, generate_arena
-from sim.arena_route import arena_route
 from sim.camera import T_RIG_OPTICAL
-from sim.maze import (
+from sim.memory import keep_freed_memory
+from sim.motion.arena_route import arena_route
+from sim.motion.route import TURTLEBOT_CAMERA_HEIGHT_M, Route, load_route_csv, rig_pose, route_from_tour
+from sim.motion.tour import plan_tour
+from sim.render import SceneRenderer
+from sim.scenario import MountSpec, Scenario
+from sim.sensors.base import Exposure, FrameSensor, PoseSensor, PoseTrack, Shot, TrackerMotion
+from sim.sensors.d435_color import (
+    ColourCamera,
+    ColourSensor,
+    ColourSpec,
+    ae_history_frames,
+    image_motion_px,
+    lagged_exposure,
+    meter,
+    steady_state_exposure,
+)
+from sim.sensors.d435_depth import DepthSensor, DepthTrial
+from sim.sensors.noise_pool import NoisePool
+from sim.sensors.t265 import T265, TrackingConditions
+from sim.sensors.thermal import ThermalScene, ThermalSensor, make_thermal_scene
+from sim.sensors.tracking_conditions import drift_multiplier, scene_lux, texture_contrast
+from sim.sensors.wheel_odometry import WheelOdometry
+from sim.world.arena import ArenaLayout, generate_arena
+from sim.world.maze import (
     PRESETS,
     find_maze,
     load_maze,
 )
-from sim.maze_gen import generate_maze
-from sim.memory import keep_freed_memory
-from sim.placement import (
+from sim.world.maze_gen import generate_maze
+from sim.world.placement import (
     assign_placard_looks,
     hang_placard_boards,
     hang_placards_on_doors,
@@ -68,26 +89,15 @@ from sim.placement import (
     place_objects,
     put_placards_in_crates,
 )
-from sim.render import SceneRenderer
-from sim.route import Route, load_route_csv, rig_pose, route_from_tour
-from sim.scenario import TURTLEBOT_CAMERA_HEIGHT_M, ColourSpec, MountSpec, Scenario
-from sim.sensors.d435_color import (
-    ColourCamera,
-    Exposure,
-    ae_history_frames,
-    image_motion_px,
-    lagged_exposure,
-    meter,
-    steady_state_exposure,
+from sim.world.world import (
+    CAMERA_NAME,
+    LIGHT_LEVEL_LUX,
+    SceneLooks,
+    World,
+    build_world,
+    door_gap_m,
+    lux_of_decoded_one,
 )
-from sim.sensors.d435_depth import DepthTrial, simulate_depth
-from sim.sensors.noise_pool import NoisePool
-from sim.sensors.t265 import PoseTrack, TrackingConditions, simulate_t265
-from sim.sensors.thermal import ThermalScene, ThermalView, make_thermal_scene, thermal_image
-from sim.sensors.tracking_conditions import drift_multiplier, scene_lux, texture_contrast
-from sim.sensors.wheel_odometry import simulate_wheel_odometry
-from sim.tour import plan_tour
-from sim.world import CAMERA_NAME, LIGHT_LEVEL_LUX, SceneLooks, World, build_world, door_gap_m, lux_of_decoded_one
 
 SENSOR_STREAM = 1
 THERMAL_STREAM = 3  # the thermal camera's per-run draws: gradient direction, fixed patterns
@@ -170,7 +180,7 @@ def mount_transforms(m: MountSpec) -> tuple[np.ndarray, np.ndarray]:
 def base_mount_transforms(height_m: float, tilt_rad: float, m: MountSpec) -> tuple[np.ndarray, np.ndarray]:
     """(nominal, true) T_base_optical of a camera fixed ``height_m`` above the base, tilted
     up by ``tilt_rad``; the true one carries ``m``'s ``error_*`` (as :func:`mount_transforms`)."""
-    # the rig above the base (sim.route.rig_pose with no pan), then rig -> optical
+    # the rig above the base (sim.motion.route.rig_pose with no pan), then rig -> optical
     nominal = make_transform(rot_y(-tilt_rad) @ R_BODY_OPTICAL, [0.0, 0.0, height_m])
     error = make_transform(_rpy(m.error_rpy_deg), m.error_t_m)
     return nominal, error @ nominal
@@ -182,7 +192,7 @@ def default_mast_height_m(cell_size_m: float) -> float:
 
 class Simulation:
     def __init__(self, scenario: Scenario, *, looks: SceneLooks | None = None) -> None:
-        """``looks``: a training scene's (sim.world.SceneLooks; poibench dataset), never a trial's."""
+        """``looks``: a training scene's (sim.world.world.SceneLooks; poibench dataset), never a trial's."""
         # every frame allocates and frees the same few dozen images: keep them in the process
         # instead of faulting their pages in anew each frame (sim/memory.py)
         keep_freed_memory()
@@ -207,7 +217,7 @@ class Simulation:
                     settings=PRESETS[g.preset],
                     name=f"generated-{sc.seed}",
                 )
-            self.objects = place_objects(sc, self.maze, rng)
+            self.objects = place_objects(sc.objects, self.maze, rng)
             if sc.objects.generate is not None:
                 generated = self.objects[len(sc.objects.explicit) :]
                 gen = sc.objects.generate
@@ -273,19 +283,17 @@ class Simulation:
         self.T_map_tracker_true = [T @ T_rig_tracker for T in self._T_map_rig]
         self.tracking_conditions: TrackingConditions | None = None  # the T265's only
         if wheels:
-            self.pose_track: PoseTrack = simulate_wheel_odometry(
-                self.T_map_tracker_true, self.times_s, sc.sensors.wheel_odometry, rng, sc.sensors.noise
-            )
+            self.pose_sensor: PoseSensor = WheelOdometry(spec=sc.sensors.wheel_odometry, noise=sc.sensors.noise)
         else:
             self.tracking_conditions = self._tracking_conditions()
-            self.pose_track = simulate_t265(
-                self._tracker_poses, self.times_s, sc.sensors.t265, rng, sc.sensors.noise, self.tracking_conditions
+            self.pose_sensor = T265(
+                spec=sc.sensors.t265, noise=sc.sensors.noise, conditions=self.tracking_conditions
             )
+        motion = TrackerMotion(times_s=self.times_s, poses=self.T_map_tracker_true, poses_at=self._tracker_poses)
+        self.pose_track: PoseTrack = self.pose_sensor.track(motion, rng)
         self._temp_of_geom = self._geom_temperatures()
         self._thermal_scene = self._make_thermal_scene() if sc.sensors.thermal.enabled else None
-        col = sc.sensors.d435.colour
-        self.colour_lux = self._decoded_one_lux(col)
-        self._camera = ColourCamera(col, d.width, d.height, d.fx, d.fy, d.ppx, d.ppy)
+        self.colour_lux = self._decoded_one_lux(sc.sensors.d435.colour)
         self._meters: dict[int, float] = {}  # frame index -> auto-exposure meter of its render
         # FrameTruth.visible and .object_mask come from a full-size segmentation render (with the
         # visible-object boxes, about 13 ms of CPU a frame); a caller that reads neither (a trial
@@ -297,9 +305,10 @@ class Simulation:
         self._pools: tuple[NoisePool | None, NoisePool | None] = (
             self._noise_pools() if sc.sensors.noise else (None, None)
         )
-        self._depth_trial = DepthTrial.draw(
-            d.depth, (d.height, d.width), np.random.default_rng([sc.seed, SENSOR_STREAM, 10**9 + 2])
-        )
+        # the colour stream (its auto-exposure and motion blur are the simulator's: they read other
+        # frames' renders and the route), then the other frame sensors in their drawing order
+        self.colour: ColourSensor = self._colour_sensor(sc.sensors.d435.colour, self._pools[0])
+        self.sensors: list[FrameSensor] = self._frame_sensors()
         self._object_corners_world = self._object_geom_corners()
         # objects never move: each one's reference point (world frame), once
         self._reference_world = {o.id: reference_point(o) for o in self.objects}
@@ -366,7 +375,7 @@ class Simulation:
 
     # ------------------------------------------------------------------- T265
     def _tracker_poses(self, t: np.ndarray) -> np.ndarray:
-        """True T_map_tracker at times ``t`` (n,): :func:`sim.route.rig_pose` for many times at once."""
+        """True T_map_tracker at times ``t`` (n,): :func:`sim.motion.route.rig_pose` for many times at once."""
         t = np.asarray(t, dtype=float)
         r = self.route
         x, y, yaw = (np.interp(t, r.t_s, v) for v in (r.x_m, r.y_m, r.yaw_rad))
@@ -533,6 +542,31 @@ class Simulation:
         depth = NoisePool.standard_normal([seed, SENSOR_STREAM, 10**9 + 1], NOISE_POOL_FRAMES * H * W)
         return colour, depth
 
+    def _frame_sensors(self) -> list[FrameSensor]:
+        """The frame sensors, in the order they draw from a frame's generator: colour, then
+        depth (with its per-trial draws from the seed), then thermal; those switched off left out."""
+        sc = self.scenario
+        d, noise = sc.sensors.d435, sc.sensors.noise
+        sensors: list[FrameSensor] = [self.colour]
+        if d.enabled:
+            trial_rng = np.random.default_rng([sc.seed, SENSOR_STREAM, 10**9 + 2])
+            trial = DepthTrial.draw(d.depth, (d.height, d.width), trial_rng)
+            depth = DepthSensor(
+                spec=d.depth, fx_color_px=self.intrinsics.fx, noise=noise, pool=self._pools[1], trial=trial
+            )
+            sensors.append(depth)
+        if self._thermal_scene is not None:
+            sensors.append(
+                ThermalSensor(
+                    spec=sc.sensors.thermal,
+                    noise=noise,
+                    intrinsics=self.intrinsics,
+                    temp_of_geom=self._temp_of_geom,
+                    scene=self._thermal_scene,
+                )
+            )
+        return sensors
+
     def frame(self, k: int) -> tuple[Frame, FrameTruth]:
         """Frame k and its ground truth: rendered on the GL thread, sensor models on this one."""
         if not 0 <= k < self.n_frames:
@@ -562,17 +596,18 @@ class Simulation:
         )
 
     # ------------------------------------------------------------ colour camera
-    def _colour_camera(self, colour: ColourSpec | None) -> tuple[ColourCamera, float]:
-        """The colour model and the scene's illuminance (lux) for ``colour`` (None: the scenario's)."""
-        if colour is None:
-            return self._camera, self.colour_lux
+    def _colour_sensor(self, colour: ColourSpec, pool: NoisePool | None) -> ColourSensor:
+        """The colour stream with ``colour``'s settings, under the scene's illuminance for them."""
         i = self.intrinsics
-        return ColourCamera(colour, i.width, i.height, i.fx, i.fy, i.ppx, i.ppy), self._decoded_one_lux(colour)
+        camera = ColourCamera(colour, i.width, i.height, i.fx, i.fy, i.ppx, i.ppy)
+        return ColourSensor(
+            camera=camera, lux=self._decoded_one_lux(colour), pool=pool, effects=self.scenario.sensors.noise
+        )
 
     def _decoded_one_lux(self, colour: ColourSpec) -> float:
         """The illuminance a decoded render value of 1 stands for with ``colour``: its ``lux``
         (default: the lighting preset's level) scaled by the preset's shading
-        (:func:`sim.world.lux_of_decoded_one`)."""
+        (:func:`sim.world.world.lux_of_decoded_one`)."""
         lighting = self.scenario.lighting
         lux = colour.lux if colour.lux is not None else LIGHT_LEVEL_LUX[lighting]
         return lux_of_decoded_one(lighting, lux, colour.gamma)
@@ -641,47 +676,31 @@ class Simulation:
         thread while the GL thread renders ahead.
         """
         sc = self.scenario
-        sens = sc.sensors
-        noise = sens.noise
         rng = np.random.default_rng([sc.seed, SENSOR_STREAM, k])
         raw = colour_depth.result()
-        rgb, z_true, T_map_optical = raw.rgb, raw.z_m, raw.T_map_optical
-        colour_pool, depth_pool = self._pools if noise else (None, None)
-        camera, lux = self._colour_camera(colour)
-        exposure = self.exposure(k, rgb) if T_map_rig is None else self._steady_exposure(rgb, camera.spec, lux)
+        T_map_optical = raw.T_map_optical
+        camera = self.colour if colour is None else self._colour_sensor(colour, self._pools[0])
+        sensors = [camera if s is self.colour else s for s in self.sensors]
+        spec = camera.camera.spec
+        exposure = (
+            self.exposure(k, raw.rgb) if T_map_rig is None else self._steady_exposure(raw.rgb, spec, camera.lux)
+        )
         motion = (0.0, 0.0) if motion_px is None else motion_px
-        if T_map_rig is None and camera.spec.motion_blur:
-            motion = self.motion_px(k, exposure.exposure_ms, z_true)
-        rgb = camera.render(rgb, exposure, lux, rng=rng, pool=colour_pool, motion_px=motion, effects=noise)
-        depth = None
-        if sens.d435.enabled:
-            depth = simulate_depth(
-                z_true,
-                sens.d435.depth,
-                self.intrinsics.fx,
-                rng,
-                noise,
-                depth_pool,
-                rgb=raw.rgb,
-                gamma=camera.spec.gamma,
-                trial=self._depth_trial,
-            )
+        if T_map_rig is None and spec.motion_blur:
+            motion = self.motion_px(k, exposure.exposure_ms, raw.z_m)
+        shot = Shot(
+            t_s=float(self.times_s[k]) if T_map_rig is None else 0.0,
+            rgb=raw.rgb,
+            gamma=spec.gamma,
+            z_m=raw.z_m,
+            T_world_optical=self.T_world_map @ T_map_optical,
+            exposure=exposure,
+            motion_px=motion,
+            thermal_geoms=lambda: segmentation.result().thermal_geoms,
+        )
+        # each in turn, so each draws from rng in the same order every frame (sim.sensors.base)
+        images = {s.frame_field: s.measure(shot, rng) for s in sensors}
         seg = segmentation.result()
-        thermal = None
-        if seg.thermal_geoms is not None:
-            h2, w2 = seg.thermal_geoms.shape
-            view = ThermalView.from_depth(z_true, self.intrinsics, self.T_world_map @ T_map_optical, w2, h2)
-            t_frame = float(self.times_s[k]) if T_map_rig is None else 0.0
-            thermal = thermal_image(
-                seg.thermal_geoms,
-                self._temp_of_geom,
-                sens.thermal,
-                rng,
-                noise,
-                scene=self._thermal_scene,
-                view=view,
-                t_s=t_frame,
-            )
         if T_map_rig is None:
             t_s, pose, confidence = float(self.times_s[k]), self.pose_track.poses[k], self.pose_track.confidence[k]
             relocalised = bool(self.pose_track.relocalised[k])
@@ -692,14 +711,12 @@ class Simulation:
         frame = Frame(
             index=k,
             timestamp_s=t_s,
-            rgb=rgb,
             intrinsics=self.intrinsics,
-            depth_m=depth,
             pose=pose,
             pose_confidence=confidence,
             pose_relocalised=relocalised,
-            thermal_c=thermal,
-            thermal_intrinsics=self.thermal_intrinsics if thermal is not None else None,
+            **images,
+            thermal_intrinsics=self.thermal_intrinsics if "thermal_c" in images else None,
         )
         truth = FrameTruth(
             index=k,

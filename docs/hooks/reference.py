@@ -9,7 +9,8 @@ A page holds a marker comment where a generated part goes:
   ``poi/config.py``;
 - ``<!-- generated: scenario -->``: every key of a scenario file (``sim.scenario.Scenario``),
   its type, default and range, and its meaning from the comment beside or above the field in
-  ``sim/scenario.py`` (a nested section's docstring heads its table);
+  its settings class (``sim/scenario.py`` and the classes it composes, each beside its model:
+  ``sim/sensors/``, ``sim/world/``, ``sim/motion/``; a nested section's docstring heads its table);
 - ``<!-- generated: rules -->``: the keys of a points rules file (``eval.scoring.rules.Rules``);
 - ``<!-- generated: cli -->``: every ``poibench`` command's ``--help``, from its argparse parser;
 - ``<!-- generated: where-it-stands -->``: the README's "Where it stands" table of today's figures

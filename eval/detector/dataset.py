@@ -47,10 +47,9 @@ import yaml
 from poi.core.geometry import make_transform, rot_x, rot_y, rot_z
 from poi.core.loader import safe_load_file
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES, identity_to_class
-from sim.scenario import DEFAULT_COUNTS
+from sim.world.placement import DEFAULT_COUNTS
 
 LIGHTING = ("bright", "dim", "uneven")
-FLOOR_MOUNTS = ("floor",)
 HAZMAT_PER_SCENARIO = 8
 SCENARIO_TRIES = 10
 RESCUE_CLASS_INDEX: dict[str, int] = {c: i for i, c in enumerate(RESCUE_CLASSES)}
@@ -90,7 +89,7 @@ class DatasetSpec:
     maze_cells: tuple[int, int] = (3, 5)  # rows and cols drawn from this range
     jpeg_quality: int = 95
     # Looks real placard photos have and trial renders lack (issue 58, measured on real photos
-    # with the shipped detector); each drawn per scenario or placard (sim.world.SceneLooks), never
+    # with the shipped detector); each drawn per scenario or placard (sim.world.world.SceneLooks), never
     # in a trial. Floors: most missed real placards lay on textured floors seen from above; on
     # floor_textures of the scenarios the floor is terrazzo, concrete, carpet or glazed tile.
     floor_textures: float = 0.5
@@ -105,7 +104,7 @@ class DatasetSpec:
     print_black: tuple[float, float] | None = (0.0, 60.0)  # None: the prints' own black
     # glossy paper on this share of the placards: lamps mirror in it (highlights, glare)
     glossy_fraction: float = 0.3
-    # MSAA samples (sim/world.py's offscreen buffer; trials: 0): real crops' Laplacian variance is
+    # MSAA samples (sim/world/world.py's offscreen buffer; trials: 0): real crops' Laplacian variance is
     # 2104, the training camera's renders 102, and placard edges alias without it
     msaa: int = 4
     # views of a close-up: the target a third of the image high, with motion blur (real photos
@@ -221,7 +220,9 @@ class DatasetSpec:
 def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
     """The j-th generated scenario of a dataset (deterministic in ``spec.seed``, j and the attempt:
     a draw whose objects do not fit its maze is redrawn with the next attempt)."""
-    from sim.scenario import MazeGenerate, MazeSpec, ObjectsGenerate, ObjectsSpec, Scenario
+    from sim.scenario import MazeSpec, Scenario
+    from sim.world.maze_gen import MazeGenerate
+    from sim.world.placement import ObjectsGenerate, ObjectsSpec
 
     rng = np.random.default_rng([spec.seed, j, attempt])
     lo, hi = spec.maze_cells
@@ -255,10 +256,10 @@ def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):
 
 
 def looks_for(spec: DatasetSpec, j: int, attempt: int = 0):
-    """Scenario j's training looks (sim.world.SceneLooks), from its own stream
+    """Scenario j's training looks (sim.world.world.SceneLooks), from its own stream
     ``SeedSequence([seed, j, attempt, 2])``: the scenario's draws stay those of earlier datasets."""
     from maze_assets.surfaces import DATASET_FLOOR_KINDS
-    from sim.world import SceneLooks
+    from sim.world.world import SceneLooks
 
     rng = np.random.default_rng(np.random.SeedSequence([spec.seed, j, attempt, 2]))
     textured = rng.random() < spec.floor_textures
@@ -517,8 +518,8 @@ def yolo_labels(
 
 def _build(spec: DatasetSpec, j: int):
     """(scenario, Simulation) for scenario j, redrawing when the objects do not fit the maze."""
-    from sim.placement import PlacementError
     from sim.simulator import Simulation
+    from sim.world.placement import PlacementError
 
     for attempt in range(SCENARIO_TRIES):
         sc = scenario_for(spec, j, attempt)

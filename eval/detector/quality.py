@@ -100,11 +100,6 @@ def _seed_of(value: str | None) -> int | None:
     return int(value) if value is not None and value.lstrip("-").isdigit() else None
 
 
-def model_training_seed(model: str | Path) -> int | None:
-    """The dataset seed ``poibench train`` wrote into the model's metadata, if any."""
-    return _seed_of(_model_metadata(model).get(SEED_METADATA_KEY))
-
-
 def model_training_seeds(model: str | Path) -> set[int]:
     """Every dataset seed a model was trained on: the detector's (``poibench_dataset_seed``)
     or a label classifier's comma-separated list (``poibench_dataset_seeds``)."""

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Literal
 
 from poi.core.loader import FieldError, LoadError, build, load_yaml_file, number
-from sim.scenario import MAX_MAZE_SIDE
+from sim.world.maze import MAX_MAZE_SIDE
 
 SUITES_DIR = Path(__file__).parent / "suites"
 SUITE_VERSION = 1

@@ -57,7 +57,6 @@ IMAGE = "sensor_msgs/msg/Image"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 ODOMETRY = "nav_msgs/msg/Odometry"
-TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 DEFAULT_PAIR_TOLERANCE_NS = 50_000_000  # a lone colour frame: depth and pose within 50 ms of it
 
 

@@ -33,7 +33,7 @@ directly (no pyplot state).
 RMRC mapping fiducials (``fiducial``, [RMRC2025]_; docs/RULES.md "QR mapping by fiducials") are
 landmarks, not scored objects: the true ones are drawn as what the rule asks a map to show,
 "at least half a circle ... seen from above", a filled grey half-disc of the pipe's diameter
-(its truth text, :func:`sim.placement.fiducial_text`) whose flat side lies on the nearest wall;
+(its truth text, :func:`sim.world.placement.fiducial_text`) whose flat side lies on the nearest wall;
 a reported one as a dark grey half-disc of the middle diameter, 0.30 m.
 
 The TurtleBot goal arena's objects (not in the competition's conventions) are
@@ -74,7 +74,6 @@ from maze_assets.objects import fiducial_diameter_m
 from poi.annotate import DEFAULT_COLOR_RGB, TYPE_COLORS_RGB
 from poi.core.names import TYPES, display_name
 
-CELL_SIZE_M = 1.0
 GRID_STEP_M = 0.5
 MARKER_RADIUS_M = 0.175
 LOCATE_CIRCLE_M = 1.0

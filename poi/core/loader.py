@@ -576,12 +576,6 @@ def build(cls: type, data: Any, src: Source, path: str = "", *, error: type[Valu
         raise (e if isinstance(e, error) else error(str(e))) from None
 
 
-def load_file(cls: type, path: str | Path, *, what: str = "", error: type[ValueError] = LoadError) -> Any:
-    """Read a YAML file and :func:`build` ``cls`` from it."""
-    data, src = load_yaml_file(path, what=what, error=error)
-    return build(cls, data, src, error=error)
-
-
 def to_plain(obj: Any) -> Any:
     """Dataclasses/tuples/numpy scalars to plain YAML-safe Python values."""
     if dataclasses.is_dataclass(obj):

@@ -1,1 +1,3 @@
-"""Sensor models: D435 colour and depth noise, T265 pose drift, thermal camera."""
+"""Sensor models, one a file, each with its settings (a ``*Spec`` dataclass) beside it: D435
+colour and depth, T265 pose drift and the conditions that scale it, wheel odometry, the thermal
+camera; what they share is base.py."""

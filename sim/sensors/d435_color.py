@@ -42,23 +42,65 @@ import cv2
 import numpy as np
 
 from poi.core.geometry import invert_transform, transform_points
-from sim.scenario import ColourSpec
+from poi.core.loader import number
+from sim.sensors.base import Exposure, Shot
 from sim.sensors.noise_pool import NoisePool
+
+
+@dataclass(kw_only=True)
+class ColourSpec:
+    """The D435 colour stream's camera effects (sim/sensors/d435_color.py; docs/FACTS.md
+    "D435 colour camera"). Each is a setting and can be switched off; ``sensors.noise: false``
+    switches off the random ones (noise) and the blurs, compression and white-balance error,
+    leaving exposure and tone.
+
+    Light: ``lux`` is the illuminance on a white surface the robot's lamp lights (default: the
+    lighting preset's level, ``sim.world.world.LIGHT_LEVEL_LUX``; the render's shading sets the rest,
+    ``sim.world.world.lux_of_decoded_one``); a white surface in full light gives
+    ``sensitivity_e_per_lux_ms`` electrons per lux and millisecond of exposure at unit gain.
+    Auto-exposure (``auto_exposure``) meters the mean linear level and sets exposure first
+    (``min_exposure_ms`` .. ``max_exposure_ms``), then analog gain (1 .. ``max_gain``), so the
+    mean lands at ``ae_target`` (encoded, 0..1), with a first-order lag ``ae_time_constant_s``;
+    without it, ``exposure_ms`` and ``gain`` hold. Noise: shot noise (Poisson in electrons)
+    plus ``read_noise_e``, relative to ``full_well_e``. Output: display gamma ``gamma``.
+    Blurs: the camera's own motion during the exposure (``motion_blur``), ``defocus_sigma_px``
+    (Gaussian). ``vignetting``: the fraction of the cos^4 falloff left after the lens'
+    correction (0: none). ``wb_gains``: per-channel (R, G, B) white-balance error.
+    ``jpeg_quality``: JPEG compression of the delivered image (0, the default: off, as the
+    D435 sends its colour frames uncompressed over USB; a robot that sends them on as JPEG
+    sets its quality).
+    """
+
+    auto_exposure: bool = True
+    ae_target: float = number(0.6, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    ae_time_constant_s: float = number(0.15, lo=0.0)
+    exposure_ms: float = number(10.0, lo=0.0, lo_open=True)
+    gain: float = number(1.0, lo=1.0)
+    min_exposure_ms: float = number(0.1, lo=0.0, lo_open=True)
+    max_exposure_ms: float = number(10.0, lo=0.0, lo_open=True)
+    max_gain: float = number(16.0, lo=1.0)
+    lux: float | None = number(None, lo=0.0, lo_open=True)
+    sensitivity_e_per_lux_ms: float = number(0.2, lo=0.0, lo_open=True)
+    full_well_e: float = number(5000.0, lo=1.0)
+    read_noise_e: float = number(3.0, lo=0.0)
+    shot_noise: bool = True
+    gamma: float = number(2.2, lo=1.0, hi=4.0)
+    motion_blur: bool = True
+    defocus_sigma_px: float = number(0.5, lo=0.0, hi=20.0)
+    vignetting: float = number(0.4, lo=0.0, hi=1.0)
+    wb_gains: tuple[float, float, float] = number((1.04, 1.0, 0.95), lo=0.0, lo_open=True)
+    jpeg_quality: int = number(0, lo=0, hi=100)
+
+    def __post_init__(self) -> None:
+        if self.min_exposure_ms > self.max_exposure_ms:
+            raise ValueError(
+                f"min_exposure_ms ({self.min_exposure_ms}) must not exceed "
+                f"max_exposure_ms ({self.max_exposure_ms})"
+            )
+
 
 AE_MAX_HISTORY = 8  # frames the auto-exposure lag looks back at most
 AE_METER_STEP = 8  # the meter reads every 8th pixel in each direction
-
-
-@dataclass(kw_only=True, frozen=True)
-class Exposure:
-    """Exposure time (ms) and analog gain (>= 1) of one frame."""
-
-    exposure_ms: float
-    gain: float
-
-    @property
-    def product_ms(self) -> float:
-        return self.exposure_ms * self.gain
 
 
 def decode_lut(gamma: float) -> np.ndarray:
@@ -241,3 +283,27 @@ class ColourCamera:
                 raise RuntimeError("JPEG encoding failed")
             out = cv2.cvtColor(cv2.imdecode(buf, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
         return out
+
+
+@dataclass(kw_only=True)
+class ColourSensor:
+    """The colour stream as a frame sensor (:class:`sim.sensors.base.FrameSensor`): ``camera``
+    under ``lux`` (:meth:`ColourCamera.render`), its noise from ``pool``; ``effects`` False is
+    the clean run."""
+
+    frame_field = "rgb"
+    camera: ColourCamera
+    lux: float
+    pool: NoisePool | None
+    effects: bool
+
+    def measure(self, shot: Shot, rng: np.random.Generator) -> np.ndarray:
+        return self.camera.render(
+            shot.rgb,
+            shot.exposure,
+            self.lux,
+            rng=rng,
+            pool=self.pool,
+            motion_px=shot.motion_px,
+            effects=self.effects,
+        )

@@ -1,6 +1,6 @@
 """D435 depth, aligned to the colour camera, as librealsense gives it (docs/FACTS.md "D435 depth").
 
-Each effect is a ``DepthSpec`` setting (sim/scenario.py); in the order they apply:
+Each effect is a ``DepthSpec`` setting (below); in the order they apply:
 
 1. **Registration error.** The depth image sits ``registration_error_px`` (RMS, drawn once per
    trial) off the colour image: an extrinsic calibration error of about 0.1 degree moves
@@ -63,14 +63,86 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import cv2
 import numpy as np
 
 from poi.core.depth_units import from_z16, to_z16
-from sim.scenario import DepthSpec
+from poi.core.loader import number
+from sim.sensors.base import Shot
 from sim.sensors.d435_color import decode_lut
 from sim.sensors.noise_pool import NoisePool, two_sided_threshold
+
+
+@dataclass(kw_only=True)
+class DepthSpec:
+    """The D435 depth stream's effects (sim/sensors/d435_depth.py; docs/FACTS.md "D435 depth").
+    Each is a setting and can be switched off; ``sensors.noise: false`` switches off the random
+    ones and the depth-dependent holes, leaving the range limits and the Z16 unit.
+
+    Stereo: ``fx_depth_px`` (the depth imager's focal length in the resolution mode used:
+    384.2 px at 640x480), ``baseline_m``; disparity noise ``sigma_d_px`` rounded to
+    ``subpixel`` steps, spread over the stereo matcher's ``window_px`` x ``window_px`` window
+    (1: independent pixels), plus a per-trial fixed pattern ``fixed_pattern`` times as large.
+    Range: ``min_m`` (default: ``fx_depth_px * baseline_m / disparity_search_px``, the
+    D4 matcher's 126-pixel search) and ``max_m``; closer than ``min_m`` a pixel reads 0
+    (``below_min: zero``) or a wrong depth (``wrong``). Holes: the stereo shadow of near
+    objects on their left (``edge_holes``) widened by the colour camera's offset
+    ``colour_offset_m`` to the left of the depth reference (alignment disocclusion);
+    ``dropout``, a random fraction. Texture (``texture``): the noise grows and the fill falls
+    where the surface has less local contrast than ``texture_ref`` (linear luminance std over
+    the window) counting the IR projector's dots (``projector_range_m``); below
+    ``min_texture`` times that, holes. Pixels brighter than ``saturation`` (linear, 0..1;
+    specular highlights, lamps) read 0. ``flying_pixels``: the chance that a pixel at a
+    depth edge reads a depth between the two sides. ``registration_error_px``: RMS offset
+    of the depth image against the colour image, drawn once per trial. Output: Z16 counts of
+    ``depth_unit_m`` (1 mm), handed on in metres.
+    """
+
+    noise: bool = True
+    sigma_d_px: float = number(0.08, lo=0.0, lo_open=True)  # subpixel disparity noise
+    baseline_m: float = number(0.05, lo=0.0, lo_open=True)
+    fx_depth_px: float = number(384.2, lo=0.0, lo_open=True)  # depth imager focal length at 640x480
+    subpixel: float = number(1.0 / 32.0, lo=0.0, lo_open=True)
+    min_m: float | None = number(None, lo=0.0)  # None: fx_depth_px * baseline_m / disparity_search_px
+    disparity_search_px: float = number(126.0, lo=1.0)
+    below_min: Literal["zero", "wrong"] = "zero"
+    max_m: float = number(10.0, lo=0.0, lo_open=True)
+    edge_holes: bool = True
+    colour_offset_m: float = number(0.015, lo=0.0, hi=1.0)
+    dropout: float = number(0.002, lo=0.0, hi=1.0, hi_open=True)  # fraction of pixels randomly invalid
+    window_px: int = number(7, lo=1, hi=31)
+    fixed_pattern: float = number(0.3, lo=0.0, hi=10.0)
+    texture: bool = True
+    texture_ref: float = number(0.02, lo=0.0, lo_open=True)
+    projector_range_m: float = number(3.0, lo=0.0)
+    min_texture: float = number(0.25, lo=0.0, hi=1.0)
+    max_noise_gain: float = number(4.0, lo=1.0)
+    saturation: float = number(0.98, lo=0.0, hi=1.0, lo_open=True)
+    flying_pixels: float = number(0.5, lo=0.0, hi=1.0)
+    registration_error_px: float = number(1.0, lo=0.0, hi=20.0)
+    depth_unit_m: float = number(0.001, lo=0.0, hi=0.01, lo_open=True)
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.dropout < 1.0:
+            raise ValueError(f"dropout must be in [0, 1), got {self.dropout}")
+        for name in ("sigma_d_px", "baseline_m", "fx_depth_px", "subpixel", "max_m", "depth_unit_m"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if not 0.0 <= self.min_range_m < self.max_m:
+            raise ValueError(f"need 0 <= min_m < max_m, got min_m={self.min_range_m}, max_m={self.max_m}")
+        if self.max_m / self.depth_unit_m > 65535:
+            raise ValueError(f"max_m {self.max_m} m does not fit Z16 counts of depth_unit_m {self.depth_unit_m} m")
+
+    @property
+    def min_range_m(self) -> float:
+        """The minimum range: ``min_m``, or where the disparity reaches the matcher's search
+        range, f B / d_max ([IntelTuning]: MinZ = focal length x baseline / 126)."""
+        if self.min_m is not None:
+            return self.min_m
+        return self.fx_depth_px * self.baseline_m / self.disparity_search_px
+
 
 FLYING_STEP = 0.05  # a 3x3 neighbourhood whose depths differ by more than 5% straddles an edge (poibench)
 HOLE_SPREAD = 0.5  # log-normal spread of the texture threshold, in blobs of the window (poibench)
@@ -319,3 +391,29 @@ def simulate_depth(
         out[near] = z[near] * rng.uniform(*WRONG_FACTOR, size=int(near.sum())).astype(np.float32)
     out[invalid] = 0.0
     return from_z16(to_z16(out, spec.depth_unit_m), spec.depth_unit_m)
+
+
+@dataclass(kw_only=True)
+class DepthSensor:
+    """The depth stream, aligned to colour, as a frame sensor (:class:`sim.sensors.base.FrameSensor`):
+    :func:`simulate_depth` with the trial's draws ``trial`` and noise from ``pool``."""
+
+    frame_field = "depth_m"
+    spec: DepthSpec
+    fx_color_px: float
+    noise: bool
+    pool: NoisePool | None
+    trial: DepthTrial
+
+    def measure(self, shot: Shot, rng: np.random.Generator) -> np.ndarray:
+        return simulate_depth(
+            shot.z_m,
+            self.spec,
+            self.fx_color_px,
+            rng,
+            self.noise,
+            self.pool,
+            rgb=shot.rgb,
+            gamma=shot.gamma,
+            trial=self.trial,
+        )

@@ -44,31 +44,87 @@ truth at t_k.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from sim.scenario import T265Spec
-
-DRIFT_DIRECTION_WANDER_RAD_PER_SQRT_M = 0.2  # direction decorrelates over about 50 m
-JUMP_CONFIDENCE_S = 2.0
-
-PoseFunction = Callable[[np.ndarray], np.ndarray]  # times (n,) -> true poses (n, 4, 4)
+from poi.core.loader import number
+from sim.sensors.base import PoseFunction, PoseTrack, TrackerMotion
+from sim.sensors.tracking_conditions import T265ConditionsSpec
 
 
 @dataclass(kw_only=True)
-class PoseTrack:
-    """Reported poses (None during dropouts) and confidences, one per frame."""
+class JumpSpec:
+    """False relocalisations: Poisson jumps of N(0, sigma_m^2) in x and y, at ``rate_per_min``
+    in good conditions (times the T265's drift multiplier where the scene is dim or bare)."""
 
-    poses: list[np.ndarray | None]
-    confidence: list[str]
-    error_m: np.ndarray  # |p_meas - p_true| per frame (NaN in dropouts), for reports
-    relocalisations_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  # loop-closure times
-    # per frame: the pose jumped (a loop closure or a false relocalisation) since the last frame
-    # that had a pose, as librealsense's pose-relocalisation notification tells a pipeline
-    relocalised: list[bool]
+    rate_per_min: float = number(0.0, lo=0.0)
+    sigma_m: float = number(0.2, lo=0.0)
+
+
+@dataclass(kw_only=True)
+class DropoutSpec:
+    rate_per_min: float = number(0.0, lo=0.0)
+    duration_s: tuple[float, float] = number((3.0, 7.0), lo=0.0)
+
+    def __post_init__(self) -> None:
+        if self.duration_s[0] > self.duration_s[1]:
+            raise ValueError(f"duration_s: expected (shortest, longest), got {list(self.duration_s)}")
+
+
+@dataclass(kw_only=True)
+class RelocaliseSpec:
+    """Loop closure: back at a place it mapped ``min_gap_m`` or more of travel ago (within
+    ``radius_m``, heading within ``max_heading_deg``), the T265 recognises it with probability
+    ``probability`` / multiplier per keyframe (one every ``keyframe_m``), and its pose jumps back
+    toward the truth: ``strength`` of the error gained since that visit is removed.
+    **poibench**'s model of librealsense's relocalisation with pose jumping on ([T265Issues])."""
+
+    enabled: bool = True
+    radius_m: float = number(0.5, lo=0.0, lo_open=True)
+    min_gap_m: float = number(5.0, lo=0.0)
+    max_heading_deg: float = number(60.0, lo=0.0, hi=180.0)
+    probability: float = number(0.3, lo=0.0, hi=1.0)
+    strength: float = number(1.0, lo=0.0, hi=1.0)
+    keyframe_m: float = number(0.5, lo=0.0, lo_open=True)
+
+
+@dataclass(kw_only=True)
+class T265Spec:
+    """The T265 pose model (sim/sensors/t265.py; docs/FACTS.md "T265 tracking camera").
+
+    Per-axis drift, in distance travelled (times the conditions' multiplier): ``drift_fraction``
+    (x and y: a random walk whose size grows by this fraction of the distance, its direction
+    wandering), ``z_drift_fraction`` (z: a rate drawn once, N(0, this^2) metres per metre),
+    ``yaw_drift_deg_per_m`` (yaw: a bias of this size, its sign drawn once), ``tilt_sigma_deg``
+    and ``tilt_correlation_m`` (roll and pitch: bounded, a Gauss-Markov error of this standard
+    deviation and correlation length; gravity keeps them observable). Poses come at
+    ``rate_hz`` with white ``jitter_m`` / ``jitter_deg`` per sample; frame k gets the pose of
+    time t_k - ``latency_s`` (SE(3)-interpolated between samples), or that pose extrapolated
+    to t_k at the last samples' velocity with ``latency_extrapolate``.
+    """
+
+    enabled: bool = True
+    drift_fraction: float = number(0.007, lo=0.0)
+    z_drift_fraction: float = number(0.002, lo=0.0)
+    yaw_drift_deg_per_m: float = number(0.08, lo=0.0)
+    tilt_sigma_deg: float = number(0.3, lo=0.0)
+    tilt_correlation_m: float = number(5.0, lo=0.0, lo_open=True)
+    scale_error: float = number(0.0, lo=-1.0, lo_open=True)  # -0.2 means distances reported 20% short
+    rate_hz: float = number(200.0, lo=1.0, hi=1000.0)
+    latency_s: float = number(0.01, lo=0.0, hi=1.0)
+    latency_extrapolate: bool = False
+    jitter_m: float = number(0.0005, lo=0.0)
+    jitter_deg: float = number(0.02, lo=0.0)
+    conditions: T265ConditionsSpec = field(default_factory=T265ConditionsSpec)
+    relocalise: RelocaliseSpec = field(default_factory=RelocaliseSpec)
+    jumps: JumpSpec = field(default_factory=JumpSpec)
+    dropouts: DropoutSpec = field(default_factory=DropoutSpec)
+
+
+DRIFT_DIRECTION_WANDER_RAD_PER_SQRT_M = 0.2  # direction decorrelates over about 50 m
+JUMP_CONFIDENCE_S = 2.0
 
 
 @dataclass(kw_only=True)
@@ -302,3 +358,16 @@ def relocalised_frames(jump_samples: np.ndarray, last_sample: np.ndarray, droppe
         if not gone:
             before = int(count)
     return out
+
+
+@dataclass(kw_only=True)
+class T265:
+    """The T265 as a trial's pose sensor (:class:`sim.sensors.base.PoseSensor`): its drift
+    scaled along the route by ``conditions`` (the light and texture where it is)."""
+
+    spec: T265Spec
+    noise: bool
+    conditions: TrackingConditions | None = None
+
+    def track(self, motion: TrackerMotion, rng: np.random.Generator) -> PoseTrack:
+        return simulate_t265(motion.poses_at, motion.times_s, self.spec, rng, self.noise, self.conditions)

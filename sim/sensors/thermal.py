@@ -28,8 +28,44 @@ import cv2
 import mujoco
 import numpy as np
 
+from poi.core.loader import number
 from poi.core.types import Intrinsics
-from sim.scenario import ThermalSpec
+from sim.sensors.base import MAX_IMAGE_PX, Shot
+
+
+@dataclass(kw_only=True)
+class ThermalSpec:
+    """The thermal camera (sim/sensors/thermal.py; docs/FACTS.md "Thermal camera"; all
+    **poibench**'s choices). The air: ``ambient_c`` at ``reference_height_m``, warming by
+    ``vertical_gradient_c_per_m`` per metre up and changing by ``horizontal_gradient_c_per_m``
+    per metre along a direction drawn from the seed. Lamp panels at ``lamp_c``; metal reads
+    ``metal_emissivity`` of its own temperature and the rest from what it mirrors. Sensor:
+    NETD ``netd_k`` (per pixel and frame), optical blur ``blur_px``, fixed-pattern noise
+    ``fpn_sigma_k`` drifting by ``fpn_drift_k_per_min`` until the flat-field correction
+    every ``ffc_interval_s``.
+    """
+
+    enabled: bool = True
+    width: int = number(160, lo=1, hi=MAX_IMAGE_PX)
+    height: int = number(120, lo=1, hi=MAX_IMAGE_PX)
+    ambient_c: float = number(20.0, lo=-50.0, hi=60.0)
+    netd_k: float = number(0.08, lo=0.0)
+    blur_px: float = number(0.8, lo=0.0)
+    reference_height_m: float = 0.5
+    vertical_gradient_c_per_m: float = number(1.0, lo=-10.0, hi=10.0)
+    horizontal_gradient_c_per_m: float = number(0.2, lo=-10.0, hi=10.0)
+    lamp_c: float = number(40.0, lo=-50.0, hi=500.0)
+    metal_emissivity: float = number(0.1, lo=0.0, hi=1.0)
+    fpn_sigma_k: float = number(0.2, lo=0.0)
+    fpn_drift_k_per_min: float = number(0.1, lo=0.0)
+    ffc_interval_s: float = number(120.0, lo=0.0, lo_open=True)
+
+    def __post_init__(self) -> None:
+        if self.width < 1 or self.height < 1:
+            raise ValueError(f"thermal size must be at least 1x1, got {self.width}x{self.height}")
+        if self.netd_k < 0 or self.blur_px < 0:
+            raise ValueError("netd_k and blur_px must be >= 0")
+
 
 RAY_OFFSET_M = 1e-3  # start reflected rays this far off the surface so they do not hit it
 
@@ -217,3 +253,27 @@ def thermal_image(
             img = img + fixed_pattern(spec, scene, t_s)
         img = img + rng.standard_normal(img.shape, dtype=np.float32) * np.float32(spec.netd_k)
     return img.astype(np.float32)
+
+
+@dataclass(kw_only=True)
+class ThermalSensor:
+    """The thermal camera as a frame sensor (:class:`sim.sensors.base.FrameSensor`): each geom's
+    own temperature ``temp_of_geom`` (NaN: the air's), the run's ``scene``, and the view of
+    the colour camera's depth (``intrinsics``) for the air along each ray."""
+
+    frame_field = "thermal_c"
+    spec: ThermalSpec
+    noise: bool
+    intrinsics: Intrinsics
+    temp_of_geom: np.ndarray
+    scene: ThermalScene
+
+    def measure(self, shot: Shot, rng: np.random.Generator) -> np.ndarray:
+        geoms = shot.thermal_geoms()
+        if geoms is None:
+            raise RuntimeError("the thermal camera needs the segmentation render's geom ids")
+        h2, w2 = geoms.shape
+        view = ThermalView.from_depth(shot.z_m, self.intrinsics, shot.T_world_optical, w2, h2)
+        return thermal_image(
+            geoms, self.temp_of_geom, self.spec, rng, self.noise, scene=self.scene, view=view, t_s=shot.t_s
+        )

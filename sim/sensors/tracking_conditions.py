@@ -7,7 +7,7 @@ proxies from the scene it built (**poibench**'s model, docs/FACTS.md "T265 track
 camera"):
 
 * light (lux): the lighting preset's level, LIGHT_LEVEL_LUX, for what the robot's own
-  lamp lights (sim/world.py), plus each scene lamp's share at the tracker's position as
+  lamp lights (sim/world/world.py), plus each scene lamp's share at the tracker's position as
   OpenGL's fixed-function model gives it, diffuse * spot / (a0 + a1 d + a2 d^2) with
   spot = cos(angle)^exponent inside the cutoff (a directional lamp: its diffuse), in
   the same units (level / LAMP_WHITE_LEVEL * lux). Walls do not shadow the lamps.
@@ -20,11 +20,32 @@ camera"):
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
 
-from sim.scenario import T265ConditionsSpec
-from sim.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX
+from poi.core.loader import number
+from sim.world.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX
+
+
+@dataclass(kw_only=True)
+class T265ConditionsSpec:
+    """How the scene's light and texture where the robot is scale the T265's drift
+    (sim/sensors/tracking_conditions.py; **poibench**'s model, docs/FACTS.md "T265 tracking camera").
+
+    The drift rate (and the false-jump rate) is multiplied by
+    1 + dim_gain * clip(1 - lux / good_lux, 0, 1) + bare_gain * clip(1 - contrast / good_contrast, 0, 1)
+    with ``lux`` the light the robot's lamp and the scene's lamps give where it is and
+    ``contrast`` the RMS contrast of the wall and floor textures around it.
+    """
+
+    good_lux: float = number(500.0, lo=0.0, lo_open=True)
+    dim_gain: float = number(2.0, lo=0.0)
+    good_contrast: float = number(0.12, lo=0.0, lo_open=True)
+    bare_gain: float = number(2.0, lo=0.0)
+    radius_m: float = number(1.5, lo=0.0, lo_open=True)  # walls this near the robot count
+
 
 NEAR_M2 = 0.25  # texture weights 1 / (NEAR_M2 + d^2): surfaces within about 0.5 m count fully
 RGB_ROLE = int(mujoco.mjtTextureRole.mjTEXROLE_RGB)

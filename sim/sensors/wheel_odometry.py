@@ -39,11 +39,51 @@ Full entries in docs/SOURCES.md.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from poi.core.geometry import make_transform, planar_pose, rot_z, wrap_angle
-from sim.scenario import WheelOdometrySpec
-from sim.sensors.t265 import PoseTrack
+from sim.sensors.base import PoseTrack, TrackerMotion
+
+
+@dataclass(kw_only=True)
+class WheelOdometrySpec:
+    """Differential-drive wheel odometry (sim/sensors/wheel_odometry.py). Defaults: a
+    TurtleBot 2 (Kobuki base, 0.23 m between the wheels) on a hard floor.
+
+    Systematic errors (fixed for a run): ``wheel_radius_error`` (the radius the odometry
+    assumes over the true one, minus 1: +0.05 reports every distance and turn 5% long),
+    ``wheel_radius_mismatch`` (true right minus left wheel radius over their mean: a
+    straight run curves), ``wheel_base_error`` (the wheel base the odometry assumes over
+    the true one, minus 1: +0.02 reports turns 2% short). Random slip, a random walk in
+    distance travelled: ``slip_m_per_sqrt_m`` (distance error sigma after 1 m driven),
+    ``slip_rad_per_sqrt_rad`` (heading error sigma after 1 rad turned),
+    ``slip_rad_per_sqrt_m`` (heading error sigma after 1 m driven).
+    """
+
+    wheel_base_m: float = 0.23
+    wheel_radius_error: float = 0.01  # worn or soft tyres: about 1%
+    wheel_radius_mismatch: float = 0.002  # UMBmark-size diameter ratio error: about 0.5 deg per metre
+    wheel_base_error: float = 0.01  # the contact patches' spread: about 1%, 3.6 deg per full turn
+    slip_m_per_sqrt_m: float = 0.01
+    slip_rad_per_sqrt_rad: float = 0.02  # about 2.9 deg after a full turn in place
+    slip_rad_per_sqrt_m: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.wheel_base_m <= 0:
+            raise ValueError(f"wheel_base_m: expected a positive number, got {self.wheel_base_m}")
+        for name in ("wheel_radius_error", "wheel_base_error"):
+            if getattr(self, name) <= -1.0:
+                raise ValueError(f"{name}: expected a relative error > -1, got {getattr(self, name)}")
+        if not abs(self.wheel_radius_mismatch) < 2.0:
+            raise ValueError(
+                f"wheel_radius_mismatch: expected a number in (-2, 2), got {self.wheel_radius_mismatch}"
+            )
+        for name in ("slip_m_per_sqrt_m", "slip_rad_per_sqrt_rad", "slip_rad_per_sqrt_m"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name}: expected a number >= 0, got {getattr(self, name)}")
+
 
 MIN_TRANS_M = 1e-9  # below this a step is a turn in place (its direction is undefined)
 
@@ -121,3 +161,14 @@ def simulate_wheel_odometry(
         poses.append(make_transform(rot_z(th - th_true) @ Tt[:3, :3], p))
         err[k] = float(np.linalg.norm(p - Tt[:3, 3]))
     return PoseTrack(poses=poses, confidence=["high"] * n, error_m=err, relocalised=[False] * n)
+
+
+@dataclass(kw_only=True)
+class WheelOdometry:
+    """The base's wheel odometry as a trial's pose sensor (:class:`sim.sensors.base.PoseSensor`)."""
+
+    spec: WheelOdometrySpec
+    noise: bool
+
+    def track(self, motion: TrackerMotion, rng: np.random.Generator) -> PoseTrack:
+        return simulate_wheel_odometry(motion.poses, motion.times_s, self.spec, rng, self.noise)

@@ -16,7 +16,7 @@ from maze_assets.surfaces import (
     draw_hall_wall,
     draw_wall,
 )
-from sim.maze import find_maze, load_maze
+from sim.world.maze import find_maze, load_maze
 
 
 @pytest.mark.parametrize("kind", WALL_KINDS)

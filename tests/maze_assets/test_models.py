@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from sim.placement import SIZE_AT_RRL_M
+from sim.world.placement import SIZE_AT_RRL_M
 
 # isort: off
 import sim.gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)

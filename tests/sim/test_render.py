@@ -11,7 +11,7 @@ import pytest
 from sim.render import SceneRenderer
 from sim.scenario import apply_settings, load_scenario
 from sim.simulator import Simulation
-from sim.world import CAMERA_NAME
+from sim.world.world import CAMERA_NAME
 
 pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
 
@@ -142,7 +142,7 @@ def test_round_geoms_keep_their_silhouette_within_the_tessellation_bound():
     """sim.world's coarser tessellation of round geoms (issue 18: a capsule costs a fifth of the
     render CPU) moves a silhouette r pixels in radius by at most r (1 - cos(pi / slices)), the
     gap between a circle and its inscribed polygon, plus a pixel of rasterisation."""
-    from sim.world import CURVE_SLICES, CURVE_STACKS
+    from sim.world.world import CURVE_SLICES, CURVE_STACKS
 
     fine, coarse = _silhouette((28, 16)), _silhouette((CURVE_SLICES, CURVE_STACKS))
     # the cap: radius 0.29 m at 1 m, focal length 120 px / tan(30 deg): 60.3 px
@@ -166,7 +166,7 @@ def _oblique_code(anisotropic: bool, angle_deg: float = 65.0, dist_m: float = 1.
     import cv2
 
     from sim.camera import d435_intrinsics
-    from sim.world import LAMP_WHITE_LEVEL
+    from sim.world.world import LAMP_WHITE_LEVEL
 
     spec = importlib.util.spec_from_file_location("bench_qr", Path(__file__).parents[2] / "bench" / "bench_qr.py")
     bench = importlib.util.module_from_spec(spec)
@@ -212,3 +212,23 @@ def test_anisotropic_filtering_fails_soft_without_the_extension(monkeypatch):
         flat, most = _oblique_code(True)
     assert most == 1.0
     assert np.array_equal(flat, _oblique_code(False)[0])
+
+
+def test_a_gl_context_that_cannot_be_made_is_rendering_unavailable(monkeypatch):
+    """EGL present but no device for it (MuJoCo raises RuntimeError): one line naming what to install."""
+    import mujoco
+
+    from sim.gl import RenderingUnavailableError
+
+    def no_display(*args, **kwargs):
+        raise RuntimeError(
+            "Cannot initialize a EGL device display. This likely means that your EGL driver\ndoes not"
+        )
+
+    monkeypatch.setattr(mujoco, "GLContext", no_display)
+    m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><camera name="c"/></worldbody></mujoco>')
+    with pytest.raises(
+        RenderingUnavailableError, match=r"\(RuntimeError: Cannot initialize a EGL device display"
+    ) as e:
+        SceneRenderer(m, 64, 48, "c")
+    assert "\n" not in str(e.value) and "apt-get install libosmesa6" in str(e.value)

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from poi.core.names import RESCUE_TYPES
-from sim.maze import find_maze, load_maze
-from sim.placement import PlacementError, place_objects
 from sim.scenario import ScenarioError, apply_settings, load_scenario, parse_scenario
+from sim.world.maze import find_maze, load_maze
+from sim.world.placement import PlacementError, place_objects
 
 
 def test_shipped_default_scenario_loads():
@@ -51,7 +51,7 @@ def test_apply_settings_validates():
 def test_generated_placement_has_every_type_and_keeps_spacing():
     sc = load_scenario("default")
     maze = load_maze(find_maze("default"))
-    objs = place_objects(sc, maze, np.random.default_rng(3))
+    objs = place_objects(sc.objects, maze, np.random.default_rng(3))
     assert {o.type for o in objs} == set(RESCUE_TYPES)
     assert sum(o.type == "hazmat" for o in objs) >= 2 and sum(o.type == "qr" for o in objs) >= 2
     pos = np.array([o.position for o in objs])
@@ -61,9 +61,9 @@ def test_generated_placement_has_every_type_and_keeps_spacing():
         if o.mount == "wall":
             assert 0.2 <= o.position[2] <= 1.5
     # different seeds, different placements; same seed, same placement
-    again = place_objects(sc, maze, np.random.default_rng(3))
+    again = place_objects(sc.objects, maze, np.random.default_rng(3))
     assert [tuple(o.position) for o in again] == [tuple(o.position) for o in objs]
-    other = place_objects(sc, maze, np.random.default_rng(4))
+    other = place_objects(sc.objects, maze, np.random.default_rng(4))
     assert [tuple(o.position) for o in other] != [tuple(o.position) for o in objs]
 
 
@@ -73,7 +73,7 @@ def test_explicit_placement_on_a_wall_face():
         "    - {type: hazmat, text: oxidizer, at: {cell: [0, 0], side: n, height_m: 1.0}}\n"
     )
     maze = load_maze(find_maze("rrl_small"))
-    (o,) = place_objects(sc, maze, np.random.default_rng(0))
+    (o,) = place_objects(sc.objects, maze, np.random.default_rng(0))
     cx, cy = maze.cell_center(0, 0)
     half = maze.settings.cell_size_m / 2 - maze.settings.wall_thickness_m / 2
     assert np.allclose(o.position, [cx, cy + half, 1.0])
@@ -83,4 +83,4 @@ def test_explicit_placement_on_a_wall_face():
 def test_too_many_objects_is_a_clear_error():
     sc = parse_scenario("maze: {file: rrl_small}\nobjects:\n  generate: {counts: {hazmat: 60}}\n")
     with pytest.raises(PlacementError, match="too small"):
-        place_objects(sc, load_maze(find_maze("rrl_small")), np.random.default_rng(0))
+        place_objects(sc.objects, load_maze(find_maze("rrl_small")), np.random.default_rng(0))

@@ -5,14 +5,14 @@ import pytest
 
 from poi.core.depth_units import to_z16
 from poi.core.sensor_noise import depth_sigma_m
-from sim.scenario import DepthSpec, ThermalSpec
 from sim.sensors.d435_depth import (
+    DepthSpec,
     disparity_noise,
     edge_shadow_mask,
     simulate_depth,
 )
 from sim.sensors.noise_pool import NoisePool, two_sided_threshold
-from sim.sensors.thermal import thermal_image
+from sim.sensors.thermal import ThermalSpec, thermal_image
 
 
 @pytest.mark.parametrize("z", [1.0, 2.0, 4.0])

@@ -248,3 +248,23 @@ def test_map_walls_leave_the_door_opening_and_nothing_else(clean_default):
         return float(np.linalg.norm(p - (a + t * (b - a))))
 
     assert min(dist(door.position_map, a, b) for a, b in walls) == pytest.approx(width / 2, abs=0.06)
+
+
+@pytest.mark.parametrize(
+    ("settings", "fields"),
+    [
+        ([], ["rgb", "depth_m", "thermal_c"]),
+        (["sensors.d435.enabled=false"], ["rgb", "thermal_c"]),
+        (["sensors.thermal.enabled=false"], ["rgb", "depth_m"]),
+    ],
+)
+def test_the_frame_sensors_are_a_list_in_drawing_order_of_those_switched_on(settings, fields):
+    """Colour, then depth, then thermal draw from a frame's generator (sim/sensors/base.py);
+    a sensor switched off is not in the list and its Frame field stays None."""
+    sc = apply_settings(load_scenario("default"), ["robot.max_duration_s=1", *settings])
+    with Simulation(sc) as sim:
+        assert [s.frame_field for s in sim.sensors] == fields and sim.sensors[0] is sim.colour
+        frame, _ = sim.frame(0)
+    for name in ("depth_m", "thermal_c"):
+        assert (getattr(frame, name) is not None) == (name in fields)
+    assert (frame.thermal_intrinsics is not None) == ("thermal_c" in fields)

@@ -18,3 +18,39 @@ def test_ctrl_c_is_one_line(when, monkeypatch, capsys):
         expected = "poibench score: interrupted"
     assert cli.main(["score", "r.csv", "--truth", "t.csv"]) == 130
     assert capsys.readouterr().err == expected + "\n"
+
+
+class _NoEGL:
+    """mujoco.GLContext where Mesa's EGL is missing: MuJoCo's placeholder raises ImportError."""
+
+    def __init__(self, *args, **kwargs):
+        raise ImportError(
+            "Failed to import OpenGL backend (MUJOCO_GL='egl'): libEGL.so.1: cannot open shared object file"
+        )
+
+
+@pytest.mark.slow  # builds a simulation (its first render is where the GL context fails)
+def test_missing_gl_backend_is_one_line_that_says_what_to_install(monkeypatch, capsys, tmp_path):
+    import mujoco
+
+    monkeypatch.setattr(mujoco, "GLContext", _NoEGL)
+    argv = [
+        "run",
+        "--max-frames",
+        "1",
+        "--no-video",
+        "--quiet",
+        "--detector",
+        "oracle",
+        "--out",
+        str(tmp_path / "t"),
+    ]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith("poibench run: error: headless rendering failed with MUJOCO_GL="), err
+    assert "(ImportError: Failed to import OpenGL backend (MUJOCO_GL='egl'): libEGL.so.1" in err
+    assert (
+        "install Mesa's EGL (apt-get install libegl1 libgl1-mesa-dri) or OSMesa (apt-get install libosmesa6)"
+        in err
+    )

@@ -289,7 +289,7 @@ def test_the_randomised_camera_blurs_a_share_of_the_images_and_defocuses_at_most
     import numpy as np
 
     from eval.detector.dataset import CameraRandomisation
-    from sim.scenario import ColourSpec
+    from sim.sensors.d435_color import ColourSpec
 
     rng = np.random.default_rng(0)
     cam = CameraRandomisation()

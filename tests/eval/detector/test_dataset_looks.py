@@ -21,7 +21,7 @@ from eval.detector.dataset import (
 from maze_assets.hazmat import draw_hazmat, placard_style, reprint
 from maze_assets.surfaces import DATASET_FLOOR_KINDS, draw_dataset_floor
 from sim.simulator import Simulation
-from sim.world import SceneLooks, build_world_xml
+from sim.world.world import SceneLooks, build_world_xml
 
 
 def _stats(rgb: np.ndarray) -> np.ndarray:

@@ -10,8 +10,8 @@ import pytest
 
 from eval.trial.sensor_settings import mount_prior_settings, odometry_latency_settings, odometry_prior_settings
 from poi.config import apply_overrides, load_config
-from sim.scenario import RelocaliseSpec, Scenario, T265Spec, apply_settings
-from sim.sensors.t265 import simulate_t265
+from sim.scenario import Scenario, apply_settings
+from sim.sensors.t265 import RelocaliseSpec, T265Spec, simulate_t265
 
 # the simulated T265 with every error off (drift, jitter, latency, tilt, scale, relocalisation):
 # each test turns on the one it measures

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from poi.core.geometry import make_transform, rot_y
-from sim.scenario import ColourSpec
+from sim.sensors.base import Exposure
 from sim.sensors.d435_color import (
     ColourCamera,
-    Exposure,
+    ColourSpec,
     image_motion_px,
     lagged_exposure,
     meter,

@@ -7,8 +7,8 @@ import pytest
 
 from poi.core.depth_units import from_z16, to_z16
 from poi.core.sensor_noise import depth_sigma_m
-from sim.scenario import DepthSpec, Scenario, ScenarioError, apply_settings
-from sim.sensors.d435_depth import DepthTrial, edge_shadow_mask, shift_image, simulate_depth
+from sim.scenario import Scenario, ScenarioError, apply_settings
+from sim.sensors.d435_depth import DepthSpec, DepthTrial, edge_shadow_mask, shift_image, simulate_depth
 from sim.sensors.noise_pool import NoisePool
 
 FX_COLOUR = 612.4

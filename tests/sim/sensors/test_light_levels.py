@@ -9,7 +9,7 @@ import pytest
 from poi.core.geometry import make_transform, rot_z
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
-from sim.world import lux_of_decoded_one
+from sim.world.world import lux_of_decoded_one
 
 
 def test_lux_of_a_decoded_one_undoes_the_renders_own_shading():

@@ -7,9 +7,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from poi.core.geometry import make_transform, rot_z
-from sim.scenario import RelocaliseSpec, Scenario, ScenarioError, T265ConditionsSpec, T265Spec, apply_settings
-from sim.sensors.t265 import TrackingConditions, pose_interpolator, simulate_t265
-from sim.sensors.tracking_conditions import drift_multiplier
+from sim.scenario import Scenario, ScenarioError, apply_settings
+from sim.sensors.t265 import RelocaliseSpec, T265Spec, TrackingConditions, pose_interpolator, simulate_t265
+from sim.sensors.tracking_conditions import T265ConditionsSpec, drift_multiplier
 
 # every effect off: the reported pose is the truth sampled at rate_hz and interpolated
 CLEAN = T265Spec(

@@ -8,8 +8,7 @@ import pytest
 
 from poi.core.geometry import make_transform
 from poi.core.types import Intrinsics
-from sim.scenario import ThermalSpec
-from sim.sensors.thermal import ThermalScene, ThermalView, make_thermal_scene, thermal_image
+from sim.sensors.thermal import ThermalScene, ThermalSpec, ThermalView, make_thermal_scene, thermal_image
 
 QUIET = ThermalSpec(width=40, height=30, netd_k=0.0, blur_px=0.0, fpn_sigma_k=0.0, fpn_drift_k_per_min=0.0)
 

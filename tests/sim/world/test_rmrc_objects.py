@@ -1,6 +1,6 @@
 """The RMRC labyrinth's objects (maze_assets/scenarios/rmrc.yaml): mapping fiducials placed in
 pairs facing each other across a corridor cell, and A4 QR sheets with codes of 5, 3 and 2 mm
-modules (sim/placement.py), their geometry (maze_assets/models.py) and the scenario's checks."""
+modules (sim/world/placement.py), their geometry (maze_assets/models.py) and the scenario's checks."""
 
 from __future__ import annotations
 
@@ -16,15 +16,15 @@ from maze_assets.models import (
 )
 from maze_assets.objects import fiducial_diameter_m
 from maze_assets.qr import draw_qr
-from sim.maze import find_maze, load_maze
-from sim.placement import A4_M, PlacementError, place_objects
 from sim.scenario import ScenarioError, apply_settings, load_scenario
+from sim.world.maze import find_maze, load_maze
+from sim.world.placement import A4_M, PlacementError, place_objects
 
 
 @pytest.fixture(scope="module")
 def rmrc_objects():
     sc = load_scenario("rmrc")
-    return sc, place_objects(sc, load_maze(find_maze(sc.maze.file)), np.random.default_rng(sc.seed))
+    return sc, place_objects(sc.objects, load_maze(find_maze(sc.maze.file)), np.random.default_rng(sc.seed))
 
 
 def test_six_fiducials_in_three_facing_pairs(rmrc_objects) -> None:
@@ -41,7 +41,7 @@ def test_six_fiducials_in_three_facing_pairs(rmrc_objects) -> None:
         assert b.position[:2] - a.position[:2] == pytest.approx(n * clear, abs=1e-9)
         assert a.position[2] == b.position[2] == FIDUCIAL_LENGTH_M / 2  # standing on the floor
     # the same seed, the same arena
-    again = place_objects(sc, load_maze(find_maze(sc.maze.file)), np.random.default_rng(sc.seed))
+    again = place_objects(sc.objects, load_maze(find_maze(sc.maze.file)), np.random.default_rng(sc.seed))
     assert [(o.type, o.text, tuple(o.position)) for o in again] == [
         (o.type, o.text, tuple(o.position)) for o in objs
     ]
@@ -95,7 +95,7 @@ def test_bad_fiducial_and_sheet_settings_are_refused() -> None:
         apply_settings(sc, ["objects.generate.qr_sheets.module_mm=[5, 0.1]"])
     small = apply_settings(sc, ["maze.file=rmrc_lanes"])
     with pytest.raises(PlacementError, match="counts.fiducial: a pair of fiducials"):
-        place_objects(small, load_maze(find_maze("rmrc_lanes")), np.random.default_rng(0))
+        place_objects(small.objects, load_maze(find_maze("rmrc_lanes")), np.random.default_rng(0))
 
 
 def test_the_world_draws_each_page_once_and_no_object_owns_it(rmrc_objects) -> None:
@@ -104,7 +104,7 @@ def test_the_world_draws_each_page_once_and_no_object_owns_it(rmrc_objects) -> N
     import mujoco
 
     from poi.core.types import Intrinsics
-    from sim.world import build_world
+    from sim.world.world import build_world
 
     sc, objs = rmrc_objects
     intr = Intrinsics(width=64, height=48, fx=60.0, fy=60.0, ppx=32.0, ppy=24.0)

@@ -9,7 +9,7 @@ height H the route has 2 (n - 1) - H steps (every tree edge walked twice,
 except those on the final branch). No randomness: ties go in the order north,
 east, south, west.
 
->>> from sim.maze import parse_maze
+>>> from sim.world.maze import parse_maze
 >>> m = parse_maze('''
 ... +---+---+---+
 ... |           |
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections import deque
 
-from sim.maze import Maze
+from sim.world.maze import Maze
 
 
 def plan_tour(maze: Maze, start_cell: tuple[int, int] | None = None) -> list[tuple[int, int]]:

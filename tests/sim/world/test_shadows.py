@@ -8,7 +8,7 @@ import pytest
 
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
-from sim.world import SHADOW_MAP_PX
+from sim.world.world import SHADOW_MAP_PX
 
 pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
 

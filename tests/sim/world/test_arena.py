@@ -18,14 +18,16 @@ import numpy as np
 import pytest
 
 from maze_assets.models import BALL_DIAMETER_M, PILLAR_DIAMETER_M, PILLAR_HEIGHT_M
-from sim.arena import (
+from sim.motion.arena_route import arena_route
+from sim.motion.route import RobotSpec
+from sim.scenario import ScenarioError, load_scenario, parse_scenario
+from sim.world.arena import (
     ROBOT_RADIUS_M,
     START_HEADING_JITTER_DEG,
     ArenaError,
+    ArenaGenerate,
     generate_arena,
 )
-from sim.arena_route import arena_route
-from sim.scenario import ArenaGenerate, RobotSpec, ScenarioError, load_scenario, parse_scenario
 
 SEEDS = range(120)  # about 2 ms each; covers 0, 1 and 2 obstacles and 2-4 pillars many times
 TASK2 = ArenaGenerate(ball_axis_offset_m=0.15, ball_goal_distance_m=(0.5, 1.5), obstacles=(0, 0))

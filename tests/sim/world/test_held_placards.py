@@ -22,9 +22,9 @@ from maze_assets.models import (
 )
 from maze_assets.objects import PlacedObject
 from poi.core.geometry import make_transform, rot_y, rot_z
-from sim.placement import PlacementError, hang_placard_boards, lay_placards_on_ramps, put_placards_in_crates
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
+from sim.world.placement import PlacementError, hang_placard_boards, lay_placards_on_ramps, put_placards_in_crates
 
 pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
 

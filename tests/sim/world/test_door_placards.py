@@ -9,9 +9,9 @@ import pytest
 
 from maze_assets.models import DOOR_PANELS, door_height_m
 from poi.core.geometry import make_transform, rot_y, rot_z
-from sim.placement import PlacementError, hang_placards_on_doors
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
+from sim.world.placement import PlacementError, hang_placards_on_doors
 
 pytestmark = pytest.mark.slow  # every test here builds a simulation, renders or runs the CLI
 

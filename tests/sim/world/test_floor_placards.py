@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from maze_assets.models import BACKING_M
-from sim.placement import FLOOR_PLACARD_OUT_M, PlacementError, lay_placards_on_floor
 from sim.scenario import apply_settings, load_scenario, with_noise
 from sim.simulator import Simulation
+from sim.world.placement import FLOOR_PLACARD_OUT_M, PlacementError, lay_placards_on_floor
 
 
 def _scenario(share: float):

@@ -1,9 +1,9 @@
 """The robot's motion: a timed, piecewise-linear path of base poses plus the camera pan.
 
-A tour (``sim.tour.plan_tour``) visits every cell; the robot turns in place at
+A tour (``sim.motion.tour.plan_tour``) visits every cell; the robot turns in place at
 each cell centre toward the next one at ``yaw_rate_dps`` and drives straight at
 ``speed_mps``. The mast robot's camera pans as ``robot.pan`` says
-(``sim.scenario.PanSpec``; docs/FACTS.md "How a rescue robot searches"): by
+(:class:`PanSpec`; docs/FACTS.md "How a rescue robot searches"): by
 default in steps, as a pan-tilt unit scans ([HectorCameraControl]_): at each cell
 it enters for the first time the base stops, the camera slews through the step
 angles, dwelling at each, and back to 0, and the robot drives on looking ahead;
@@ -22,13 +22,88 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
 from poi.core.geometry import make_transform, rot_y, rot_z
-from sim.scenario import RobotSpec
+from poi.core.loader import number
+
+
+@dataclass(kw_only=True)
+class PanSpec:
+    """How the mast robot's camera pans (docs/FACTS.md "How a rescue robot searches").
+
+    ``mode: steps`` (the default) scans as a pan-tilt unit does: at each cell the tour enters
+    for the first time the base stops, the camera slews at ``rate_dps`` through the pan angles
+    ``steps_deg`` (degrees from the base's heading, positive left) in the order given, dwells
+    ``dwell_s`` at each, slews back to 0 and the robot drives on looking ahead. Team Hector's
+    sensor head scans in steps of 40 degrees out to 80 with a 1 s dwell ([HectorCameraControl]_);
+    the defaults, -90 to 90 in 45-degree steps, put each side wall face on in the simulated D435's
+    55-degree view with 10 degrees of overlap, and 0.5 s holds the camera still for five frames
+    at 10 fps. 120 deg/s is within what a Dynamixel MX-28 (330 deg/s unloaded, [RobotisMX28]_)
+    or a PTU-D46 ([PTU-D46]_) turns.
+
+    At a step that faces a wall of the cell (0.6 m away in an RRL cell, where the D435's
+    42-degree vertical view spans only 0.27-0.73 m of it from a 0.5 m mast) the head also dwells
+    at each tilt of ``wall_tilts_deg`` (up positive) before levelling: at -25 and +25 degrees it
+    sees the wall from its foot to 1.1 m, as a sensor head looks down and up a wall within reach.
+
+    ``mode: sweep`` pans continuously, ``pan(t) = amplitude_deg sin(2 pi t / period_s)``, while the
+    robot drives and turns without stopping (the default before issue 57).
+
+    References
+    ----------
+    Full entries in docs/SOURCES.md.
+
+    .. [HectorCameraControl] Team Hector Darmstadt, hector_camera_control (ROS), sensor head
+       "look_around" patterns.
+    .. [RobotisMX28] ROBOTIS, DYNAMIXEL MX-28 e-Manual, specifications.
+    .. [PTU-D46] Directed Perception, PTU-D46 pan-tilt unit user's manual, v2.14.0, 2006.
+    """
+
+    mode: Literal["sweep", "steps"] = "steps"
+    steps_deg: tuple[float, ...] = number((-90.0, -45.0, 0.0, 45.0, 90.0), lo=-180.0, hi=180.0)
+    dwell_s: float = number(0.5, lo=0.0, hi=60.0)
+    wall_tilts_deg: tuple[float, ...] = number((-25.0, 25.0), lo=-60.0, hi=60.0)
+    rate_dps: float = number(120.0, lo=0.0, hi=1000.0, lo_open=True)
+    amplitude_deg: float = number(80.0, lo=-180.0, hi=180.0)
+    period_s: float = number(5.0, lo=0.0, lo_open=True)
+
+    def __post_init__(self) -> None:
+        if self.mode == "steps" and not self.steps_deg:
+            raise ValueError("steps_deg: mode 'steps' needs at least one pan angle, e.g. [-90, -45, 0, 45, 90]")
+
+
+TURTLEBOT_CAMERA_HEIGHT_M = 0.30  # the D435 on a TurtleBot's top plate
+
+
+@dataclass(kw_only=True)
+class RobotSpec:
+    """The robot base and its camera (kinematic: it follows the route exactly).
+
+    ``kind``: ``mast``, the rescue robot whose camera pans on a mast (``pan``); or
+    ``turtlebot``, a differential-drive base with the camera fixed on its top plate,
+    looking forward (``pan`` does not apply; ``mast_height_m`` is the camera's height,
+    default ``TURTLEBOT_CAMERA_HEIGHT_M``). ``route``: ``tour`` (visit every maze
+    cell), ``arena`` (the goal arena's look-around and approach, sim/motion/arena_route.py) or
+    a CSV file of timed poses ``t,x,y,yaw[,pan]``.
+    """
+
+    kind: Literal["mast", "turtlebot"] = "mast"
+    route: str = "tour"
+    speed_mps: float = 0.3
+    yaw_rate_dps: float = 60.0
+    mast_height_m: float | None = None  # default: 0.5 m for RRL cells, 0.2 m for RMRC; turtlebot 0.3 m
+    tilt_deg: float = 0.0  # positive looks up
+    pan: PanSpec = field(default_factory=PanSpec)
+    max_duration_s: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.speed_mps <= 0 or self.yaw_rate_dps <= 0:
+            raise ValueError("speed_mps and yaw_rate_dps must be positive")
 
 
 class RouteError(ValueError):

@@ -1,5 +1,5 @@
 """Landolt-C targets in the maze (docs/RULES.md "Landolt-C"): placed on walls, on boards and in a
-sensor cabinet with seeded gap directions (sim/placement.py), drawn with their holders
+sensor cabinet with seeded gap directions (sim/world/placement.py), drawn with their holders
 (maze_assets/models.py), and the scenario's checks."""
 
 from __future__ import annotations
@@ -10,16 +10,16 @@ import pytest
 from maze_assets.landolt import card_side_mm
 from maze_assets.models import LANDOLT_BOARD_M, LANDOLT_CABINET_M
 from poi.core.landolt import DEFAULT_N_RINGS, LandoltSpec, parse_orientation_text
-from sim.maze import find_maze, load_maze
-from sim.placement import place_objects
 from sim.scenario import ScenarioError, apply_settings, load_scenario
+from sim.world.maze import find_maze, load_maze
+from sim.world.placement import place_objects
 
 
 @pytest.fixture(scope="module")
 def rmrc():
     sc = load_scenario("rmrc")
     maze = load_maze(find_maze(sc.maze.file))
-    return sc, maze, place_objects(sc, maze, np.random.default_rng(sc.seed))
+    return sc, maze, place_objects(sc.objects, maze, np.random.default_rng(sc.seed))
 
 
 def test_targets_sit_in_a_cabinet_on_boards_and_on_walls(rmrc) -> None:
@@ -44,16 +44,16 @@ def test_targets_sit_in_a_cabinet_on_boards_and_on_walls(rmrc) -> None:
         want = {"board": LANDOLT_BOARD_M[2], "cabinet": LANDOLT_CABINET_M[3], None: 0.0}[o.holder]
         assert out == pytest.approx(want, abs=1e-9)
     # the targets' directions come from the seed: the same seed, the same texts; another, others
-    again = place_objects(sc, maze, np.random.default_rng(sc.seed))
+    again = place_objects(sc.objects, maze, np.random.default_rng(sc.seed))
     assert [o.text for o in again if o.type == "landolt-c"] == [o.text for o in targets]
-    other = place_objects(sc, maze, np.random.default_rng(sc.seed + 1))
+    other = place_objects(sc.objects, maze, np.random.default_rng(sc.seed + 1))
     assert [o.text for o in other if o.type == "landolt-c"] != [o.text for o in targets]
 
 
 def test_adding_targets_leaves_the_other_objects_where_they_were(rmrc) -> None:
     sc, maze, objs = rmrc
     without = apply_settings(sc, ["objects.generate.counts.landolt-c=0", "objects.generate.landolt=null"])
-    before = place_objects(without, maze, np.random.default_rng(sc.seed))
+    before = place_objects(without.objects, maze, np.random.default_rng(sc.seed))
     assert [(o.type, o.text, tuple(o.position)) for o in before] == [
         (o.type, o.text, tuple(o.position)) for o in objs if o.type != "landolt-c"
     ]

@@ -5,10 +5,10 @@ goal) at least 700 mm apart. The ball lies at most c off the goal's axis and a t
 before the goal line; the robot starts d to e from the ball's centre; any number of
 pillars of other colours may stand behind the goal; task 3 adds up to two obstacles
 before the line, always leaving a path at least 600 mm wide from the ball to the goal.
-:class:`sim.scenario.ArenaGenerate` holds the figures (task 3's by default).
+:class:`ArenaGenerate` (below) holds the figures (task 3's by default).
 
 Layout, world frame (z up, metres): an open floor ``[0, W] x [0, H]`` inside low
-boundary walls (a :class:`sim.maze.Maze` of ``ARENA_CELL_M`` cells with no inner
+boundary walls (a :class:`sim.world.maze.Maze` of ``ARENA_CELL_M`` cells with no inner
 walls, so the scene builder, the map and the lights treat it like any maze). The goal
 line is ``x = x_g = W - behind_goal_m``; the goal's axis is ``y = y_c`` and the goal
 pillars stand at ``(x_g, y_c -+ w / 2)``.
@@ -53,9 +53,72 @@ import numpy as np
 
 from maze_assets.models import BALL_DIAMETER_M, PILLAR_DIAMETER_M, PILLAR_HEIGHT_M
 from maze_assets.objects import PlacedObject
-from sim.arena_path import FloorPlan, plan_path, point_box_distance, segment_box_distance
-from sim.maze import Maze, MazeSettings
-from sim.scenario import ARENA_CELL_M, ArenaGenerate
+from sim.world.arena_path import FloorPlan, plan_path, point_box_distance, segment_box_distance
+from sim.world.maze import Maze, MazeSettings
+
+ARENA_CELL_M = 0.5  # the arena's floor is a grid of these cells (its walls are pieces this long)
+
+
+def _range(name: str, lo: float, hi: float, *, positive: bool = False) -> None:
+    if not lo <= hi or lo < 0 or (positive and lo <= 0):
+        bound = "0 < low" if positive else "0 <= low"
+        raise ValueError(f"{name}: expected [low, high] with {bound} <= high, got [{lo}, {hi}]")
+
+
+@dataclass(kw_only=True)
+class ArenaGenerate:
+    """The TurtleBot goal arena ([Bouda2025]_ section 1, tasks 2 and 3), laid out from the seed.
+
+    An open floor ``size_m`` (x by y) inside low boundary walls; the goal, two blue
+    pillars ``goal_width_m`` apart, ``behind_goal_m`` before the +x wall with its axis
+    along x; the ball within ``ball_axis_offset_m`` (c) of the axis and
+    ``ball_goal_distance_m`` (a..b) before the goal line; ``obstacles`` cubes of side
+    ``obstacle_size_m`` between the ball and the goal line that always leave a corridor
+    ``min_path_width_m`` wide from the ball to the goal; ``other_pillars`` red or green
+    pillars behind the goal, every two pillars at least ``min_pillar_spacing_m`` apart;
+    the robot starting ``robot_ball_distance_m`` (d..e) from the ball, facing roughly
+    towards it. Defaults are task 3's figures; task 2's are ``ball_axis_offset_m: 0.15``,
+    ``ball_goal_distance_m: [0.5, 1.5]``, ``obstacles: [0, 0]``. Counts and ranges are
+    drawn uniformly.
+    """
+
+    size_m: tuple[float, float] = (6.0, 5.0)
+    boundary_wall_height_m: float = 0.15  # below the camera (0.3 m) and the pillars: never hides one
+    goal_width_m: tuple[float, float] = (0.7, 1.0)  # between the blue pillars' centres; "at least 700 mm"
+    ball_axis_offset_m: float = 0.3  # c
+    ball_goal_distance_m: tuple[float, float] = (0.5, 2.0)  # a..b
+    obstacles: tuple[int, int] = (0, 2)  # "up to two obstacles before the line"
+    obstacle_size_m: float = 0.3
+    min_path_width_m: float = 0.6  # "a path at least 600 mm wide from the ball to the goal"
+    other_pillars: tuple[int, int] = (2, 4)  # "any number of pillars behind the goal"
+    min_pillar_spacing_m: float = 0.3
+    robot_ball_distance_m: tuple[float, float] = (0.7, 2.5)  # d..e
+    behind_goal_m: float = 1.5  # floor between the goal line and the +x wall
+
+    def __post_init__(self) -> None:
+        for i, v in enumerate(self.size_m):
+            if v <= 0 or abs(v / ARENA_CELL_M - round(v / ARENA_CELL_M)) > 1e-9:
+                raise ValueError(f"size_m[{i}]: expected a positive multiple of {ARENA_CELL_M} m, got {v}")
+        for name in ("boundary_wall_height_m", "obstacle_size_m", "min_path_width_m", "behind_goal_m"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)}")
+        if self.ball_axis_offset_m < 0 or self.min_pillar_spacing_m < 0:
+            raise ValueError("ball_axis_offset_m and min_pillar_spacing_m: expected numbers >= 0")
+        _range("goal_width_m", *self.goal_width_m, positive=True)
+        _range("ball_goal_distance_m", *self.ball_goal_distance_m, positive=True)
+        _range("robot_ball_distance_m", *self.robot_ball_distance_m, positive=True)
+        _range("obstacles", *self.obstacles)
+        _range("other_pillars", *self.other_pillars)
+        if self.goal_width_m[0] <= self.min_path_width_m:
+            raise ValueError(
+                f"goal_width_m: the goal ({self.goal_width_m[0]} m) must be wider than min_path_width_m "
+                f"({self.min_path_width_m} m)"
+            )
+        if self.behind_goal_m >= self.size_m[0]:
+            raise ValueError(
+                f"behind_goal_m: {self.behind_goal_m} m leaves no field in a {self.size_m[0]} m floor"
+            )
+
 
 WALL_THICKNESS_M = 0.05
 GOAL_SIDE_MARGIN_M = 1.5  # the goal's centre stays this far from the side walls (less on a narrow floor)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from maze_assets.objects import PlacedObject
-from sim.placement import UPRIGHT_SHARE, assign_placard_looks
+from sim.world.placement import UPRIGHT_SHARE, assign_placard_looks
 
 
 def _placards(n: int) -> list[PlacedObject]:

@@ -762,7 +762,7 @@ def parse_maze(text: str, source: str = "<string>") -> Maze:
     >>> parse_maze("+---+\\n|   |\\n+   +\\n", source="x.maze")
     Traceback (most recent call last):
     ...
-    sim.maze.MazeFormatError: x.maze:3:2: the south boundary is open above cell column 0; \
+    sim.world.maze.MazeFormatError: x.maze:3:2: the south boundary is open above cell column 0; \
 expected '---' (the outer boundary must be closed)
     """
     return _Parser(text, source).parse()

@@ -46,7 +46,7 @@ from poi.core.types import Intrinsics  # noqa: E402
 from sim.camera import mujoco_camera_attrs  # noqa: E402
 
 if TYPE_CHECKING:
-    from sim.arena import Obstacle
+    from sim.world.arena import Obstacle
 
 CAMERA_NAME = "d435"
 RIG_BODY = "camera_rig"
@@ -427,7 +427,7 @@ def build_world_xml(
         world.append(el)
     for obj in objects:
         world.append(build_object(obj, assets, wall_height_m=s.wall_height_m, wall_thickness_m=s.wall_thickness_m))
-        page = build_page(obj, assets)  # the A4 sheet of a QR page (sim/placement.py)
+        page = build_page(obj, assets)  # the A4 sheet of a QR page (sim/world/placement.py)
         if page is not None:
             world.append(page)
         holder = build_holder(obj, assets)  # a flat item's board, sensor cabinet, crate or ramp

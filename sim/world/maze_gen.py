@@ -21,9 +21,29 @@ True
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Literal
+
 import numpy as np
 
-from sim.maze import DIRECTIONS, PRESETS, Maze, MazeError, MazeSettings, default_start_heading
+from poi.core.loader import number
+from sim.world.maze import DIRECTIONS, MAX_MAZE_SIDE, PRESETS, Maze, MazeError, MazeSettings, default_start_heading
+
+
+@dataclass(kw_only=True)
+class MazeGenerate:
+    rows: int = number(4, lo=1, hi=MAX_MAZE_SIDE)
+    cols: int = number(4, lo=1, hi=MAX_MAZE_SIDE)
+    loop_fraction: float = 0.15
+    preset: Literal["rrl", "rmrc"] = "rrl"
+
+    def __post_init__(self) -> None:
+        if not (1 <= self.rows <= MAX_MAZE_SIDE and 1 <= self.cols <= MAX_MAZE_SIDE):
+            raise ValueError(
+                f"maze size must be from 1x1 to {MAX_MAZE_SIDE}x{MAX_MAZE_SIDE}, got {self.rows}x{self.cols}"
+            )
+        if not 0.0 <= self.loop_fraction <= 1.0:
+            raise ValueError(f"loop_fraction must be in [0, 1], got {self.loop_fraction}")
 
 
 def generate_maze(

@@ -3,15 +3,16 @@
 The robot of [Bouda2025]_ must find the ball and the goal before it can kick, and its SLAM maps
 the pillars as it moves (section 2.2). The route gives a mapper what it needs: a full
 turn in place at the start (every pillar in view once, from one spot), the drive along
-the planned legs to the kick point behind the ball (sim/arena.py: turning in place at
+the planned legs to the kick point behind the ball (sim/world/arena.py: turning in place at
 each corner, then straight at ``speed_mps``), so the pillars are seen from a moving
 viewpoint, a turn to face the goal and a pause of ``GOAL_LOOK_S`` there, then a second
 full turn from the new spot. Turns run at ``yaw_rate_dps``. The camera is fixed to the
 base: no pan. No randomness.
 
 >>> import numpy as np
->>> from sim.arena import generate_arena
->>> from sim.scenario import ArenaGenerate, RobotSpec
+>>> from sim.world.arena import generate_arena
+>>> from sim.motion.route import RobotSpec
+>>> from sim.world.arena import ArenaGenerate
 >>> layout = generate_arena(ArenaGenerate(), np.random.default_rng(0))
 >>> r = arena_route(layout, RobotSpec(kind="turtlebot", route="arena", speed_mps=0.2, yaw_rate_dps=20))
 >>> 40 < r.duration_s < 90, r.pan_amplitude_rad
@@ -31,9 +32,8 @@ import math
 
 import numpy as np
 
-from sim.arena import ArenaLayout
-from sim.route import Route, _wrap_to
-from sim.scenario import RobotSpec
+from sim.motion.route import RobotSpec, Route, _wrap_to
+from sim.world.arena import ArenaLayout
 
 GOAL_LOOK_S = 2.0  # standing still facing the goal before the second look around
 

@@ -26,7 +26,8 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -51,9 +52,177 @@ from maze_assets.models import (
     qr_side_m,
 )
 from maze_assets.objects import PlacedObject, fiducial_text
-from poi.core.landolt import LandoltSpec, orientation_text, random_orientations
-from poi.core.names import ARENA_TYPES, HAZMAT_LABELS
-from sim.scenario import LandoltTargets, ObjectsGenerate, ObjectSpec, QrSheets, Scenario
+from poi.core.landolt import (
+    DEFAULT_N_RINGS,
+    LandoltSpec,
+    orientation_text,
+    parse_orientation_text,
+    random_orientations,
+)
+from poi.core.loader import number
+from poi.core.names import ARENA_TYPES, HAZMAT_LABELS, MAPPING_TYPES, RESCUE_TYPES, TARGET_TYPES, TYPES
+
+
+@dataclass(kw_only=True)
+class WallSpot:
+    """A spot on a wall face: the face of cell (row, col) on ``side`` (n/e/s/w)."""
+
+    cell: tuple[int, int]
+    side: Literal["n", "e", "s", "w"]
+    height_m: float = 1.0
+    offset_m: float = 0.0  # along the wall from the face centre, positive = left when facing the wall
+
+
+@dataclass(kw_only=True)
+class ObjectSpec:
+    """An explicitly placed object: either ``at`` a wall spot or at ``position``."""
+
+    type: str
+    text: str = ""
+    at: WallSpot | None = None
+    position: tuple[float, float, float] | None = None  # world frame, metres
+    yaw_deg: float = 0.0
+    mount: Literal["wall", "floor", "opening"] | None = None
+    size_m: float | None = None
+    temperature_c: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.type not in TYPES:
+            raise ValueError(f"unknown type {self.type!r}; expected one of {', '.join(TYPES)}")
+        if (self.at is None) == (self.position is None):
+            raise ValueError("give exactly one of 'at' (a wall spot) or 'position'")
+        if self.type == "landolt-c" and self.text:  # empty: the gap directions are drawn from the seed
+            rings = parse_orientation_text(self.text)
+            if sorted(rings) != list(range(1, DEFAULT_N_RINGS + 1)):
+                raise ValueError(
+                    f"text {self.text!r}: a landolt-c target's text gives rings 1 to {DEFAULT_N_RINGS} once each, "
+                    'e.g. "1:E 2:N 3:NE 4:S 5:W"'
+                )
+
+
+DEFAULT_COUNTS: dict[str, int] = {
+    "hazmat": 5,
+    "qr": 4,
+    "door": 1,
+    "valve": 1,
+    "baby-doll": 1,
+    "fire-extinguisher": 1,
+    "exit-sign": 1,
+    "fire-extinguisher-sign": 1,
+    "heat-source": 1,
+}
+
+
+@dataclass(kw_only=True)
+class QrSheets:
+    """A4 pages of QR codes ([RMRC2025]_, as issue 22 quotes it: "A4 pages of codes in several
+    sizes, stapled at random locations and heights, matte"), placed by sim/world/placement.py.
+
+    ``count`` pages, each on a random wall face with its centre at a height drawn from
+    ``height_m``; every page carries one code per entry of ``module_mm`` (the side of one
+    module, millimetres; the finals' code has 2 mm modules), all encoding the page's name and
+    their module size ("Chart F 2mm").
+    """
+
+    count: int = number(0, lo=0, hi=100)
+    module_mm: tuple[float, ...] = (5.0, 3.0, 2.0)
+    height_m: tuple[float, float] = (0.25, 1.0)
+
+    def __post_init__(self) -> None:
+        if not self.module_mm or any(not 0.5 <= m <= 20 for m in self.module_mm):
+            raise ValueError(
+                f"module_mm: expected one or more module sizes in 0.5..20 mm, got {list(self.module_mm)}"
+            )
+        if len(set(self.module_mm)) != len(self.module_mm):
+            raise ValueError(f"module_mm: expected each module size once, got {list(self.module_mm)}")
+        lo, hi = self.height_m
+        if not 0.0 <= lo <= hi:
+            raise ValueError(f"height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}")
+
+
+@dataclass(kw_only=True)
+class LandoltTargets:
+    """Where the ``counts.landolt-c`` targets go (sim/world/placement.py ``place_landolt``): ``cabinets``
+    of them at the back of a sensor cabinet, ``boards`` on a wooden board, the rest on the wall
+    itself, each with its centre at a height drawn from ``height_m`` and its gap directions
+    drawn from the seed ([RMRC2025]_ Sensor Cabinet and Linear Rail Inspect; docs/RULES.md
+    "Landolt-C")."""
+
+    cabinets: int = number(0, lo=0, hi=100)
+    boards: int = number(0, lo=0, hi=100)
+    height_m: tuple[float, float] = (0.3, 1.0)
+
+    def __post_init__(self) -> None:
+        lo, hi = self.height_m
+        if not 0.0 < lo <= hi:
+            raise ValueError(f"height_m: expected [low, high] with 0 < low <= high, got {lo}, {hi}")
+
+
+GENERATED_TYPES: tuple[str, ...] = RESCUE_TYPES + MAPPING_TYPES + TARGET_TYPES
+
+
+@dataclass(kw_only=True)
+class ObjectsGenerate:
+    """Random placement: how many of each type, and the spacing rules.
+
+    ``counts.fiducial`` places RMRC mapping fiducials in pairs facing each other across a
+    cell (so it must be even; sim/world/placement.py); ``qr_sheets`` adds pages of QR codes;
+    ``counts.landolt-c`` places Landolt-C targets, ``landolt`` says how many sit in a sensor
+    cabinet or on a board and at what heights.
+    """
+
+    counts: dict[str, int] = field(default_factory=lambda: dict(DEFAULT_COUNTS))
+    min_spacing_m: float = 0.6
+    wall_height_m: tuple[float, float] = (0.2, 1.5)
+    labels: list[str] | None = None  # hazmat labels to draw from (default: all 16)
+    qr_texts: list[str] | None = None  # QR contents to use in order (default: "Chart A", ...)
+    # share of the placards laid face up on the floor in front of their wall (sim.world.placement.
+    # lay_placards_on_floor); the dataset generator lays some there, trials keep them on walls
+    hazmat_on_floor: float = number(0.0, lo=0.0, hi=1.0)
+    # wall placards moved onto doors, one per door face (sim.world.placement.hang_placards_on_doors)
+    hazmat_on_doors: int = number(0, lo=0, hi=100)
+    # wall placards moved into open crates on the floor (sim.world.placement.put_placards_in_crates)
+    hazmat_in_crates: int = number(0, lo=0, hi=100)
+    # wall placards laid on wooden ramps against their walls (sim.world.placement.lay_placards_on_ramps)
+    hazmat_on_ramps: int = number(0, lo=0, hi=100)
+    # boards of a wall placard with a QR code and a Landolt-C card beside it
+    # (sim.world.placement.hang_placard_boards)
+    hazmat_on_boards: int = number(0, lo=0, hi=100)
+    qr_sheets: QrSheets | None = None
+    landolt: LandoltTargets | None = None  # where the landolt-c targets go (default: all on walls)
+
+    def __post_init__(self) -> None:
+        for t, n in self.counts.items():
+            if t not in GENERATED_TYPES:
+                where = " (the arena's types are laid out by 'arena')" if t in TYPES else ""
+                raise ValueError(
+                    f"counts: unknown type {t!r}{where}; expected one of {', '.join(GENERATED_TYPES)}"
+                )
+            if n < 0:
+                raise ValueError(f"counts.{t}: must be >= 0, got {n}")
+        if self.counts.get("fiducial", 0) % 2:
+            raise ValueError(
+                f"counts.fiducial: fiducials are mounted in pairs facing each other; expected an even number, "
+                f"got {self.counts['fiducial']}"
+            )
+        lo, hi = self.wall_height_m
+        if not 0.0 <= lo <= hi:
+            raise ValueError(f"wall_height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}")
+        if self.landolt is not None:
+            n = self.counts.get("landolt-c", 0)
+            held = self.landolt.cabinets + self.landolt.boards
+            if held > n:
+                raise ValueError(
+                    f"landolt: {self.landolt.cabinets} cabinets + {self.landolt.boards} boards need "
+                    f"{held} targets, but counts.landolt-c is {n}"
+                )
+
+
+@dataclass(kw_only=True)
+class ObjectsSpec:
+    generate: ObjectsGenerate | None = field(default_factory=ObjectsGenerate)
+    explicit: list[ObjectSpec] = field(default_factory=list)
+
 
 RRL_CELL_M = 1.2
 
@@ -69,7 +238,6 @@ SIZE_AT_RRL_M: dict[str, float] = {
     "heat-source": 0.30,
     "door": 0.80,
 }
-WALL_TYPES = ("hazmat", "qr", "exit-sign", "fire-extinguisher-sign", "valve")
 FLOOR_TYPES = ("fire-extinguisher", "baby-doll", "heat-source")
 VALVE_PIPE_M = 0.12  # wheel centre stands this far off the wall at RRL scale
 BODY_TEMPERATURE_C = 37.0
@@ -79,13 +247,6 @@ QR_PREFIX = "Chart "
 
 class PlacementError(ValueError):
     """Objects that do not fit the maze."""
-
-
-@dataclass(kw_only=True)
-class _Slot:
-    face: object  # sim.maze.WallFace
-    height_m: float
-    offset_m: float
 
 
 def _scale(maze) -> float:
@@ -775,12 +936,13 @@ def _covers(centre_xy: np.ndarray, z: float, width: float, height: float, n: np.
     return abs(float(d[:2] @ right)) < width / 2 + p.size_m / 2 and abs(float(d[2])) < height / 2 + p.size_m / 2
 
 
-def place_objects(sc: Scenario, maze, rng: np.random.Generator) -> list[PlacedObject]:
-    """All objects of a scenario: the explicit ones, then the generated ones (ids in that order)."""
+def place_objects(spec: ObjectsSpec, maze, rng: np.random.Generator) -> list[PlacedObject]:
+    """All objects of a scenario (its ``objects``): the explicit ones, then the generated ones
+    (ids in that order)."""
     objects: list[PlacedObject] = []
-    for spec in sc.objects.explicit:
-        objects.append(_explicit(spec, len(objects), maze, rng))
-    gen = sc.objects.generate
+    for explicit in spec.explicit:
+        objects.append(_explicit(explicit, len(objects), maze, rng))
+    gen = spec.generate
     if gen is None:
         return objects
     counts = {t: n for t, n in gen.counts.items() if n > 0}

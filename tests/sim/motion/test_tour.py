@@ -1,13 +1,13 @@
-"""Tests for sim/tour.py: a route through every reachable cell."""
+"""Tests for sim/motion/tour.py: a route through every reachable cell."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from sim.maze import Maze, available_mazes, find_maze, load_maze, parse_maze
-from sim.maze_gen import generate_maze
-from sim.tour import plan_tour
+from sim.motion.tour import plan_tour
+from sim.world.maze import Maze, available_mazes, find_maze, load_maze, parse_maze
+from sim.world.maze_gen import generate_maze
 
 
 def _check_route(m: Maze, route: list[tuple[int, int]], start: tuple[int, int]) -> None:

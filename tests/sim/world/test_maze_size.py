@@ -4,7 +4,7 @@ ones had no limit at all)."""
 
 import pytest
 
-from sim.maze import MAX_MAZE_SIDE, MazeFormatError, load_maze, parse_maze
+from sim.world.maze import MAX_MAZE_SIDE, MazeFormatError, load_maze, parse_maze
 
 
 def _open_maze(rows: int, cols: int) -> str:

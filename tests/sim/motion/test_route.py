@@ -1,7 +1,7 @@
-"""sim/route.py: the tour's base path and the camera's pan, stepped (the default) or swept.
+"""sim/motion/route.py: the tour's base path and the camera's pan, stepped (the default) or swept.
 
 Everything here is computed from the route alone (no rendering): the camera's angle is the
-rig's yaw, ``sim.route.rig_pose``, sampled finely or at the frame times.
+rig's yaw, ``sim.motion.route.rig_pose``, sampled finely or at the frame times.
 """
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.maze import find_maze, load_maze
-from sim.route import Route, rig_pose, route_from_tour
-from sim.scenario import RobotSpec, ScenarioError, apply_settings, load_scenario, parse_scenario
-from sim.tour import plan_tour
+from sim.motion.route import RobotSpec, Route, rig_pose, route_from_tour
+from sim.motion.tour import plan_tour
+from sim.scenario import ScenarioError, apply_settings, load_scenario, parse_scenario
+from sim.world.maze import find_maze, load_maze
 
 MAST_HEIGHT_M = 0.5
 DEFAULT_SWEEP_DURATION_S = 119.0  # the default trial's route before issue 57 (sweep mode)
@@ -118,7 +118,7 @@ def test_steps_with_no_dwell_and_a_single_angle():
 def test_the_head_looks_down_and_up_each_wall_beside_the_cell_and_nowhere_else():
     """At a pan step that faces a wall of the cell the head also dwells at each wall tilt; at a
     step that faces an opening (or between the grid's directions) it does not."""
-    from sim.route import walled_steps
+    from sim.motion.route import walled_steps
 
     route, spec, cells = _route()
     p = spec.pan

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from poi.core.geometry import make_transform, planar_pose, rot_z
-from sim.scenario import WheelOdometrySpec
-from sim.sensors.wheel_odometry import simulate_wheel_odometry
+from sim.sensors.wheel_odometry import WheelOdometrySpec, simulate_wheel_odometry
 
 EXACT = dict(
     wheel_radius_error=0.0,

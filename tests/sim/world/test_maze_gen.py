@@ -1,4 +1,4 @@
-"""Tests for sim/maze_gen.py: determinism, connectivity, loops."""
+"""Tests for sim/world/maze_gen.py: determinism, connectivity, loops."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.maze import PRESETS, MazeError, parse_maze
-from sim.maze_gen import generate_maze
+from sim.world.maze import PRESETS, MazeError, parse_maze
+from sim.world.maze_gen import generate_maze
 
 
 def test_same_seed_same_maze() -> None:

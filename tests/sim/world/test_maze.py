@@ -1,4 +1,4 @@
-"""Tests for sim/maze.py: the text format, world geometry and wall naming."""
+"""Tests for sim/world/maze.py: the text format, world geometry and wall naming."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from maze_assets import MAZES_DIR
-from sim.maze import (
+from sim.world.maze import (
     PRESETS,
     Maze,
     MazeError,
