@@ -35,7 +35,11 @@ def _command_modules() -> list:
         "eval.cli.run",
         "eval.cli.score",
         "eval.cli.replay",
-        "eval.cli.detector",
+        "eval.cli.datasets",
+        "eval.cli.training",
+        "eval.cli.photos",
+        "eval.cli.evaluation",
+        "eval.cli.quantize",
         "eval.cli.sweep",
         "eval.cli.consistency",
     ):

@@ -1,0 +1,134 @@
+"""``poibench train`` and ``poibench train-labels``: training the detector and the hazmat label classifier."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from eval.detector.train import PLACARD_MODES
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    t = sub.add_parser("train", help="train the YOLO detector on a dataset and export ONNX (extra 'train')")
+    t.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        help="dataset folders ('poibench dataset', 'poibench route-frames') or their data.yaml, or folders of "
+        "labelled photos (images/, labels/; need --holdout), trained on as one",
+    )
+    t.add_argument("--out", required=True, help="run folder: weights, plots, model.onnx (resumes if interrupted)")
+    t.add_argument(
+        "--holdout",
+        type=float,
+        help="for photo folders: hold back this fraction of each, by run of one scene's shots, as the "
+        "validation split, listed in RUN/holdout.json (evaluate-photos and sim2real --holdout-of RUN); "
+        "the model exported is the last epoch's, not the one best on them",
+    )
+    t.add_argument(
+        "--model",
+        default="yolo11n.yaml",
+        help="yolo11n.yaml (from scratch, the default), a checkpoint .pt, or an exported .onnx "
+        "(e.g. poi/models/default_fp32.onnx: rebuilt into RUN/rebuilt.pt) to fine-tune",
+    )
+    t.add_argument(
+        "--lr0",
+        type=float,
+        help="AdamW learning rate (default: 2e-4 when fine-tuning a .pt or .onnx; "
+        "from scratch, Ultralytics' own choice)",
+    )
+    t.add_argument("--epochs", type=int, default=60)
+    t.add_argument("--imgsz", type=int, default=320, help="training and export input size (default 320)")
+    t.add_argument("--batch", type=int, default=16)
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--device", default="cpu", help="cpu or a CUDA device index (default cpu)")
+    t.add_argument("--workers", type=int, default=2)
+    t.add_argument(
+        "--threads", type=int, default=os.cpu_count() or 1, help="torch CPU threads (default: every core)"
+    )
+    t.add_argument(
+        "--hours",
+        type=float,
+        help="train for this long instead of --epochs: the epochs are fitted to the time after the first",
+    )
+    t.add_argument(
+        "--placards",
+        choices=PLACARD_MODES,
+        default="named",
+        help="named: a class per hazmat label (default); one: one class 'hazmat' that finds placards, "
+        "named by the label classifier (train-labels)",
+    )
+    t.set_defaults(func=cmd_train)
+
+    lt = sub.add_parser(
+        "train-labels", help="train the hazmat label classifier (second stage) and export ONNX (extra 'train')"
+    )
+    lt.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        help="dataset folders from 'poibench dataset' (best with --hazmat 16) or labelled photo folders "
+        "(images/, labels/; need --holdout)",
+    )
+    lt.add_argument("--out", required=True, help="run folder: last.pt, history, label_model.onnx (resumes)")
+    lt.add_argument("--epochs", type=int, default=16)
+    lt.add_argument("--samples", type=int, default=32000, help="crops per epoch (default 32000)")
+    lt.add_argument("--seed", type=int, default=0, help="seed of the training and of --holdout's draw (default 0)")
+    lt.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    lt.add_argument(
+        "--holdout",
+        type=float,
+        help="fraction of each photo folder's images held back (by image, drawn with --seed) as validation; "
+        "listed in RUN/holdout.json for evaluate-labels --holdout-of",
+    )
+    lt.set_defaults(func=cmd_train_labels)
+
+
+def cmd_train(args) -> int:
+    from eval.detector.train import TrainSpec, train
+
+    out = train(
+        TrainSpec(
+            data=args.data,
+            out=args.out,
+            model=args.model,
+            epochs=args.epochs,
+            imgsz=args.imgsz,
+            batch=args.batch,
+            seed=args.seed,
+            device=args.device,
+            workers=args.workers,
+            threads=args.threads,
+            placards=args.placards,
+            hours=args.hours,
+            lr0=args.lr0,
+            holdout=args.holdout,
+        )
+    )
+    print(f"model: {out}")
+    print(
+        f"to make it the default detector: cp it to poi/models/default_fp32.onnx, quantise that "
+        "(poibench quantize-detector --out poi/models/default.onnx, or cp it there as it is), and "
+        f"{out.parent}/weights/best.pt to"
+    )
+    print("poi/models/default.pt (the checkpoint later training fine-tunes from)")
+    return 0
+
+
+def cmd_train_labels(args) -> int:
+    from eval.detector.train_labels import LabelTrainSpec, train_labels
+
+    out = train_labels(
+        LabelTrainSpec(
+            data=args.data,
+            out=args.out,
+            epochs=args.epochs,
+            samples_per_epoch=args.samples,
+            seed=args.seed,
+            threads=args.threads,
+            holdout=args.holdout,
+        )
+    )
+    print(f"label model: {out}")
+    print("to use it with the default detector: cp it to poi/models/default_labels.onnx")
+    return 0
