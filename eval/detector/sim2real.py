@@ -452,7 +452,10 @@ def _post_stratify(
     return cw, np.where(keep_r, cw.weight[np.maximum(row_r, 0), cell_r], 0.0)
 
 
-def _gap_entry(key: str, gap: tuple[float, float, float] | None) -> dict:
+def _gap_entry(key: str, renders: Share | None, photos: Share | None) -> dict:
+    """``key`` and ``key_ci95``: the gap renders minus photos (:func:`newcombe_gap`), None without
+    both shares."""
+    gap = newcombe_gap(renders, photos) if renders is not None and photos is not None else None
     return {
         key: None if gap is None else round(gap[0], 4),
         f"{key}_ci95": None if gap is None else [round(gap[1], 4), round(gap[2], 4)],
@@ -520,8 +523,6 @@ def sim2real_card(
         ph = weighted_share(photos.right[sel_p])
         rm = weighted_share(renders.right[sel_r], w_r[sel_r])
         rs = weighted_share(renders.right[sel_r], w_rs[sel_r])
-        gap = newcombe_gap(rm, ph) if ph is not None and rm is not None else None
-        gap_s = newcombe_gap(rs, ph) if ph is not None and rs is not None else None
         per_label.append(
             {
                 "label": c,
@@ -531,16 +532,14 @@ def sim2real_card(
                 "renders_matched_shape": _side_shares(renders, sel_r, w_rs),
                 "covered": None if cw.covered(j) is None else round(cw.covered(j), 4),
                 "covered_shape": None if cws.covered(j) is None else round(cws.covered(j), 4),
-                **_gap_entry("gap", gap),
-                **_gap_entry("gap_shape", gap_s),
+                **_gap_entry("gap", rm, ph),
+                **_gap_entry("gap_shape", rs, ph),
                 "too_few": bool(sel_p.sum() < TOO_FEW or sel_r.sum() < TOO_FEW),
             }
         )
     per_label.sort(key=lambda r: (r["too_few"], r["gap"] is None, -abs(r["gap"] or 0.0), r["label"]))
     ph_all, rm_all = weighted_share(photos.right[keep_p]), weighted_share(renders.right[keep_r], w_r[keep_r])
     rs_all = weighted_share(renders.right[keep_r], w_rs[keep_r])
-    gap_all = newcombe_gap(rm_all, ph_all) if ph_all is not None and rm_all is not None else None
-    gap_all_s = newcombe_gap(rs_all, ph_all) if ph_all is not None and rs_all is not None else None
     photo_mix = cw.photo.sum(axis=0)
     render_mix = cw.render.sum(axis=0)
     return {
@@ -570,8 +569,8 @@ def sim2real_card(
             "renders": {**_side_shares(renders, keep_r, None), "false_per_image": _drop_labels(rates_r)},
             "renders_matched": _side_shares(renders, keep_r, w_r),
             "renders_matched_shape": _side_shares(renders, keep_r, w_rs),
-            **_gap_entry("gap", gap_all),
-            **_gap_entry("gap_shape", gap_all_s),
+            **_gap_entry("gap", rm_all, ph_all),
+            **_gap_entry("gap_shape", rs_all, ph_all),
         },
         "per_label": per_label,
         "by_size": {
