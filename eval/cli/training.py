@@ -39,6 +39,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     t.add_argument("--epochs", type=int, default=60)
     t.add_argument("--imgsz", type=int, default=320, help="training and export input size (default 320)")
+    t.add_argument(
+        "--export-imgsz",
+        type=int,
+        nargs=2,
+        metavar=("H", "W"),
+        help="model.onnx's fixed input height and width, multiples of 32 (default: --imgsz square); "
+        "e.g. 320 416 for 4:3 frames",
+    )
     t.add_argument("--batch", type=int, default=16)
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--device", default="cpu", help="cpu or a CUDA device index (default cpu)")
@@ -76,6 +84,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     lt.add_argument("--seed", type=int, default=0, help="seed of the training and of --holdout's draw (default 0)")
     lt.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
     lt.add_argument(
+        "--imgsz", type=int, default=64, help="crop side in px the classifier reads (multiple of 16; default 64)"
+    )
+    lt.add_argument(
+        "--widths",
+        type=int,
+        nargs="+",
+        default=[16, 32, 64, 128],
+        help="channels of each conv + max-pool stage (default 16 32 64 128)",
+    )
+    lt.add_argument(
         "--holdout",
         type=float,
         help="fraction of each photo folder's images held back (by image, drawn with --seed) as validation; "
@@ -103,6 +121,7 @@ def cmd_train(args) -> int:
             hours=args.hours,
             lr0=args.lr0,
             holdout=args.holdout,
+            export_imgsz=None if args.export_imgsz is None else tuple(args.export_imgsz),
         )
     )
     print(f"model: {out}")
@@ -126,6 +145,8 @@ def cmd_train_labels(args) -> int:
             samples_per_epoch=args.samples,
             seed=args.seed,
             threads=args.threads,
+            imgsz=args.imgsz,
+            widths=tuple(args.widths),
             holdout=args.holdout,
         )
     )

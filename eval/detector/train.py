@@ -8,8 +8,10 @@ the package registries): the default model is built from ``yolo11n.yaml``.
 
 The run folder holds Ultralytics' own files (``weights/last.pt`` after every
 epoch, ``weights/best.pt``, ``results.csv``, plots) and, at the end,
-``model.onnx`` exported at the training size with the class names in its
-metadata. Running the same command again resumes an interrupted run from
+``model.onnx`` exported at the training size (or ``--export-imgsz H W``: a 640x480 frame
+letterboxed into a square input leaves a quarter of it grey, and 320 x 416 reads it at 416 px
+wide for 1.3 times the 320 px square's pixels) with the class names in its metadata.
+Running the same command again resumes an interrupted run from
 ``weights/last.pt``; a finished run (``model.onnx`` present) is left alone.
 
 ``--model`` may be an exported ``.onnx`` (the shipped float export ``poi/models/default_fp32.onnx``): it is
@@ -70,6 +72,7 @@ class TrainSpec:
     hours: float | None = None  # a time budget: Ultralytics fits the epochs into it (overrides epochs)
     lr0: float | None = None  # None: FINE_TUNE_LR0 for a checkpoint, Ultralytics' own choice from scratch
     holdout: float | None = None  # a photo folder's held-back fraction (RUN/holdout.json)
+    export_imgsz: tuple[int, int] | None = None  # (H, W) of model.onnx's fixed input; None: imgsz x imgsz
 
     @property
     def fine_tune(self) -> bool:
@@ -91,6 +94,18 @@ class TrainSpec:
             raise TrainError(f"--holdout must be between 0 and 1, got {self.holdout}")
         if self.imgsz % 32:
             raise TrainError(f"--imgsz must be a multiple of 32 (the model's stride), got {self.imgsz}")
+        if self.export_imgsz is not None and (
+            len(self.export_imgsz) != 2 or any(v < 32 or v % 32 for v in self.export_imgsz)
+        ):
+            raise TrainError(
+                f"--export-imgsz must be two sides H W, each a positive multiple of 32 (the model's stride), "
+                f"got {' '.join(map(str, self.export_imgsz))}"
+            )
+
+    @property
+    def export_size_hw(self) -> tuple[int, int]:
+        """The exported model's input (H, W): ``export_imgsz``, else the square training size."""
+        return tuple(self.export_imgsz) if self.export_imgsz is not None else (self.imgsz, self.imgsz)
 
 
 def data_yaml(data: str | Path) -> Path:
@@ -347,7 +362,8 @@ def train(spec: TrainSpec) -> Path:
     best = out / "weights" / ("last.pt" if spec.holdout is not None else "best.pt")
     if not best.exists():
         raise TrainError(f"{best}: training ended without that checkpoint")
-    exported = Path(ul.YOLO(str(best)).export(format="onnx", imgsz=spec.imgsz, dynamic=False, simplify=False))
+    size = list(spec.export_size_hw)
+    exported = Path(ul.YOLO(str(best)).export(format="onnx", imgsz=size, dynamic=False, simplify=False))
     photo_roots = [str(Path(d).resolve()) for d in sources_of(spec) if is_photo_folder(d)]
     _stamp_metadata(exported, onnx_path, source, photo_roots)
     return onnx_path

@@ -99,6 +99,13 @@ class LabelTrainSpec:
                 raise TrainError(f"--{name.replace('_', '-')} must be at least 1, got {getattr(self, name)}")
         if self.imgsz % 16 or self.imgsz < 32:
             raise TrainError(f"--imgsz must be a multiple of 16 and at least 32, got {self.imgsz}")
+        if not self.widths or min(self.widths) < 1:
+            raise TrainError(f"--widths must be one or more positive channel counts, got {list(self.widths)}")
+        if self.imgsz % 2 ** len(self.widths):
+            raise TrainError(
+                f"--imgsz {self.imgsz} does not halve {len(self.widths)} times (one max-pool a --widths stage) "
+                f"to whole pixels: give a multiple of {2 ** len(self.widths)}"
+            )
 
 
 def _torch():
@@ -192,6 +199,14 @@ def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Pa
     last = out / "last.pt"
     if last.exists():
         ck = torch.load(last, weights_only=False)
+        shape = {"imgsz": spec.imgsz, "widths": list(spec.widths)}
+        saved = {k: ck.get(k, v) for k, v in shape.items()}
+        if saved != shape:
+            raise TrainError(
+                f"{last} was trained with --imgsz {saved['imgsz']} "
+                f"--widths {' '.join(map(str, saved['widths']))}: "
+                "resume with those, or give another --out"
+            )
         model.load_state_dict(ck["model"])
         opt.load_state_dict(ck["opt"])
         sched.load_state_dict(ck["sched"])
@@ -237,6 +252,8 @@ def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Pa
                 "history": history,
                 "epoch": epoch,
                 "torch_rng": torch.get_rng_state(),
+                "imgsz": spec.imgsz,
+                "widths": list(spec.widths),
             },
             last,
         )

@@ -170,6 +170,39 @@ def test_train_labels_on_photos_holds_back_and_names_them(tmp_path):
         train_labels(LabelTrainSpec(**spec, seed=4), log=lambda _: None)
 
 
+def test_train_labels_refuses_a_crop_size_its_stages_cannot_halve(tmp_path, capsys):
+    with pytest.raises(ValueError, match="--imgsz 80 does not halve 5 times"):
+        LabelTrainSpec(data=["x"], out="y", imgsz=80, widths=(8, 8, 8, 8, 8))
+    with pytest.raises(ValueError, match="--widths must be one or more positive"):
+        LabelTrainSpec(data=["x"], out="y", widths=(16, 0))
+    root = _many(tmp_path / "p", 4)
+    argv = ["train-labels", "--data", str(root), "--out", str(tmp_path / "r"), "--holdout", "0.2", "--imgsz", "80"]
+    argv += ["--widths", "8", "8", "8", "8", "8"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--imgsz 80 does not halve 5 times" in err and len(err.splitlines()) == 1
+
+
+def test_train_labels_at_another_crop_size_exports_it_and_resumes_only_at_it(tmp_path):
+    """A 96 px classifier of three stages: the ONNX reads 96 x 96 crops and says so in its
+    metadata; resuming its run at 64 px is refused in one line (torch: the 'train' extra)."""
+    pytest.importorskip("torch")
+    import onnx
+
+    from eval.detector.train_labels import train_labels
+
+    root = _many(tmp_path / "p", 10)
+    spec = dict(data=[str(root)], out=str(tmp_path / "run"), epochs=1, samples_per_epoch=16, batch=8)
+    shape = dict(imgsz=96, widths=(8, 16, 32))
+    onnx_path = train_labels(LabelTrainSpec(**spec, threads=1, holdout=0.2, **shape), log=lambda _: None)
+    m = onnx.load(str(onnx_path))
+    dims = [d.dim_value for d in m.graph.input[0].type.tensor_type.shape.dim[1:]]
+    assert dims == [3, 96, 96] and {p.key: p.value for p in m.metadata_props}["imgsz"] == "96"
+    onnx_path.unlink()
+    with pytest.raises(ValueError, match="was trained with --imgsz 96 --widths 8 16 32: resume with those"):
+        train_labels(LabelTrainSpec(**spec, threads=1, holdout=0.2), log=lambda _: None)
+
+
 def test_fold_confusion_drops_or_maps_the_labels_the_real_set_lacks():
     conf = np.zeros((17, 17), int)
     conf[L("oxygen"), L("oxygen")] = 3

@@ -60,6 +60,18 @@ def test_hours_must_be_positive():
         TrainSpec(data="d", out="o", hours=0)
 
 
+def test_the_export_size_is_the_square_training_size_unless_given_and_strides_whole(capsys):
+    assert TrainSpec(data="d", out="o", imgsz=416).export_size_hw == (416, 416)
+    assert TrainSpec(data="d", out="o", imgsz=416, export_imgsz=(320, 416)).export_size_hw == (320, 416)
+    with pytest.raises(TrainError, match="--export-imgsz must be two sides H W, each a positive multiple of 32"):
+        TrainSpec(data="d", out="o", export_imgsz=(240, 320))
+    from eval.cli.main import main
+
+    assert main(["train", "--data", "d", "--out", "o", "--export-imgsz", "300", "416"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("got 300 416") and len(err.splitlines()) == 1
+
+
 def test_placards_mode_is_checked():
     with pytest.raises(TrainError, match="--placards must be one of named, one, got 'some'"):
         TrainSpec(data="d", out="o", placards="some")
