@@ -28,6 +28,13 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    once it has text, a Landolt-C one once its rings read include
    ``landolt_required_rings``); confirmed tracks get report ids 0, 1, 2, ... in
    confirmation order.
+6. One place, one object (``cross_type_radius_m``, **poibench**): a tentative track is not
+   confirmed while a track of another type whose mean lies within that radius has more
+   detections (on a tie, the older one wins). Step 1 pairs observations with tracks of their
+   own type only, so a sign the detector now and then boxes as a doll grows a doll track on
+   the sign; this is the class vote of [Avevor2022]_ 2.4.5 taken between the two tracks of
+   one place instead of within one. The radius must stay under half the spacing of real
+   neighbours of two types (at least 0.41 m in the shipped worlds).
 
 Errors that repeat (``tracker.shared_errors``, on by default). The document fuses every
 observation as if its error were fresh. Part of it is not: the pose error (the SLAM's, or
@@ -460,9 +467,24 @@ class Tracker:
     def _ready(self, tr: Track) -> bool:
         if tr.n_detections < self.cfg.n_min or tr.max_fresh_std_m > self.cfg.settle_sigma_m:
             return False
+        if self._outvoted(tr):
+            return False
         if tr.type == "landolt-c" and not self._landolt_rings_read(tr):
             return False
         return not (tr.type in TEXT_TYPES and self.cfg.qr_requires_text and not tr.text)
+
+    def _outvoted(self, tr: Track) -> bool:
+        """Whether a track of another type within ``cross_type_radius_m`` of ``tr`` has more
+        detections, or as many and an older id (module docstring, step 6)."""
+        radius = self.cfg.cross_type_radius_m
+        if radius <= 0:
+            return False
+        return any(
+            other.type != tr.type
+            and (other.n_detections, -other.track_id) > (tr.n_detections, -tr.track_id)
+            and float(np.linalg.norm(other.mu - tr.mu)) < radius
+            for other in self.tracks.values()
+        )
 
     def _landolt_rings_read(self, tr: Track) -> bool:
         """Whether a Landolt-C track's rings read so far include ``landolt_required_rings``."""

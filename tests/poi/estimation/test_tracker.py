@@ -209,6 +209,39 @@ def test_a_shared_pose_error_does_not_hold_confirmation_back():
     assert got == [False, False, True, False]
 
 
+@pytest.mark.parametrize("radius", [0.2, 0.0])
+def test_a_track_beside_a_better_seen_track_of_another_type_waits_until_it_is_seen_more(radius):
+    """One place, one object: a doll track 5 cm from a sign's track is not confirmed while the
+    sign's has as many detections (a tie goes to the older track), and is once it has more; a
+    doll 0.5 m away is confirmed at n_min. Radius 0 turns the rule off."""
+    R = 1e-4 * np.eye(3)  # 1 cm: every track settles, and tracks 5 cm apart do not pair
+
+    def seen(*where):
+        return [obs(xyz, name, R=R) for name, xyz in where]
+
+    sign, far_doll, near_doll = (
+        ("fire-extinguisher-sign", [0, 0, 0]),
+        ("baby-doll", [0.5, 0, 0]),
+        ("baby-doll", [0.05, 0, 0]),
+    )
+    tr = Tracker(cfg(n_min=2, cross_type_radius_m=radius))
+    confirmed = []
+    for k, frame in enumerate(
+        [seen(sign, far_doll), seen(sign, far_doll), seen(near_doll), seen(near_doll), seen(near_doll)]
+    ):
+        confirmed.append(sorted((s.type, s.track_id) for s in tr.step(frame, 0.1 * k).newly_confirmed))
+    near = [[], [("baby-doll", 2)], []] if radius == 0 else [[], [], [("baby-doll", 2)]]
+    assert confirmed == [[], [("baby-doll", 1), ("fire-extinguisher-sign", 0)], *near]
+    assert tr.tracks[2].n_detections == 3 and tr.tracks[0].n_detections == 2
+
+
+def test_the_one_place_radius_is_a_setting_refused_out_of_range():
+    assert load_config(None).tracker.cross_type_radius_m == 0.2
+    assert apply_overrides(load_config(None), ["tracker.cross_type_radius_m=0"]).tracker.cross_type_radius_m == 0
+    with pytest.raises(ConfigError, match="cross_type_radius_m"):
+        apply_overrides(load_config(None), ["tracker.cross_type_radius_m=-1"])
+
+
 def test_tentative_tracks_pruned_after_t_max_confirmed_kept():
     tr = Tracker(cfg(n_min=2, t_max=5.0))
     tr.step([obs([0, 0, 0]), obs([5, 0, 0], "valve")], 0.0)
