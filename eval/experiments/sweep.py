@@ -379,8 +379,27 @@ def read_rows(path: Path):
 # --------------------------------------------------------------------------- backends
 
 
+PARENT_POLL_S = 1.0  # how often a pool worker checks that its sweep is still running
+
+
+def exit_with_parent(parent_pid: int, poll_s: float = PARENT_POLL_S) -> None:
+    """A pool worker's initializer: a daemon thread ends the worker once ``parent_pid`` is no
+    longer its parent. A sweep killed by SIGTERM or SIGKILL (``kill``, a batch system's
+    cancel) gets no chance to stop its pool, whose workers would run their trials on; the
+    rows are the parent's to write, so those trials run again on ``--resume`` anyway."""
+    import threading
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(poll_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="poibench-parent-watch", daemon=True).start()
+
+
 def local_pool(workers: int):
-    """A pool of ``workers`` spawned processes (no GL state is forked), or None for one worker.
+    """A pool of ``workers`` spawned processes (no GL state is forked), or None for one worker;
+    each worker ends when the sweep's process does (:func:`exit_with_parent`).
 
     ``tune`` keeps one for the whole study: a replayed trial costs a second or two of CPU,
     a fresh worker's imports about as much again."""
@@ -389,7 +408,12 @@ def local_pool(workers: int):
 
     if workers <= 1:
         return None
-    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=mp.get_context("spawn"),
+        initializer=exit_with_parent,
+        initargs=(os.getpid(),),
+    )
 
 
 def run_local(tasks: list[TrialTask], workers: int, pool=None) -> Iterator[dict]:

@@ -362,3 +362,43 @@ def test_tune_on_the_ray_backend_scores_like_the_local_one(tmp_path):
     a = pd.read_csv(tmp_path / "local" / "study.csv").drop(columns=["duration"])
     b = pd.read_csv(tmp_path / "ray" / "study.csv").drop(columns=["duration"])
     pd.testing.assert_frame_equal(a, b)
+
+
+POOL_OF_SLEEPERS = """
+import sys, time
+from eval.experiments.sweep import local_pool
+
+pool = local_pool(2)
+futures = [pool.submit(time.sleep, 120) for _ in range(2)]
+time.sleep(0.5)
+print(" ".join(str(p) for p in pool._processes), flush=True)
+time.sleep(120)
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # a zombie (exited, not yet reaped by init) counts as gone
+    stat = Path(f"/proc/{pid}/stat")
+    return not (stat.exists() and stat.read_text().split(")")[-1].split()[0] == "Z")
+
+
+@pytest.mark.slow
+def test_a_killed_sweeps_pool_workers_end_with_it():
+    """SIGKILL the process that holds a sweep's pool while its workers are busy for two
+    minutes: the workers are gone within a few seconds, not left running their trials."""
+    proc = subprocess.Popen([sys.executable, "-c", POOL_OF_SLEEPERS], stdout=subprocess.PIPE, text=True)
+    try:
+        workers = [int(p) for p in proc.stdout.readline().split()]
+        assert len(workers) == 2 and all(_alive(p) for p in workers)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+        deadline = time.monotonic() + 10
+        while any(_alive(p) for p in workers) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not any(_alive(p) for p in workers)
+    finally:
+        proc.kill()
