@@ -395,8 +395,15 @@ class MountConfig:
 
 
 @dataclass(kw_only=True)
-class SwitchConfig:
+class ThermalConfig:
+    """The thermal camera's heat sources (poi.detectors.thermal) and what they vouch for.
+
+    ``confirm_colour_boxes``: a heat-source box of another detector (a colour network's)
+    counts only where a thermal detection of the same frame overlaps it
+    (:func:`poi.heat_sources.vouched_for`); off with ``enabled``."""
+
     enabled: bool = True
+    confirm_colour_boxes: bool = True
 
 
 @dataclass(kw_only=True)
@@ -464,7 +471,7 @@ class PipelineConfig:
     slam: SlamConfig = field(default_factory=SlamConfig)
     qr: QrConfig = field(default_factory=QrConfig)
     fiducials: FiducialConfig = field(default_factory=FiducialConfig)
-    thermal: SwitchConfig = field(default_factory=SwitchConfig)
+    thermal: ThermalConfig = field(default_factory=ThermalConfig)
     report: ReportConfig = field(default_factory=ReportConfig)
     calibration: str | None = None
 

@@ -4,7 +4,9 @@ Per frame (:meth:`Pipeline.process`):
 
 1. every detector's ``detect(frame)``; their detections are concatenated; a Landolt-C
    detection without text (a detector that gives boxes only) has its rings read from the
-   frame's pixels (poi.detectors.landolt.attach_landolt_text);
+   frame's pixels (poi.detectors.landolt.attach_landolt_text); with the thermal camera on
+   (``thermal.enabled``, ``thermal.confirm_colour_boxes``), a heat-source box of another
+   detector that no thermal detection overlaps is dropped (poi.heat_sources);
 2. a frame without a pose or a depth image stops here (``skipped_reason``): its
    detections get their QR text for display but nothing is localised or tracked;
 3. each detection is localised ([Avevor2022]_ 2.2-2.3); one without valid depth gives no
@@ -51,6 +53,7 @@ from poi.estimation.localize import localize
 from poi.estimation.slam_localizer import SlamLocalizer
 from poi.estimation.tracker import Innovation, Tracker
 from poi.estimation.visibility import in_view
+from poi.heat_sources import frame_has_thermal_view, vouched_for
 
 QR_MODULE = "poi.detectors.qr"
 QR_FUNCTION = "attach_qr_text"
@@ -135,6 +138,7 @@ class Pipeline:
         self.slam = SlamLocalizer(cfg.slam) if cfg.localize.mode == "slam" else None
         self.notes: list[str] = []
         self.fiducials = FiducialMapper(cfg.fiducials) if cfg.fiducials.enabled else None
+        self._thermal_vouches = cfg.thermal.enabled and cfg.thermal.confirm_colour_boxes
         self._qr_reader: Callable | None = None
         if cfg.qr.enabled and qr_reader is not None:
             self._qr_reader = qr_reader
@@ -200,6 +204,8 @@ class Pipeline:
             detections.extend(det.detect(frame))
         if frame.rgb.size and any(d.type == "landolt-c" and not d.text for d in detections):
             detections = attach_landolt_text(frame.rgb, detections)
+        if self._thermal_vouches and frame_has_thermal_view(frame):
+            detections = vouched_for(detections)
         t1 = time.perf_counter()
         timing["detect"] = 1e3 * (t1 - t0)
         reason = skip_reason(frame)

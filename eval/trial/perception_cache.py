@@ -364,7 +364,8 @@ def perception_key(sc, detector: str, cfg, max_frames: int | None, model: Path |
         "model": None if model is None else file_sha256(model),
         "label_model": None if label is None else file_sha256(label),
         "detector_settings": det,
-        "thermal": config_to_dict(cfg)["thermal"],
+        # what the thermal detector does (confirm_colour_boxes acts after detection, on the record)
+        "thermal": {k: v for k, v in config_to_dict(cfg)["thermal"].items() if k != "confirm_colour_boxes"},
         "max_frames": max_frames,
         "floor": CONF_FLOOR,
         "tile": TILE_PX,

@@ -16,7 +16,10 @@ gives the pipeline the same figures, taken from the scenario's sensor settings:
   drift states and the height drift it adds to R, and the white odometry noise it lacks
   (:func:`odometry_prior_settings`), from the
   drift model of :mod:`sim.sensors.t265` and the arena's light and texture (its mean drift
-  multiplier).
+  multiplier);
+* whether the robot carries a thermal camera: without one the thermal detector is off
+  (:func:`thermal_settings`), and with it the heat-source boxes of the colour network that
+  the thermal camera does not vouch for (poi.heat_sources).
 
 Without them the pipeline's defaults assume a worse odometry and mount than the default maze
 has (a 10% scale error, 2% drift, a mount measured by hand) and its covariances come out
@@ -127,6 +130,17 @@ def odometry_prior_settings(sc, drift_multiplier: float) -> list[str]:
     ]
 
 
+def thermal_settings(sc) -> list[str]:
+    """``thermal.enabled=false`` for a scenario without a thermal camera, else nothing.
+
+    >>> from sim.scenario import Scenario, apply_settings
+    >>> without = apply_settings(Scenario(), ["sensors.thermal.enabled=false"])
+    >>> thermal_settings(Scenario()), thermal_settings(without)
+    ([], ['thermal.enabled=false'])
+    """
+    return [] if sc.sensors.thermal.enabled else ["thermal.enabled=false"]
+
+
 def mean_drift_multiplier(sim) -> float:
     """The arena's mean T265 drift multiplier along the route (1 without a T265 model)."""
     cond = sim.tracking_conditions
@@ -144,6 +158,7 @@ def sensor_settings(T_tracker_optical_nominal: np.ndarray, sc, drift_multiplier:
         + depth_registration_settings(sc)
         + odometry_latency_settings(sc)
         + odometry_prior_settings(sc, drift_multiplier)
+        + thermal_settings(sc)
     )
 
 

@@ -65,7 +65,7 @@ def test_the_key_changes_with_what_changes_perception_only():
     sc, cfg = _smoke(0), load_config()
     key = perception_key(sc, "oracle", cfg, None, None)
     sets = ["tracker.gate=4", "tracker.n_min=2", "detector.conf=0.6", "localize.inner_fraction=0.3"]
-    sets.append("slam.n_min=2")
+    sets += ["slam.n_min=2", "thermal.confirm_colour_boxes=false"]  # read after detection
     downstream = apply_overrides(cfg, sets)
     assert perception_key(sc, "oracle", downstream, None, None) == key
     assert perception_key(dataclasses.replace(sc, seed=sc.seed + 1), "oracle", cfg, None, None) != key
