@@ -235,6 +235,37 @@ def test_a_track_beside_a_better_seen_track_of_another_type_waits_until_it_is_se
     assert tr.tracks[2].n_detections == 3 and tr.tracks[0].n_detections == 2
 
 
+def test_the_place_vote_weighs_unsure_boxes_of_another_type_by_their_class_probability():
+    """A QR code the detector boxes three times as an extinguisher sign, each box unsure
+    (P(sign) 0.55, P(qr) 0.40), and twice as a code (P(qr) 0.95). Counted by detections the
+    sign's track would win (two each, the older, then three against two); by class mass the
+    place holds 2 x 0.40 + 2 x 0.95 = 2.7 of qr against 2 x 0.55 + 2 x 0.05 = 1.2 of sign after
+    two frames (3.1 against 1.75 after three), so the code's track is confirmed and the
+    sign's waits."""
+    R = 1e-4 * np.eye(3)
+
+    def probs(**p):
+        q = np.zeros(len(CLASSES))
+        for name, v in p.items():
+            q[CLASS_INDEX[name.replace("_", "-")]] = v
+        return q / q.sum()
+
+    unsure_sign = probs(fire_extinguisher_sign=0.55, qr=0.40, door=0.05)
+    sure_code = probs(qr=0.95, fire_extinguisher_sign=0.05)
+    tr = Tracker(cfg(n_min=2, cross_type_radius_m=0.2, fusion="mean"))
+    confirmed = []
+    for k, frame in enumerate([["sign", "code"], ["sign", "code"], ["sign"]]):
+        seen = [
+            obs([0, 0, 0], "fire-extinguisher-sign", R=R, probs=unsure_sign)
+            if what == "sign"
+            else obs([0.05, 0, 0], "qr", R=R, probs=sure_code, text="Chart A")
+            for what in frame
+        ]
+        confirmed += [s.type for s in tr.step(seen, 0.1 * k).newly_confirmed]
+    assert confirmed == ["qr"]
+    assert tr.tracks[0].type == "fire-extinguisher-sign" and tr.tracks[0].n_detections == 3
+
+
 def test_the_one_place_radius_is_a_setting_refused_out_of_range():
     assert load_config(None).tracker.cross_type_radius_m == 0.2
     assert apply_overrides(load_config(None), ["tracker.cross_type_radius_m=0"]).tracker.cross_type_radius_m == 0
