@@ -20,7 +20,6 @@ line. It then writes, through the writers a run uses:
 
 from __future__ import annotations
 
-import csv
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +31,7 @@ from eval.experiments.sweep import (
     RowWriter,
     SweepError,
     append_funnel,
+    last_rows,
     read_funnels,
     write_summaries,
 )
@@ -59,22 +59,6 @@ class ShardRun:
         return [t for k, t in enumerate(self.trial_ids) if k % self.count == self.index]
 
 
-def _last_rows(path: Path) -> tuple[list[str], dict[str, dict[str, str]]]:
-    """(columns, trial -> its last complete row) of a trials file, every value the text written."""
-    with open(path, encoding="utf-8", newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader, [])
-        rows: dict[str, dict[str, str]] = {}
-        for cells in reader:
-            if len(cells) != len(header):
-                continue  # a line a kill cut short (read_rows skips it too)
-            row = dict(zip(header, cells, strict=True))
-            if row.get("complete") == "1":
-                rows.pop(row["trial"], None)  # a trial run again goes where its last row is
-                rows[row["trial"]] = row
-    return header, rows
-
-
 def load_shard(folder: str | Path) -> ShardRun:
     """A shard's folder, read and checked on its own (:class:`MergeError`)."""
     p = Path(folder)
@@ -91,7 +75,7 @@ def load_shard(folder: str | Path) -> ShardRun:
         raise MergeError(f"{meta}: 'shard' needs index, count and trial_ids") from None
     if not trials.is_file():
         raise MergeError(f"{p}: shard {index}/{count} did not finish (no trials.csv); rerun it with --resume")
-    header, rows = _last_rows(trials)
+    header, rows = last_rows(trials)
     run = ShardRun(folder=p, doc=doc, index=index, count=count, trial_ids=ids, header=header, rows=rows)
     own = run.own_ids()
     stray = [t for t in rows if t not in set(own)]

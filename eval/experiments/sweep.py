@@ -7,7 +7,9 @@ trial is appended to ``trials.csv`` as one complete line, written whole and sync
 before the next, so a killed sweep loses no finished row; ``--resume`` drops a
 torn last line (a row cut short), then skips trials already recorded without
 error (failed and torn ones are run again). A trial
-that raises is recorded with its error and the sweep goes on.
+that raises is recorded with its error and the sweep goes on. A run that ends rewrites
+``trials.csv`` with each trial's last row in task order (:func:`write_in_task_order`), so
+the same sweep gives the same file and aggregate whatever its workers and resumes.
 
 With ``SweepSpec.shard`` (``--shard I/N``, :mod:`eval.experiments.shard`) only every N-th trial
 of the task order runs, and ``sweep.yaml`` names the shard and every trial of the run, which
@@ -46,6 +48,7 @@ import yaml
 from eval.experiments.shard import Shard
 from eval.experiments.suites import Suite, load_suite
 from poi.core.loader import safe_load_file
+from poi.core.poi_file import write_text_atomic
 
 ROW_FIELDS_HEAD = ["trial", "suite", "suite_version", "scenario", "seed"]
 ROW_FIELDS_TAIL = [
@@ -549,7 +552,42 @@ def run_sweep(
                 progress(1, len(tasks))
     finally:
         writer.close()
+    write_in_task_order(path, [t.trial for t in tasks])
     return write_summaries(out, [k for k, _ in spec.grid])
+
+
+def last_rows(path: Path) -> tuple[list[str], dict[str, dict[str, str]]]:
+    """(columns, trial -> its last complete row) of a trials file, every value the text written."""
+    with open(path, encoding="utf-8", newline="") as f:
+        reader = csv.reader(f)
+        header = next(reader, [])
+        rows: dict[str, dict[str, str]] = {}
+        for cells in reader:
+            if len(cells) != len(header):
+                continue  # a line a kill cut short (read_rows skips it too)
+            row = dict(zip(header, cells, strict=True))
+            if row.get("complete") == "1":
+                rows.pop(row["trial"], None)  # a trial run again goes where its last row is
+                rows[row["trial"]] = row
+    return header, rows
+
+
+def write_in_task_order(path: Path, trial_ids: list[str]) -> None:
+    """Rewrite a finished run's ``trials.csv`` with one row a trial (its last), in task order,
+    the values as written: workers finish in an order of their own, and a resumed run appends
+    its reruns, so the file a run leaves, and the aggregate's bootstrap, which draws mazes by
+    row, are the same whatever the workers and the interruptions. Trials without a row (a run
+    stopped early) are left out; the file is replaced atomically."""
+    header, rows = last_rows(path)
+    if not header:
+        return
+    buf = io.StringIO()
+    out = csv.DictWriter(buf, fieldnames=header, extrasaction="raise")
+    out.writeheader()
+    for tid in trial_ids:
+        if tid in rows:
+            out.writerow(rows[tid])
+    write_text_atomic(path, buf.getvalue())
 
 
 def write_summaries(out: Path, keys: list[str]) -> tuple[object, object]:

@@ -26,6 +26,7 @@ from eval.experiments.sweep import (
     parse_grid,
     read_rows,
     run_sweep,
+    write_in_task_order,
 )
 from poi.core.poi_file import read_poi_file
 
@@ -112,7 +113,9 @@ def test_a_failing_trial_is_a_row_and_the_sweep_goes_on(tmp_path, monkeypatch):
     monkeypatch.setattr(eval.trial.run, "run_trial", real)
     df2, _ = run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=9"]), resume=True), tmp_path / "s")
     assert (df2["error"] == "").all() and len(df2) == 2
-    assert len(pd.read_csv(tmp_path / "s" / "trials.csv")) == 3  # appended, never rewritten
+    # the rerun was appended; the run's end leaves one row a trial, the rerun's, in task order
+    rows = pd.read_csv(tmp_path / "s" / "trials.csv", keep_default_na=False)
+    assert list(rows["scenario"]) == ["tiny-1", "tiny-2"] and (rows["error"] == "").all()
 
 
 def test_a_map_error_preset_is_refused_before_any_trial(tmp_path):
@@ -207,6 +210,26 @@ def test_rows_and_aggregate_give_each_trials_cpu_seconds(tmp_path):
         run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=9"]), resume=True), tmp_path)
 
 
+def test_a_finished_run_leaves_one_row_a_trial_in_task_order(tmp_path):
+    """Rows appended in the order workers finished, one trial run twice (a resume's rerun after
+    a failure): the rewrite keeps each trial's last row, in the order the run's tasks were made,
+    every value as written, and leaves out a trial without a row."""
+    path = tmp_path / "trials.csv"
+    fields = ["trial", "scenario", "score", "error", "complete"]
+    w = RowWriter(path, fields)
+    for row in [("c", "m3", "7.50", "", "1"), ("a", "m1", "", "RuntimeError: x", "1"), ("b", "m2", "4", "", "1")]:
+        w.write(dict(zip(fields, row, strict=True)))
+    w.write(dict(zip(fields, ("a", "m1", "5.0", "", "1"), strict=True)))
+    w.close()
+    write_in_task_order(path, ["a", "b", "c", "d"])
+    assert path.read_text(encoding="utf-8").splitlines() == [
+        "trial,scenario,score,error,complete",
+        "a,m1,5.0,,1",
+        "b,m2,4,,1",
+        "c,m3,7.50,,1",
+    ]
+
+
 def test_drop_torn_tail_keeps_whole_lines_only(tmp_path):
     f = tmp_path / "t.csv"
     for content, kept in [
@@ -231,11 +254,11 @@ def test_two_workers_give_the_rows_of_one(tmp_path):
     one, _ = run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.n_min=2,3"])), tmp_path / "a")
     two, agg = run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.n_min=2,3"]), workers=2), tmp_path / "b")
     cols = RESULT_COLS
-    pd.testing.assert_frame_equal(
-        one[cols].sort_values("trial").reset_index(drop=True),
-        two[cols].sort_values("trial").reset_index(drop=True),
-    )
+    # the same rows in the same (task) order, so the same bootstrap intervals
+    pd.testing.assert_frame_equal(one[cols].reset_index(drop=True), two[cols].reset_index(drop=True))
     assert list(agg["set.tracker.n_min"].astype(str)) == ["2", "3"]
+    same = ["fraction_mean", "fraction_ci95_low", "fraction_ci95_high", "false_reports_mean"]
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "a" / "aggregate.csv")[same], agg[same])
 
 
 @pytest.mark.slow
