@@ -8,7 +8,7 @@ about 90% of a trial's CPU, give the same result each time, so they run once per
 frame, what the pipeline after detection reads (:class:`FrameRecord`):
 
 * the detections of every detector, the ONNX detector's down to :data:`CONF_FLOOR`;
-* the depth image, exact, in zlib-compressed 32 x 32 tiles (:class:`TiledDepth`):
+* the depth image, exact, in zlib-compressed 32 x 32 tiles of its Z16 counts (:class:`TiledDepth`):
   localisation reads each box's crop and the pixels round its centre, the in-view test
   one pixel per track, so a replay decompresses a few tiles a frame;
 * the pose (and the true pose, for the pose error of ``score.json``);
@@ -55,11 +55,13 @@ from pathlib import Path
 import numpy as np
 
 from eval.scoring.funnel import ObjectView
+from poi.core.depth_units import from_z16, to_z16
 from poi.core.types import Detection, Frame, Intrinsics
 
 # 2: detections carry class_probs over 29 classes (landolt-c added); 3: drift_multiplier;
-# 4: frames carry pose_relocalised; 5: frames carry the truth's object views and the blur (the funnel)
-CACHE_FORMAT = 5
+# 4: frames carry pose_relocalised; 5: frames carry the truth's object views and the blur (the funnel);
+# 6: depth tiles of Z16 counts (TiledDepth.unit_m)
+CACHE_FORMAT = 6
 CONF_FLOOR = 0.05  # ONNX detections are recorded down to this score; detector.conf below it runs in full
 TILE_PX = 32
 MAGIC = b"POIBPCR\x00"
@@ -105,11 +107,24 @@ class TiledDepth:
     ``d[row, col]`` (a scalar of the image's dtype), ``d[r0:r1, c0:c1]`` (a new array) and
     ``np.asarray(d)`` (the whole image); only the tiles read are decompressed. Values are exact.
 
+    With ``unit_m``, a float32 image on the Z16 grid (the simulator's depth is, poi.core.depth_units)
+    is kept as its uint16 counts, each tile's high bytes before its low ones: the high bytes of
+    neighbouring depths repeat and compress well, the low ones hold the noise. Decoded with
+    :func:`poi.core.depth_units.from_z16` it is the image bit for bit (checked when it is made; an
+    image off the grid is kept as it is). On a trial's 640x480 frames: 175 KB a frame against 273
+    for the float32 tiles.
+
     >>> a = np.arange(70 * 50, dtype=np.float32).reshape(70, 50)
     >>> t = TiledDepth.from_array(a, tile=32)
     >>> t.shape, float(t[69, 49]), bool(np.array_equal(t[30:40, 5:45], a[30:40, 5:45]))
     ((70, 50), 3499.0, True)
     >>> bool(np.array_equal(np.asarray(t, dtype=np.float64), a))
+    True
+    >>> z = from_z16(np.arange(70 * 50, dtype=np.uint16).reshape(70, 50))  # 0 to 3.499 m, 1 mm counts
+    >>> t = TiledDepth.from_array(z, tile=32, unit_m=0.001)
+    >>> t.unit_m, t.dtype, bool(np.array_equal(t[:, :], z)), bool(t[69, 49] == z[69, 49])
+    (0.001, '<f4', True, True)
+    >>> TiledDepth.from_array(z + np.float32(1e-4), unit_m=0.001).unit_m is None  # off the grid
     True
     """
 
@@ -118,25 +133,40 @@ class TiledDepth:
     tile: int
     blob: bytes
     offsets: np.ndarray  # (n_tiles + 1,) start of each compressed tile in blob, row-major tiles
+    unit_m: float | None = None  # the tiles hold Z16 counts of this unit (high bytes, then low)
     _decoded: dict = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
-    def from_array(cls, a: np.ndarray, tile: int = TILE_PX) -> TiledDepth:
+    def from_array(cls, a: np.ndarray, tile: int = TILE_PX, unit_m: float | None = None) -> TiledDepth:
         if a.ndim != 2:
             raise ValueError(f"depth: expected an (H, W) image, got shape {a.shape}")
+        src = a
+        if unit_m is not None:
+            counts = to_z16(a, unit_m) if a.dtype == np.float32 else None
+            if counts is not None and np.array_equal(from_z16(counts, unit_m).view(np.uint32), a.view(np.uint32)):
+                src = counts
+            else:
+                unit_m = None
         H, W = a.shape
         parts, offsets = [], [0]
         for r in range(0, H, tile):
             for c in range(0, W, tile):
-                z = zlib.compress(np.ascontiguousarray(a[r : r + tile, c : c + tile]).tobytes(), 1)
+                part = np.ascontiguousarray(src[r : r + tile, c : c + tile])
+                data = _split_bytes(part) if unit_m is not None else part.tobytes()
+                z = zlib.compress(data, 1)
                 parts.append(z)
                 offsets.append(offsets[-1] + len(z))
         return cls(
-            shape=(H, W), dtype=a.dtype.str, tile=tile, blob=b"".join(parts), offsets=np.asarray(offsets, np.int64)
+            shape=(H, W),
+            dtype=a.dtype.str,
+            tile=tile,
+            blob=b"".join(parts),
+            offsets=np.asarray(offsets, np.int64),
+            unit_m=unit_m,
         )
 
     def __getstate__(self) -> dict:
-        return {k: getattr(self, k) for k in ("shape", "dtype", "tile", "blob", "offsets")}
+        return {k: getattr(self, k) for k in ("shape", "dtype", "tile", "blob", "offsets", "unit_m")}
 
     def __setstate__(self, state: dict) -> None:
         for k, v in state.items():
@@ -161,7 +191,10 @@ class TiledDepth:
             k = i * n_cols + j
             raw = zlib.decompress(self.blob[int(self.offsets[k]) : int(self.offsets[k + 1])])
             h, w = min(t, H - i * t), min(t, W - j * t)
-            got = np.frombuffer(raw, dtype=np.dtype(self.dtype)).reshape(h, w)
+            if self.unit_m is None:
+                got = np.frombuffer(raw, dtype=np.dtype(self.dtype)).reshape(h, w)
+            else:
+                got = from_z16(_joined_counts(raw).reshape(h, w), self.unit_m)
             self._decoded[(i, j)] = got
         return got
 
@@ -197,6 +230,21 @@ class TiledDepth:
         if isinstance(cols, int):
             return out[:, 0]
         return out
+
+
+def _split_bytes(counts: np.ndarray) -> bytes:
+    """uint16 counts as their high bytes, then their low bytes."""
+    b = counts.astype("<u2", copy=False).view(np.uint8).reshape(-1, 2)  # (n, 2): low, high
+    return b[:, 1].tobytes() + b[:, 0].tobytes()
+
+
+def _joined_counts(raw: bytes) -> np.ndarray:
+    """The uint16 counts :func:`_split_bytes` wrote."""
+    b = np.frombuffer(raw, np.uint8)
+    n = b.size // 2
+    out = np.empty((n, 2), np.uint8)
+    out[:, 0], out[:, 1] = b[n:], b[:n]
+    return out.view("<u2").ravel()
 
 
 # ---------------------------------------------------------------------------- records

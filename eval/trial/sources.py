@@ -193,10 +193,12 @@ class Perception:
 
 
 class FrameRecords(Observer):
-    """Each frame of a perception record (``eval.trial.perception_cache.FrameRecord``)."""
+    """Each frame of a perception record (``eval.trial.perception_cache.FrameRecord``); depth on
+    the Z16 grid of ``unit_m`` is kept as its counts."""
 
-    def __init__(self) -> None:
+    def __init__(self, unit_m: float | None = None) -> None:
         self.frames: list = []
+        self.unit_m = unit_m
 
     def on_frame(self, tick: Tick) -> None:
         from eval.trial.perception_cache import FrameRecord, TiledDepth
@@ -209,7 +211,7 @@ class FrameRecords(Observer):
                 pose=None if frame.pose is None else np.array(frame.pose),
                 pose_confidence=frame.pose_confidence,
                 pose_relocalised=frame.pose_relocalised,
-                depth=None if frame.depth_m is None else TiledDepth.from_array(frame.depth_m),
+                depth=None if frame.depth_m is None else TiledDepth.from_array(frame.depth_m, unit_m=self.unit_m),
                 detections=dets,
                 qr_texts=texts,
                 T_map_tracker_true=np.array(truth.T_map_tracker),
@@ -232,7 +234,7 @@ def record_perception(sc, cfg, detector: str, max_frames: int | None, key: str):
         notes: list[str] = []
         detectors = source.detectors(detector, apply_overrides(cfg, [f"detector.conf={CONF_FLOOR}"]), notes)
         reader = find_qr_reader()
-        records = FrameRecords()
+        records = FrameRecords(unit_m=sc.sensors.d435.depth.depth_unit_m)
         run_episode(source, Perception(detectors, reader), [records], desc="record")
         sim, n = source.sim, source.n_frames
         return PerceptionRecord(

@@ -29,18 +29,27 @@ from eval.trial.perception_cache import (
 from eval.trial.run import run_trial
 from eval.trial.sources import cached_perception
 from poi.config import apply_overrides, load_config
+from poi.core.depth_units import from_z16, to_z16
 from sim.scenario import apply_settings
 
 TINY = str(Path(__file__).parents[1] / "experiments" / "data" / "tiny_suite.yaml")
 RESULT_COLS = ["trial", "scenario", "seed", "score", "max_score", "fraction", "false_reports", "misses"]
 
 
-def test_tiled_depth_reads_exactly_what_the_array_holds():
+@pytest.mark.parametrize("z16", [False, True])
+def test_tiled_depth_reads_exactly_what_the_array_holds(z16):
+    """Float32 tiles, or (on the Z16 grid, as the simulator's depth is) tiles of counts: the same
+    values bit for bit either way, and the counts' tiles smaller."""
     rng = np.random.default_rng(3)
     a = rng.uniform(0.3, 6.0, (75, 101)).astype(np.float32)  # not a multiple of the tile either way
     a[rng.random(a.shape) < 0.1] = 0.0
-    t = TiledDepth.from_array(a, tile=16)
-    assert t.shape == a.shape and t.ndim == 2
+    if z16:
+        a = from_z16(to_z16(a, 0.001), 0.001)
+    t = TiledDepth.from_array(a, tile=16, unit_m=0.001 if z16 else None)
+    assert t.shape == a.shape and t.ndim == 2 and t.unit_m == (0.001 if z16 else None)
+    if z16:
+        assert len(t.blob) < 0.8 * len(TiledDepth.from_array(a, tile=16).blob)
+        assert np.array_equal(np.asarray(t).view(np.uint32), a.view(np.uint32))
     for r, c in [(0, 0), (74, 100), (15, 16), (16, 15), (-1, -1), (40, 63)]:
         got = t[r, c]
         assert got.dtype == np.float32 and got == a[r, c]
