@@ -3,8 +3,7 @@
 A heat source is defined by its heat: the Robot League's heat sources are found by their
 temperature, and a robot that carries a thermal camera sees whether a place is hot. A colour
 network's heat-source class learns what heaters look like, and now and then boxes something of
-their colour and shape that is cold (in the default trial a red clutter crate, boxed 13 times
-and reported as a heater 1.1 m beyond the real one). So with the thermal camera on, a
+their colour and shape that is cold (docs/FACTS.md "Thermal camera"). So with the thermal camera on, a
 heat-source box of another detector stands only where a thermal detection
 (poi.detectors.thermal, ``source == "thermal"``) of the same frame overlaps it: their boxes,
 both in colour-image pixels, share some area. The thermal detections themselves always stand.

@@ -36,9 +36,8 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    sign the detector now and then boxes as a doll grows a doll track on the sign; this is
    the class vote of [Avevor2022]_ 2.4.5 taken over the two tracks of one place instead of
    within one. A box of the wrong type is mostly an unsure one that gives the object's own
-   type some of its mass (on five `rrl` mazes the shipped detector's boxes of another type
-   on an object give its type 0.23 at the median, its right boxes their type 0.83), so an
-   object boxed as another type more often than as its own can still win. The radius must
+   type some of its mass (measured in docs/results/detectors.md), so an object boxed
+   as another type more often than as its own can still win. The radius must
    stay under half the spacing of real neighbours of two types (at least 0.41 m in the
    shipped worlds).
 
