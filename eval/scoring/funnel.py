@@ -333,6 +333,7 @@ def attribute(
     charges: list[Charge] = []
     points_result = isinstance(result, ScoreResult)
     rules = result.rules if points_result else None
+    lying_on = _reports_of_other_types(result, report_track, by_id)
     reports_by_id = {r.id: r for r in result.reports if r.id is not None}
     for outcome in result.objects:
         if outcome.status == STATUS_IGNORED:
@@ -361,7 +362,7 @@ def attribute(
         cause = _first_missing_stage(o, rules)
         detail = "" if cause is None else _perception_detail(cause, o)
         if cause is None:
-            cause, detail = _report_fate(o, mine, reports_by_id, report_track, rules)
+            cause, detail = _report_fate(o, mine, reports_by_id, report_track, rules, lying_on.get(oid, []))
         charges.append(Charge(cause=cause, points=lost, type=o.type, detail=detail, object_id=oid))
     if rules is not None:
         for r in result.reports:
@@ -400,17 +401,36 @@ def _paired_charges(
     return out
 
 
+def _reports_of_other_types(
+    result: ScoreResult | MapErrorResult, report_track: dict[int, TrackTrace], by_id: dict[int, ObjectTrace]
+) -> dict[int, list[str]]:
+    """Object id -> the types of the false reports whose track's boxes lay on it, of another type."""
+    out: dict[int, list[str]] = {}
+    for r in getattr(result, "reports", []):
+        t = report_track.get(r.id) if r.id is not None and r.status == STATUS_FALSE else None
+        oid = None if t is None else t.main_object()
+        if oid in by_id and by_id[oid].type != r.type:
+            out.setdefault(oid, []).append(r.type)
+    return out
+
+
 def _report_fate(
     o: ObjectTrace,
     mine: list[TrackTrace],
     reports_by_id: dict[int, ReportOutcome],
     report_track: dict[int, TrackTrace],
     rules: Rules,
+    lying_on: list[str] = (),
 ) -> tuple[str, str]:
-    """The cause of an object that passed every perception stage and still went unpaired."""
+    """The cause of an object that passed every perception stage and still went unpaired;
+    ``lying_on``, the types of false reports of another type on it (a track of that type won
+    the place's vote, poi.estimation.tracker step 6, or was confirmed first)."""
     if not mine:
         n = sum(o.tracks.values())
-        return "not confirmed", f"{n} observations with its identity in {len(o.tracks)} track(s), none confirmed"
+        why = f"{n} observations with its identity in {len(o.tracks)} track(s), none confirmed"
+        if lying_on:
+            why += f"; reported as {' and '.join(sorted(set(lying_on)))} there"
+        return "not confirmed", why
     want = identity_of(o.type, o.text, rules)
     best = max(mine, key=lambda t: (o.tracks[t.track_id], -t.track_id))
     rep = reports_by_id.get(best.report_id) if best.report_id is not None else None

@@ -277,6 +277,26 @@ def test_the_outputs_carry_every_charge_and_a_suite_sums_per_type() -> None:
     assert text.splitlines()[-1].endswith(": ok")
 
 
+def test_an_object_whose_place_went_to_a_report_of_another_type_says_so() -> None:
+    """A placard boxed twice as itself (a track never confirmed) and three times as an exit sign
+    (reported): its lost points are charged to `not confirmed`, naming the exit-sign report on
+    it, and the report to `false: other object`."""
+    truth = poi(row(0, "hazmat", 0.0, text="explosive"))
+    rec = FunnelRecorder([(0, "hazmat", "explosive", None)], load_config(), EX3)
+    for k in range(5):
+        d = det("hazmat", "explosive", track=6) if k < 2 else det("exit-sign", track=5)
+        rec.on_frame([view(0)], 0.0, frame(k), result(k, [d], [0]))
+    res = score(poi(row(1, "exit-sign", 0.0)), truth, EX3)
+    f = rec.funnel([snap(5, 1, "exit-sign")], res)
+    (obj,) = [c for c in f.charges if c.object_id == 0]
+    assert obj.cause == "not confirmed"
+    assert obj.detail == (
+        "2 observations with its identity in 1 track(s), none confirmed; reported as exit-sign there"
+    )
+    assert [c.cause for c in f.charges if c.report_line is not None] == ["false: other object"]
+    assert f.check_ok
+
+
 @pytest.mark.parametrize("shift_px, cause", [(30.0, "false: other object"), (52.0, "false: background")])
 def test_a_false_reports_box_lies_on_an_object_from_a_tenth_of_iou(shift_px, cause) -> None:
     """A box half off a placard (IoU 0.33 with its 60 px box) still lies on it (TIDE's background
