@@ -324,6 +324,15 @@ def drop_torn_tail(path: Path) -> int:
         return size - keep
 
 
+def csv_line(fields: list[str], row: dict) -> str:
+    """One row of a trials file as the text written: ``fields`` in order, csv's quoting and
+    line end (the appending writer and the rewrite in task order share it, so a run's file and a
+    merged one are the same bytes)."""
+    buf = io.StringIO()
+    csv.DictWriter(buf, fieldnames=fields, extrasaction="raise").writerow(row)
+    return buf.getvalue()
+
+
 class RowWriter:
     """Appends complete rows to a CSV file: each row is one ``os.write`` of a whole line on
     an append-only descriptor, fsynced before returning, so a kill leaves whole rows only
@@ -347,9 +356,7 @@ class RowWriter:
             self._append(dict(zip(fields, fields, strict=True)))
 
     def _append(self, row: dict) -> None:
-        buf = io.StringIO()
-        csv.DictWriter(buf, fieldnames=self.fields, extrasaction="raise").writerow(row)
-        data = buf.getvalue().encode("utf-8")
+        data = csv_line(self.fields, row).encode("utf-8")
         while data:
             n = os.write(self._fd, data)
             data = data[n:]
@@ -581,13 +588,9 @@ def write_in_task_order(path: Path, trial_ids: list[str]) -> None:
     header, rows = last_rows(path)
     if not header:
         return
-    buf = io.StringIO()
-    out = csv.DictWriter(buf, fieldnames=header, extrasaction="raise")
-    out.writeheader()
-    for tid in trial_ids:
-        if tid in rows:
-            out.writerow(rows[tid])
-    write_text_atomic(path, buf.getvalue())
+    lines = [csv_line(header, dict(zip(header, header, strict=True)))]
+    lines += [csv_line(header, rows[tid]) for tid in trial_ids if tid in rows]
+    write_text_atomic(path, "".join(lines))
 
 
 def write_summaries(out: Path, keys: list[str]) -> tuple[object, object]:

@@ -406,7 +406,7 @@ def _reports_of_other_types(
 ) -> dict[int, list[str]]:
     """Object id -> the types of the false reports whose track's boxes lay on it, of another type."""
     out: dict[int, list[str]] = {}
-    for r in getattr(result, "reports", []):
+    for r in result.reports:
         t = report_track.get(r.id) if r.id is not None and r.status == STATUS_FALSE else None
         oid = None if t is None else t.main_object()
         if oid in by_id and by_id[oid].type != r.type:
