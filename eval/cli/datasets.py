@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from eval.detector.dataset import DISTANCE_DRAWS, HAZMAT_PER_SCENARIO, DatasetSpec
+from eval.detector.route_frames import RouteFramesSpec
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -150,6 +151,28 @@ def register(sub: argparse._SubParsersAction) -> None:
     rf.add_argument("--mazes", type=int, required=True, help="generated RRL mazes to tour")
     rf.add_argument("--every", type=int, default=10, help="one frame in this many (default 10: one a second)")
     rf.add_argument("--seed", type=int, default=0, help="seed of the mazes (default 0)")
+    rf.add_argument(
+        "--set",
+        dest="settings",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a scenario setting every maze takes (repeatable), e.g. a suite's: lighting=dim",
+    )
+    rf.add_argument(
+        "--mine",
+        metavar="MODEL",
+        help="keep the frames this detector errs on (hard-example mining): 'default' (the shipped pair) "
+        "or a detector ONNX, with --mine-labels",
+    )
+    rf.add_argument("--mine-labels", metavar="LABELS", help="the label model of --mine MODEL (ONNX)")
+    rf.add_argument(
+        "--keep-easy",
+        type=int,
+        default=RouteFramesSpec.keep_easy,
+        help="with --mine: keep one in this many of the frames it gets right "
+        f"(default {RouteFramesSpec.keep_easy})",
+    )
     rf.add_argument("--quiet", action="store_true", help="no progress bar")
     rf.set_defaults(func=cmd_route_frames)
 
@@ -198,11 +221,39 @@ def cmd_route_frames(args) -> int:
     from eval.detector.route_frames import RouteFramesSpec, write_route_frames
     from eval.progress import progress_bar
 
-    spec = RouteFramesSpec(mazes=args.mazes, seed=args.seed, every=args.every)
+    spec = RouteFramesSpec(
+        mazes=args.mazes,
+        seed=args.seed,
+        every=args.every,
+        settings=tuple(args.settings),
+        mine=_mining_pair(args),
+        keep_easy=args.keep_easy,
+    )
     with progress_bar(desc="frames", unit="frame", quiet=args.quiet) as bar:
         summary = write_route_frames(spec, args.out, progress=bar.update)
     print(
         f"{args.out}: {summary['frames']} frames of {spec.mazes} tours, {summary['frames_with_labels']} "
         f"with a labelled object ({summary['boxes']} boxes)"
     )
+    if spec.mine is not None:
+        kinds = ", ".join(f"{k} {n}" for k, n in summary["mistakes"].items()) or "none"
+        print(f"{summary['frames_with_mistakes']} frames with a mistake of {spec.mine[0]}: {kinds}")
     return 0
+
+
+def _mining_pair(args) -> tuple[str, str] | None:
+    """(detector, label model) of --mine: the shipped pair for 'default'; a label model is needed."""
+    from eval.detector.dataset import DatasetError
+    from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL, SHIPPED
+
+    if args.mine is None:
+        if args.mine_labels is not None:
+            raise DatasetError("--mine-labels goes with --mine MODEL")
+        return None
+    if args.mine == SHIPPED:
+        if args.mine_labels is not None:
+            raise DatasetError("--mine default brings the shipped label model; give --mine-labels with a file")
+        return str(DEFAULT_MODEL), str(DEFAULT_LABEL_MODEL)
+    if args.mine_labels is None:
+        raise DatasetError(f"--mine {args.mine}: give its label model with --mine-labels")
+    return args.mine, args.mine_labels

@@ -549,7 +549,11 @@ def write_labelled_image(
 
 
 def write_rows(path: Path, rows: list[dict]) -> None:
-    """A CSV of ``rows`` (the columns of the first): a unit's marker, or the manifest."""
+    """A CSV of ``rows`` (the columns of the first; empty when there are none): a unit's marker,
+    or the manifest."""
+    if not rows:
+        path.write_text("", encoding="utf-8")
+        return
     with open(path, "w", newline="", encoding="utf-8") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()

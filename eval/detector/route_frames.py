@@ -15,13 +15,24 @@ the detector must keep quiet on.
 
 Mazes are generated from seeds drawn from ``SeedSequence([seed, j, 9])`` (31
 bits: far from the suites' own seeds, 201-210, 301-...), 4-5 cells a side, a
-lighting preset each. Layout: ``images/train/*.jpg``, ``labels/train/*.txt``,
-``data.yaml``, ``manifest.csv``; all frames are training frames (validate on
-``poibench dataset``'s val split or on trials). A rerun skips finished mazes.
+lighting preset each, then the spec's ``settings`` (``--set``: a suite's own, such
+as ``rrl-hard``'s dim light and dense objects).
+
+With ``mine`` (a detector and its label model; ``default`` the shipped pair), the
+frames are chosen by that detector's mistakes (:mod:`eval.detector.mining`, hard-example
+mining): a frame stays when the detector at the operating confidence misses a labelled
+object, boxes one as another type or boxes nothing there; of the frames it gets right,
+one in ``keep_easy``. The manifest's ``mistakes`` column names them and the summary
+counts them by kind: what the detector gets wrong on tours, before any training.
+
+Layout: ``images/train/*.jpg``, ``labels/train/*.txt``, ``data.yaml``, ``manifest.csv``;
+all frames are training frames (validate on ``poibench dataset``'s val split or on trials).
+A rerun skips finished mazes.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -50,12 +61,34 @@ class RouteFramesSpec:
     seed: int = 0
     every: int = 10  # one frame in this many (10 Hz frames: one a second)
     jpeg_quality: int = 95
+    settings: tuple[str, ...] = ()  # scenario --set items every maze takes after its lighting
+    mine: tuple[str, str] | None = None  # (detector ONNX, label model ONNX) whose mistakes choose
+    keep_easy: int = 4  # with mine: one in this many of the frames the detector gets right stays
 
     def __post_init__(self) -> None:
         if self.mazes < 1:
             raise DatasetError(f"--mazes must be at least 1, got {self.mazes}")
         if self.every < 1:
             raise DatasetError(f"--every must be at least 1, got {self.every}")
+        if self.keep_easy < 1:
+            raise DatasetError(f"--keep-easy must be at least 1, got {self.keep_easy}")
+        self.settings = tuple(self.settings)
+        if self.mine is not None:
+            self.mine = (str(self.mine[0]), str(self.mine[1]))
+            for f in self.mine:
+                if not Path(f).is_file():
+                    raise DatasetError(f"--mine: no such model file {f}")
+
+    def to_dict(self) -> dict:
+        """The spec as dataset.yaml keeps it; the keys of mining and settings only when used, so
+        folders made before them resume."""
+        d = asdict(self)
+        for key, off in (("settings", ()), ("mine", None), ("keep_easy", 4)):
+            if d[key] == off or (key == "keep_easy" and self.mine is None):
+                del d[key]
+            elif isinstance(d[key], tuple):
+                d[key] = list(d[key])
+        return d
 
     def maze(self, j: int) -> tuple[int, int, int, str]:
         """(seed, rows, cols, lighting) of the j-th maze."""
@@ -69,7 +102,39 @@ def _scenario(spec: RouteFramesSpec, j: int):
     from eval.trial.scenarios import apply_scenario_settings, generated_scenario
 
     seed, rows, cols, lighting = spec.maze(j)
-    return apply_scenario_settings(generated_scenario(seed, rows, cols), [f"lighting={lighting}"])
+    try:
+        return apply_scenario_settings(
+            generated_scenario(seed, rows, cols), [f"lighting={lighting}", *spec.settings]
+        )
+    except ValueError as exc:  # SettingError, ScenarioError: one line naming the key
+        raise DatasetError(str(exc)) from exc
+
+
+def _mining_detector(spec: RouteFramesSpec):
+    from eval.cli.detector_args import OPERATING_CONF
+    from poi.detectors import build_detector
+
+    assert spec.mine is not None
+    model, labels = spec.mine
+    return build_detector({"name": "onnx", "model": model, "label_model": labels, "conf": OPERATING_CONF})
+
+
+def _mistakes(detector, frame, truth, by_id, label_spec: DatasetSpec) -> list[str]:
+    """``detector``'s mistakes on ``frame`` against its truth labels (eval.detector.mining)."""
+    from eval.detector.mining import frame_mistakes
+
+    height, width = frame.rgb.shape[:2]
+
+    def boxes(labels):
+        a = np.array([l[1:] for l in labels], float).reshape(-1, 4) * [width, height, width, height]
+        return np.c_[a[:, :2] - a[:, 2:] / 2, a[:, :2] + a[:, 2:] / 2], [l[0] for l in labels]
+
+    gt, gt_c = boxes(yolo_labels(truth, by_id, label_spec, width, height))
+    ign, ign_c = boxes(yolo_labels(truth, by_id, label_spec, width, height, ignored=True))
+    dets = [d for d in detector.detect(frame) if d.class_name in RESCUE_CLASSES]
+    det_boxes = np.array([d.box_xyxy for d in dets], float).reshape(-1, 4)
+    det_c = [RESCUE_CLASSES.index(d.class_name) for d in dets]
+    return frame_mistakes(gt, gt_c, det_boxes, det_c, ign, ign_c)
 
 
 def write_route_frames(
@@ -80,26 +145,36 @@ def write_route_frames(
 
     out = Path(out_dir)
     meta = out / "dataset.yaml"
+    _scenario(spec, 0)  # a bad --set is refused before anything is written
     if meta.exists():
         old = safe_load_file(meta, error=DatasetError)
-        if not isinstance(old, dict) or old.get("route_frames") != asdict(spec):
+        if not isinstance(old, dict) or old.get("route_frames") != spec.to_dict():
             raise DatasetError(f"{out} holds route frames of other settings; choose a new --out")
     elif out.exists() and any(out.iterdir()):
         raise DatasetError(f"{out} exists and is not a route-frames folder; choose an empty or new --out")
     for sub in ("images/train", "labels/train", "images/val", "labels/val", ".done"):
         (out / sub).mkdir(parents=True, exist_ok=True)
-    meta.write_text(yaml.safe_dump({"route_frames": asdict(spec)}, sort_keys=False), encoding="utf-8")
+    meta.write_text(yaml.safe_dump({"route_frames": spec.to_dict()}, sort_keys=False), encoding="utf-8")
     label_spec = DatasetSpec(images=1)  # the labelling thresholds of poibench dataset
+    detector = None if spec.mine is None else _mining_detector(spec)
     for j in range(spec.mazes):
         marker = out / ".done" / f"maze_{j:04d}.csv"
         if marker.exists():
             continue
         sc = _scenario(spec, j)
         rows = []
+        easy = 0
         with Simulation(sc) as sim:
             by_id = {o.id: o for o in sim.objects}
             for k in range(0, sim.n_frames, spec.every):
                 frame, truth = sim.frame(k)
+                if progress:
+                    progress(1)
+                mistakes = [] if detector is None else _mistakes(detector, frame, truth, by_id, label_spec)
+                if detector is not None and not mistakes:
+                    easy += 1
+                    if (easy - 1) % spec.keep_easy:
+                        continue
                 height, width = frame.rgb.shape[:2]
                 labels = yolo_labels(truth, by_id, label_spec, width, height)
                 name = f"r{j:04d}_{k:05d}"
@@ -114,10 +189,9 @@ def write_route_frames(
                         "frame": k,
                         "labels": " ".join(RESCUE_CLASSES[c] for c, *_ in labels),
                         "objects": " ".join(object_class(by_id[v.id]) for v in truth.visible),
+                        **({"mistakes": "; ".join(mistakes)} if detector is not None else {}),
                     }
                 )
-                if progress:
-                    progress(1)
         write_rows(marker, rows)
     return _finish(out, spec)
 
@@ -125,12 +199,16 @@ def write_route_frames(
 def _finish(out: Path, spec: RouteFramesSpec) -> dict:
     rows = gather_manifest(out, [out / ".done" / f"maze_{j:04d}.csv" for j in range(spec.mazes)])
     write_data_yaml(out)
-    summary = {
+    summary: dict = {
         "frames": len(rows),
         "frames_with_labels": sum(bool(r["labels"]) for r in rows),
         "boxes": sum(len(r["labels"].split()) for r in rows),
     }
+    if spec.mine is not None:
+        kinds = Counter(m for r in rows for m in r["mistakes"].split("; ") if m)
+        summary["frames_with_mistakes"] = sum(bool(r["mistakes"]) for r in rows)
+        summary["mistakes"] = dict(kinds.most_common())
     (out / "dataset.yaml").write_text(
-        yaml.safe_dump({"route_frames": asdict(spec), "summary": summary}, sort_keys=False), encoding="utf-8"
+        yaml.safe_dump({"route_frames": spec.to_dict(), "summary": summary}, sort_keys=False), encoding="utf-8"
     )
     return summary

@@ -7,7 +7,7 @@ import yaml
 
 from eval.detector.dataset import DatasetError
 from eval.detector.route_frames import RouteFramesSpec, write_route_frames
-from poi.core.names import RESCUE_CLASSES
+from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 
 pytestmark = pytest.mark.slow  # each test tours a simulated maze
 
@@ -58,3 +58,35 @@ def test_a_folder_of_other_settings_is_refused_and_a_rerun_resumes(tour):
         write_route_frames(RouteFramesSpec(mazes=1, every=149), out)
     with pytest.raises(DatasetError, match="--every must be at least 1, got 0"):
         RouteFramesSpec(mazes=1, every=0)
+
+
+def test_mining_keeps_the_frames_the_detector_errs_on_and_one_easy_frame_in_keep_easy(tour, tmp_path):
+    spec, out, _ = tour
+    mined = RouteFramesSpec(mazes=1, every=spec.every, mine=_shipped_pair(), keep_easy=2)
+    summary = write_route_frames(mined, tmp_path)
+    with open(out / "manifest.csv", newline="") as f:
+        every_frame = [int(r["frame"]) for r in csv.DictReader(f)]
+    with open(tmp_path / "manifest.csv", newline="") as f:
+        kept = {int(r["frame"]): r for r in csv.DictReader(f)}
+    assert set(kept) <= set(every_frame)
+    easy = [k for k in every_frame if k not in kept or not kept[k]["mistakes"]]
+    assert [k for k in easy if k in kept] == easy[::2]  # the 1st, 3rd, ... easy frame
+    assert summary["frames_with_mistakes"] == len(every_frame) - len(easy) >= 1
+    for k, r in kept.items():
+        name = f"r0000_{k:05d}.txt"
+        assert (tmp_path / "labels" / "train" / name).read_text() == (out / "labels" / "train" / name).read_text()
+        types = {"hazmat" if c in HAZMAT_LABELS else c for c in r["labels"].split()}
+        for m in filter(None, r["mistakes"].split("; ")):
+            # a missed or misnamed object is one of the frame's labelled ones
+            if m.startswith("missed "):
+                assert m.removeprefix("missed ") in types
+            elif " as " in m:
+                assert m.split(" as ")[0] in types
+            else:
+                assert m.startswith("false ")
+
+
+def _shipped_pair():
+    from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
+
+    return str(DEFAULT_MODEL), str(DEFAULT_LABEL_MODEL)
