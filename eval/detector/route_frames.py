@@ -42,6 +42,7 @@ import yaml
 
 from eval.detector.dataset import (
     LIGHTING,
+    SCENARIO_TRIES,
     DatasetError,
     DatasetSpec,
     gather_manifest,
@@ -90,24 +91,40 @@ class RouteFramesSpec:
                 d[key] = list(d[key])
         return d
 
-    def maze(self, j: int) -> tuple[int, int, int, str]:
-        """(seed, rows, cols, lighting) of the j-th maze."""
-        rng = np.random.default_rng(np.random.SeedSequence([self.seed, j, 9]))
+    def maze(self, j: int, attempt: int = 0) -> tuple[int, int, int, str]:
+        """(seed, rows, cols, lighting) of the j-th maze; a maze its objects do not fit is drawn
+        again with the next ``attempt``."""
+        rng = np.random.default_rng(np.random.SeedSequence([self.seed, j, 9, *([attempt] if attempt else [])]))
         seed = int(rng.integers(1_000_000, 2**31 - 1))
         rows, cols = (int(v) for v in rng.integers(4, 6, size=2))
         return seed, rows, cols, LIGHTING[int(rng.integers(len(LIGHTING)))]
 
 
-def _scenario(spec: RouteFramesSpec, j: int):
+def _scenario(spec: RouteFramesSpec, j: int, attempt: int = 0):
     from eval.trial.scenarios import apply_scenario_settings, generated_scenario
 
-    seed, rows, cols, lighting = spec.maze(j)
+    seed, rows, cols, lighting = spec.maze(j, attempt)
     try:
         return apply_scenario_settings(
             generated_scenario(seed, rows, cols), [f"lighting={lighting}", *spec.settings]
         )
     except ValueError as exc:  # SettingError, ScenarioError: one line naming the key
         raise DatasetError(str(exc)) from exc
+
+
+def _build(spec: RouteFramesSpec, j: int):
+    """(scenario, Simulation) of maze j, drawn again when its objects do not fit (as ``poibench
+    dataset``'s scenarios are)."""
+    from sim.simulator import Simulation
+    from sim.world.placement import PlacementError
+
+    for attempt in range(SCENARIO_TRIES):
+        sc = _scenario(spec, j, attempt)
+        try:
+            return sc, Simulation(sc)
+        except PlacementError:
+            continue
+    raise DatasetError(f"maze {j}: the objects did not fit {SCENARIO_TRIES} drawn mazes; ask for fewer with --set")
 
 
 def _mining_detector(spec: RouteFramesSpec):
@@ -141,15 +158,17 @@ def write_route_frames(
     spec: RouteFramesSpec, out_dir: str | Path, progress: Callable[[int], None] | None = None
 ) -> dict:
     """Render the tours' frames into ``out_dir``; returns the summary (also in dataset.yaml)."""
-    from sim.simulator import Simulation
-
     out = Path(out_dir)
     meta = out / "dataset.yaml"
     _scenario(spec, 0)  # a bad --set is refused before anything is written
     if meta.exists():
         old = safe_load_file(meta, error=DatasetError)
-        if not isinstance(old, dict) or old.get("route_frames") != spec.to_dict():
+        before = old.get("route_frames") if isinstance(old, dict) else None
+        # maze j depends on the seed, j and the settings only: a folder grows by more --mazes
+        if not isinstance(before, dict) or {**before, "mazes": spec.mazes} != spec.to_dict():
             raise DatasetError(f"{out} holds route frames of other settings; choose a new --out")
+        if before["mazes"] > spec.mazes:
+            raise DatasetError(f"{out} holds the frames of {before['mazes']} mazes; ask for as many or more")
     elif out.exists() and any(out.iterdir()):
         raise DatasetError(f"{out} exists and is not a route-frames folder; choose an empty or new --out")
     for sub in ("images/train", "labels/train", "images/val", "labels/val", ".done"):
@@ -161,10 +180,10 @@ def write_route_frames(
         marker = out / ".done" / f"maze_{j:04d}.csv"
         if marker.exists():
             continue
-        sc = _scenario(spec, j)
+        sc, sim = _build(spec, j)
         rows = []
         easy = 0
-        with Simulation(sc) as sim:
+        with sim:
             by_id = {o.id: o for o in sim.objects}
             for k in range(0, sim.n_frames, spec.every):
                 frame, truth = sim.frame(k)

@@ -1,6 +1,7 @@
 """poibench route-frames: the robot's own tour frames, labelled with the simulator's truth boxes."""
 
 import csv
+import shutil
 
 import pytest
 import yaml
@@ -56,6 +57,19 @@ def test_a_folder_of_other_settings_is_refused_and_a_rerun_resumes(tour):
     assert {p.name: p.stat().st_mtime_ns for p in (out / "images" / "train").iterdir()} == before
     with pytest.raises(DatasetError, match="holds route frames of other settings"):
         write_route_frames(RouteFramesSpec(mazes=1, every=149), out)
+
+
+def test_a_folder_grows_by_more_mazes_and_refuses_fewer(tour, tmp_path):
+    spec, out, summary = tour
+    grown = tmp_path / "grown"
+    shutil.copytree(out, grown)
+    more = write_route_frames(RouteFramesSpec(mazes=2, every=spec.every), grown)
+    with open(grown / "manifest.csv", newline="") as f:
+        mazes = [int(r["maze"]) for r in csv.DictReader(f)]
+    assert mazes.count(0) == summary["frames"] and more["frames"] == len(mazes) > summary["frames"]
+    with pytest.raises(DatasetError, match="holds the frames of 2 mazes; ask for as many or more"):
+        write_route_frames(RouteFramesSpec(mazes=1, every=spec.every), grown)
+
     with pytest.raises(DatasetError, match="--every must be at least 1, got 0"):
         RouteFramesSpec(mazes=1, every=0)
 
