@@ -128,12 +128,12 @@ def _build(spec: RouteFramesSpec, j: int):
 
 
 def _mining_detector(spec: RouteFramesSpec):
-    from eval.cli.detector_args import OPERATING_CONF
+    from poi.config import DetectorConfig
     from poi.detectors import build_detector
 
     assert spec.mine is not None
     model, labels = spec.mine
-    return build_detector({"name": "onnx", "model": model, "label_model": labels, "conf": OPERATING_CONF})
+    return build_detector({"name": "onnx", "model": model, "label_model": labels, "conf": DetectorConfig().conf})
 
 
 def _mistakes(detector, frame, truth, by_id, label_spec: DatasetSpec) -> list[str]:
