@@ -84,7 +84,7 @@ class RouteFramesSpec:
         """The spec as dataset.yaml keeps it; the keys of mining and settings only when used, so
         folders made before them resume."""
         d = asdict(self)
-        for key, off in (("settings", ()), ("mine", None), ("keep_easy", 4)):
+        for key, off in (("settings", ()), ("mine", None), ("keep_easy", type(self).keep_easy)):
             if d[key] == off or (key == "keep_easy" and self.mine is None):
                 del d[key]
             elif isinstance(d[key], tuple):
