@@ -22,26 +22,26 @@ has no pixels; its detections were recorded with the thermal detector beside the
 
 from __future__ import annotations
 
+import numpy as np
+
+from poi.core.geometry import iou_matrix
 from poi.core.types import Detection, Frame
 
 HEAT_SOURCE = "heat-source"
 THERMAL_SOURCE = "thermal"
 
 
-def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    """Whether two (x1, y1, x2, y2) boxes share a positive area."""
-    return min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1])
-
-
 def vouched_for(detections: list[Detection]) -> list[Detection]:
     """``detections`` less the heat-source boxes of other detectors that no thermal
     heat-source box of the list overlaps (the order of the rest kept)."""
-    hot = [d.box_xyxy for d in detections if d.type == HEAT_SOURCE and d.source == THERMAL_SOURCE]
-    return [
-        d
-        for d in detections
-        if d.type != HEAT_SOURCE or d.source == THERMAL_SOURCE or any(_overlap(d.box_xyxy, h) for h in hot)
-    ]
+    hot = np.array([d.box_xyxy for d in detections if d.type == HEAT_SOURCE and d.source == THERMAL_SOURCE])
+
+    def stands(d: Detection) -> bool:
+        if d.type != HEAT_SOURCE or d.source == THERMAL_SOURCE:
+            return True
+        return bool((iou_matrix(np.array([d.box_xyxy]), hot) > 0).any())
+
+    return [d for d in detections if stands(d)]
 
 
 def frame_has_thermal_view(frame: Frame) -> bool:
