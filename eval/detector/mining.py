@@ -24,22 +24,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from eval.detector.metrics import ImageBoxes, drop_ignored, match_classes_first
-from poi.core.names import RESCUE_CLASSES, class_to_identity
+from poi.core.names import CLASS_TYPES, RESCUE_CLASSES
 
 IOU_MIN = 0.5
 MIN_MISSED_PX = 20.0  # a missed object counts from this short side (smaller ones trials rarely lose)
-
-
-def class_type(class_name: str) -> str:
-    """The object type a detector class names (every placard label: ``hazmat``)."""
-    identity = class_to_identity(class_name)
-    if identity is None:
-        raise ValueError(f"unknown detector class {class_name!r}")
-    return identity[0]
-
-
-TYPES: tuple[str, ...] = tuple(dict.fromkeys(class_type(c) for c in RESCUE_CLASSES))
-TYPE_OF_CLASS = np.array([TYPES.index(class_type(c)) for c in RESCUE_CLASSES])
+_RESCUE_TYPES = CLASS_TYPES[: len(RESCUE_CLASSES)]  # the type of each RESCUE_CLASSES class
+TYPES: tuple[str, ...] = tuple(dict.fromkeys(_RESCUE_TYPES))
+TYPE_OF_CLASS = np.array([TYPES.index(t) for t in _RESCUE_TYPES])  # class index -> index into TYPES
 
 
 def frame_mistakes(

@@ -141,6 +141,9 @@ LABEL_ALIASES: dict[str, str] = {
 RESCUE_CLASSES: tuple[str, ...] = HAZMAT_LABELS + tuple(t for t in RESCUE_TYPES if t != "hazmat")
 CLASSES: tuple[str, ...] = RESCUE_CLASSES + ARENA_TYPES + TARGET_TYPES
 CLASS_INDEX: dict[str, int] = {name: i for i, name in enumerate(CLASSES)}
+# The object type each class names, index for index with CLASSES (and RESCUE_CLASSES, its
+# prefix): 'hazmat' for every placard label, the class itself for every other type.
+CLASS_TYPES: tuple[str, ...] = tuple("hazmat" if c in HAZMAT_LABELS else c for c in CLASSES)
 
 # What an operator reads where the type name written as a sentence would read badly.
 DISPLAY_NAMES: dict[str, str] = {

@@ -99,7 +99,7 @@ from filterpy.kalman import update as filterpy_update
 from poi.config import TrackerConfig
 from poi.core.assignment import optimal_assignment
 from poi.core.landolt import merge_orientation_votes, parse_orientation_text
-from poi.core.names import CLASS_INDEX, CLASSES, HAZMAT_LABELS
+from poi.core.names import CLASS_INDEX, CLASS_TYPES, CLASSES, HAZMAT_LABELS
 from poi.core.types import Observation, TrackSnapshot
 from poi.estimation.covariance import Calibration
 
@@ -107,9 +107,8 @@ N_CLASSES = len(CLASSES)
 IDENTITY3 = np.eye(3)  # H: a track's position is observed directly
 HAZMAT_SLICE = slice(0, len(HAZMAT_LABELS))  # hazmat labels come first in CLASSES
 TEXT_TYPES = ("qr", "landolt-c")  # types whose text is read from pixels and voted on over frames
-_TYPE_OF_CLASS = ["hazmat" if c in HAZMAT_LABELS else c for c in CLASSES]  # CLASSES: the labels, then the types
 # type -> (N_CLASSES,) bool: the classes of that type (a placard's 16 labels, one for each other type)
-TYPE_CLASSES = {t: np.array([u == t for u in _TYPE_OF_CLASS]) for t in set(_TYPE_OF_CLASS)}
+TYPE_CLASSES = {t: np.array([u == t for u in CLASS_TYPES]) for t in set(CLASS_TYPES)}
 
 
 class TrackerError(ValueError):
