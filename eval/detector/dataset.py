@@ -496,10 +496,10 @@ def blur(rgb: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, str]:
     return cv2.GaussianBlur(rgb, (0, 0), sigma), f"defocus{sigma:.2f}"
 
 
-def yolo_labels(
-    truth, objects_by_id, spec: DatasetSpec, width: int, height: int, ignored: bool = False
-) -> list[tuple[int, float, float, float, float]]:
-    """(class, cx, cy, w, h) normalised, for the objects that show enough; with ``ignored``, for
+def label_boxes(
+    truth, objects_by_id, spec: DatasetSpec, ignored: bool = False
+) -> list[tuple[int, tuple[float, float, float, float]]]:
+    """(class, (x1, y1, x2, y2) pixels) of the objects that show enough; with ``ignored``, of
     those big enough in pixels that show less than ``min_visible_fraction`` of themselves (a door
     filling the frame from close by): evaluation neither wants nor penalises detections of them."""
     out = []
@@ -512,24 +512,43 @@ def yolo_labels(
         cls = RESCUE_CLASS_INDEX.get(object_class(objects_by_id[v.id]))
         if cls is None:  # no detector class (a Landolt-C target): neither labelled nor ignored
             continue
-        out.append((cls, (x1 + x2) / 2 / width, (y1 + y2) / 2 / height, (x2 - x1) / width, (y2 - y1) / height))
+        out.append((cls, v.box_xyxy))
     return out
+
+
+def yolo_labels(
+    truth, objects_by_id, spec: DatasetSpec, width: int, height: int, ignored: bool = False
+) -> list[tuple[int, float, float, float, float]]:
+    """:func:`label_boxes` as YOLO labels: (class, cx, cy, w, h), normalised by the image size."""
+    return [
+        (cls, (x1 + x2) / 2 / width, (y1 + y2) / 2 / height, (x2 - x1) / width, (y2 - y1) / height)
+        for cls, (x1, y1, x2, y2) in label_boxes(truth, objects_by_id, spec, ignored)
+    ]
+
+
+def fitting_simulation(build: Callable[[int], tuple], what: str, hint: str) -> tuple:
+    """``build(attempt)`` (a scenario and its Simulation) for attempts 0, 1, ... until the
+    scenario's objects fit its maze (no PlacementError); after ``SCENARIO_TRIES`` a
+    :class:`DatasetError` naming ``what`` and ``hint``."""
+    from sim.world.placement import PlacementError
+
+    for attempt in range(SCENARIO_TRIES):
+        try:
+            return build(attempt)
+        except PlacementError:
+            continue
+    raise DatasetError(f"{what}: the objects did not fit {SCENARIO_TRIES} drawn mazes; {hint}")
 
 
 def _build(spec: DatasetSpec, j: int):
     """(scenario, Simulation) for scenario j, redrawing when the objects do not fit the maze."""
     from sim.simulator import Simulation
-    from sim.world.placement import PlacementError
 
-    for attempt in range(SCENARIO_TRIES):
+    def build(attempt: int):
         sc = scenario_for(spec, j, attempt)
-        try:
-            return sc, Simulation(sc, looks=looks_for(spec, j, attempt))
-        except PlacementError:
-            continue
-    raise DatasetError(
-        f"scenario {j}: the objects did not fit {SCENARIO_TRIES} drawn mazes; use bigger maze_cells"
-    )
+        return sc, Simulation(sc, looks=looks_for(spec, j, attempt))
+
+    return fitting_simulation(build, f"scenario {j}", "use bigger maze_cells")
 
 
 def _label_lines(labels: list[tuple[int, float, float, float, float]]) -> str:

@@ -42,10 +42,11 @@ import yaml
 
 from eval.detector.dataset import (
     LIGHTING,
-    SCENARIO_TRIES,
     DatasetError,
     DatasetSpec,
+    fitting_simulation,
     gather_manifest,
+    label_boxes,
     object_class,
     write_data_yaml,
     write_labelled_image,
@@ -113,18 +114,14 @@ def _scenario(spec: RouteFramesSpec, j: int, attempt: int = 0):
 
 
 def _build(spec: RouteFramesSpec, j: int):
-    """(scenario, Simulation) of maze j, drawn again when its objects do not fit (as ``poibench
-    dataset``'s scenarios are)."""
+    """(scenario, Simulation) of maze j, drawn again when its objects do not fit."""
     from sim.simulator import Simulation
-    from sim.world.placement import PlacementError
 
-    for attempt in range(SCENARIO_TRIES):
+    def build(attempt: int):
         sc = _scenario(spec, j, attempt)
-        try:
-            return sc, Simulation(sc)
-        except PlacementError:
-            continue
-    raise DatasetError(f"maze {j}: the objects did not fit {SCENARIO_TRIES} drawn mazes; ask for fewer with --set")
+        return sc, Simulation(sc)
+
+    return fitting_simulation(build, f"maze {j}", "ask for fewer with --set")
 
 
 def _mining_detector(spec: RouteFramesSpec):
@@ -140,14 +137,11 @@ def _mistakes(detector, frame, truth, by_id, label_spec: DatasetSpec) -> list[st
     """``detector``'s mistakes on ``frame`` against its truth labels (eval.detector.mining)."""
     from eval.detector.mining import frame_mistakes
 
-    height, width = frame.rgb.shape[:2]
-
     def boxes(labels):
-        a = np.array([l[1:] for l in labels], float).reshape(-1, 4) * [width, height, width, height]
-        return np.c_[a[:, :2] - a[:, 2:] / 2, a[:, :2] + a[:, 2:] / 2], [l[0] for l in labels]
+        return np.array([b for _, b in labels], float).reshape(-1, 4), [c for c, _ in labels]
 
-    gt, gt_c = boxes(yolo_labels(truth, by_id, label_spec, width, height))
-    ign, ign_c = boxes(yolo_labels(truth, by_id, label_spec, width, height, ignored=True))
+    gt, gt_c = boxes(label_boxes(truth, by_id, label_spec))
+    ign, ign_c = boxes(label_boxes(truth, by_id, label_spec, ignored=True))
     dets = [d for d in detector.detect(frame) if d.class_name in RESCUE_CLASSES]
     det_boxes = np.array([d.box_xyxy for d in dets], float).reshape(-1, 4)
     det_c = [RESCUE_CLASSES.index(d.class_name) for d in dets]
