@@ -56,8 +56,8 @@ MIN_FIT_SAMPLES = 30
 # calibration loader needs it positive).
 MIN_CENTER_VARIANCE_PX2 = 1.0 / 12.0
 CONFUSION_ALPHA = 0.5
-SEED_METADATA_KEY = "poibench_dataset_seed"
-SEEDS_METADATA_KEY = "poibench_dataset_seeds"  # a label classifier's, comma-separated
+SEED_METADATA_KEY = "poibench_dataset_seed"  # one seed: what poibench train wrote before it listed them all
+SEEDS_METADATA_KEY = "poibench_dataset_seeds"  # every rendered dataset a model trained on, comma-separated
 PHOTO_FOLDERS_METADATA_KEY = "poibench_photo_folders"  # photo folders trained on (resolved), by PATH_SEPARATOR
 PATH_SEPARATOR = "\n"
 AP_CONF = 0.001  # detections kept for AP (the whole precision-recall curve)
@@ -101,8 +101,8 @@ def _seed_of(value: str | None) -> int | None:
 
 
 def model_training_seeds(model: str | Path) -> set[int]:
-    """Every dataset seed a model was trained on: the detector's (``poibench_dataset_seed``)
-    or a label classifier's comma-separated list (``poibench_dataset_seeds``)."""
+    """Every dataset seed a model was trained on: the comma-separated list
+    (``poibench_dataset_seeds``) and an older detector's single seed (``poibench_dataset_seed``)."""
     meta = _model_metadata(model)
     listed = [_seed_of(v.strip()) for v in meta.get(SEEDS_METADATA_KEY, "").split(",")]
     return {s for s in [*listed, _seed_of(meta.get(SEED_METADATA_KEY))] if s is not None}

@@ -316,7 +316,7 @@ def train(spec: TrainSpec) -> Path:
     if spec.holdout is not None and not any(is_photo_folder(d) for d in sources_of(spec)):
         raise TrainError("--holdout is for a folder of photos (images/, labels/); no --data folder is one")
     ul = _ultralytics()
-    source = data = sources[0]
+    data = sources[0]
     if spec.placards == "one":
         data = training_dataset(sources, out / "data-placards", placards="one")
     elif len(sources) > 1:
@@ -365,7 +365,7 @@ def train(spec: TrainSpec) -> Path:
     size = list(spec.export_size_hw)
     exported = Path(ul.YOLO(str(best)).export(format="onnx", imgsz=size, dynamic=False, simplify=False))
     photo_roots = [str(Path(d).resolve()) for d in sources_of(spec) if is_photo_folder(d)]
-    _stamp_metadata(exported, onnx_path, source, photo_roots)
+    _stamp_metadata(exported, onnx_path, sources, photo_roots)
     return onnx_path
 
 
@@ -379,17 +379,22 @@ def dataset_seed(root: str | Path) -> int | None:
     return int(spec["seed"]) if isinstance(spec, dict) and "seed" in spec else None
 
 
-def _stamp_metadata(src: Path, dst: Path, data: Path, photo_folders: list[str]) -> None:
-    """Copy the exported model, adding to its metadata the training dataset's seed, so that
-    evaluate-detector can refuse scenes the model was trained on, and the photo folders it
-    trained on part of, so that evaluate-photos and sim2real score it on their held-back
-    images only (``--holdout-of RUN``)."""
+def _stamp_metadata(src: Path, dst: Path, data: list[Path], photo_folders: list[str]) -> None:
+    """Copy the exported model, adding to its metadata the seed of every rendered dataset it
+    trained on (``data``: each folder's data.yaml), so that evaluate-detector can refuse scenes
+    the model was trained on, and the photo folders it trained on part of, so that
+    evaluate-photos and sim2real score it on their held-back images only (``--holdout-of RUN``)."""
     import onnx
 
-    from eval.detector.quality import PATH_SEPARATOR, PHOTO_FOLDERS_METADATA_KEY, SEED_METADATA_KEY
+    from eval.detector.quality import (
+        PATH_SEPARATOR,
+        PHOTO_FOLDERS_METADATA_KEY,
+        SEED_METADATA_KEY,
+        SEEDS_METADATA_KEY,
+    )
 
-    seed = dataset_seed(data.parent)
-    stamps = {SEED_METADATA_KEY: None if seed is None else str(seed)}
+    seeds = [str(s) for s in dict.fromkeys(dataset_seed(d.parent) for d in data) if s is not None]
+    stamps = {SEED_METADATA_KEY: None, SEEDS_METADATA_KEY: ",".join(seeds) or None}
     stamps[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(photo_folders) or None
     model = onnx.load(str(src))
     kept = [p for p in model.metadata_props if p.key not in stamps]

@@ -357,20 +357,27 @@ def test_evaluate_photos_scores_a_photo_trained_detector_on_its_held_back_images
 
 
 def test_train_stamps_the_photo_folders_it_trained_on(photos, tmp_path):
-    """poibench train's export carries the photo folders (and a rendered dataset's seed) in its
-    metadata, which evaluate-photos and sim2real read to refuse a folder without --holdout-of."""
-    from eval.detector.quality import _model_metadata
+    """poibench train's export carries the photo folders and every rendered dataset's seed in its
+    metadata, which evaluate-photos and sim2real read to refuse a folder without --holdout-of,
+    and evaluate-detector to refuse scenes the model trained on."""
+    from eval.detector.quality import _model_metadata, model_training_seeds
     from eval.detector.train import _stamp_metadata
 
-    src = _model(tmp_path / "m.onnx", 0.9)
-    dataset = tmp_path / "d"
-    dataset.mkdir()
-    (dataset / "dataset.yaml").write_text(yaml.safe_dump({"spec": {"seed": 77}}))
-    _stamp_metadata(src, tmp_path / "out.onnx", dataset / "data.yaml", [str(photos.resolve())])
+    src = _model(tmp_path / "m.onnx", 0.9, {"poibench_dataset_seed": "5"})
+    folders = []
+    for name, seed in [("d", 77), ("d2", 78)]:
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "dataset.yaml").write_text(yaml.safe_dump({"spec": {"seed": seed}}))
+        folders.append(tmp_path / name / "data.yaml")
+    route = tmp_path / "route"  # a route-frames folder: maze seeds, not a dataset's
+    route.mkdir()
+    (route / "dataset.yaml").write_text(yaml.safe_dump({"route_frames": {"seed": 1}}))
+    _stamp_metadata(src, tmp_path / "out.onnx", [*folders, route / "data.yaml"], [str(photos.resolve())])
     meta = _model_metadata(tmp_path / "out.onnx")
-    assert meta["poibench_photo_folders"] == str(photos.resolve()) and meta["poibench_dataset_seed"] == "77"
-    assert "names" in meta  # the model's own metadata kept
-    _stamp_metadata(src, tmp_path / "plain.onnx", tmp_path / "none" / "data.yaml", [])
+    assert meta["poibench_photo_folders"] == str(photos.resolve()) and meta["poibench_dataset_seeds"] == "77,78"
+    assert "names" in meta and "poibench_dataset_seed" not in meta  # its own kept, the stale seed not
+    assert model_training_seeds(tmp_path / "out.onnx") == {77, 78}
+    _stamp_metadata(src, tmp_path / "plain.onnx", [tmp_path / "none" / "data.yaml"], [])
     assert "poibench_photo_folders" not in _model_metadata(tmp_path / "plain.onnx")
 
 
