@@ -83,13 +83,19 @@ class RouteFramesSpec:
 
     def to_dict(self) -> dict:
         """The spec as dataset.yaml keeps it; the keys of mining and settings only when used, so
-        folders made before them resume."""
+        folders made before them resume. A mining spec also keeps the SHA-256 of its two model
+        files (``mine_sha256``): a path such as the shipped detector's holds other weights once
+        a new model ships, and a folder grown with them would mix two detectors' mistakes."""
+        from eval.trial.perception_cache import file_sha256
+
         d = asdict(self)
         for key, off in (("settings", ()), ("mine", None), ("keep_easy", type(self).keep_easy)):
             if d[key] == off or (key == "keep_easy" and self.mine is None):
                 del d[key]
             elif isinstance(d[key], tuple):
                 d[key] = list(d[key])
+        if self.mine is not None:
+            d["mine_sha256"] = [file_sha256(f) for f in self.mine]
         return d
 
     def maze(self, j: int, attempt: int = 0) -> tuple[int, int, int, str]:
@@ -159,7 +165,18 @@ def write_route_frames(
         old = safe_load_file(meta, error=DatasetError)
         before = old.get("route_frames") if isinstance(old, dict) else None
         # maze j depends on the seed, j and the settings only: a folder grows by more --mazes
-        if not isinstance(before, dict) or {**before, "mazes": spec.mazes} != spec.to_dict():
+        wanted = spec.to_dict()
+        if isinstance(before, dict) and "mine_sha256" not in before:
+            wanted.pop("mine_sha256", None)  # mined before the files' hashes were kept
+        if not isinstance(before, dict) or {**before, "mazes": spec.mazes} != wanted:
+            if isinstance(before, dict) and {**before, "mazes": spec.mazes, "mine_sha256": None} == {
+                **wanted,
+                "mine_sha256": None,
+            }:
+                raise DatasetError(
+                    f"{out} was mined with other weights in {' and '.join(spec.mine or ())} (their SHA-256 "
+                    "differ from its dataset.yaml's mine_sha256); choose a new --out"
+                )
             raise DatasetError(f"{out} holds route frames of other settings; choose a new --out")
         if before["mazes"] > spec.mazes:
             raise DatasetError(f"{out} holds the frames of {before['mazes']} mazes; ask for as many or more")

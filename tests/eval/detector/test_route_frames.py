@@ -100,6 +100,26 @@ def test_mining_keeps_the_frames_the_detector_errs_on_and_one_easy_frame_in_keep
                 assert m.startswith("false ")
 
 
+def test_a_mined_folder_keeps_its_models_hashes_and_refuses_other_weights_at_the_same_path(tmp_path):
+    """A folder mined with a detector is not grown with other weights under the same file name
+    (the shipped detector's path, after a new model ships): the hashes in dataset.yaml say so."""
+    from eval.trial.perception_cache import file_sha256
+
+    model, labels = tmp_path / "m.onnx", tmp_path / "labels.onnx"
+    shipped, shipped_labels = _shipped_pair()
+    shutil.copy(shipped, model)
+    shutil.copy(shipped_labels, labels)
+    spec = RouteFramesSpec(mazes=1, every=150, mine=(str(model), str(labels)))
+    out = tmp_path / "mined"
+    out.mkdir()
+    (out / "dataset.yaml").write_text(yaml.safe_dump({"route_frames": spec.to_dict()}))
+    kept = yaml.safe_load((out / "dataset.yaml").read_text())["route_frames"]
+    assert kept["mine_sha256"] == [file_sha256(shipped), file_sha256(shipped_labels)]
+    model.write_bytes(model.read_bytes() + b"\0")  # other weights, same path
+    with pytest.raises(DatasetError, match=r"mined with other weights in .*m\.onnx .*choose a new --out"):
+        write_route_frames(RouteFramesSpec(mazes=2, every=150, mine=(str(model), str(labels))), out)
+
+
 def _shipped_pair():
     from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
 
