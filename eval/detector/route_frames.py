@@ -166,18 +166,17 @@ def write_route_frames(
         before = old.get("route_frames") if isinstance(old, dict) else None
         # maze j depends on the seed, j and the settings only: a folder grows by more --mazes
         wanted = spec.to_dict()
-        if isinstance(before, dict) and "mine_sha256" not in before:
-            wanted.pop("mine_sha256", None)  # mined before the files' hashes were kept
-        if not isinstance(before, dict) or {**before, "mazes": spec.mazes} != wanted:
-            if isinstance(before, dict) and {**before, "mazes": spec.mazes, "mine_sha256": None} == {
-                **wanted,
-                "mine_sha256": None,
-            }:
-                raise DatasetError(
-                    f"{out} was mined with other weights in {' and '.join(spec.mine or ())} (their SHA-256 "
-                    "differ from its dataset.yaml's mine_sha256); choose a new --out"
-                )
+        hashes = wanted.pop("mine_sha256", None)
+        kept = dict(before) if isinstance(before, dict) else None
+        # a folder mined before the models' hashes were kept has none: its settings decide
+        kept_hashes = None if kept is None else kept.pop("mine_sha256", hashes)
+        if kept is None or {**kept, "mazes": spec.mazes} != wanted:
             raise DatasetError(f"{out} holds route frames of other settings; choose a new --out")
+        if kept_hashes != hashes:
+            raise DatasetError(
+                f"{out} was mined with other weights in {' and '.join(spec.mine or ())} (their SHA-256 "
+                "differ from its dataset.yaml's mine_sha256); choose a new --out"
+            )
         if before["mazes"] > spec.mazes:
             raise DatasetError(f"{out} holds the frames of {before['mazes']} mazes; ask for as many or more")
     elif out.exists() and any(out.iterdir()):
