@@ -15,8 +15,13 @@ Each decoder gets the same box: ``cv-aruco`` and ``cv-classic`` (OpenCV's
 ``QRCodeDetectorAruco`` and ``QRCodeDetector`` on the crop at its own size), ``cv-reader``
 (poi/detectors/qr.py as it was before zxing-cpp: both OpenCV decoders on an upscaled crop,
 with and without a white border), ``zxing`` (zxing-cpp's ``read_barcodes`` on the crop as it
-is) and ``reader`` (poi/detectors/qr.py ``decode_qr`` as it is now: zxing-cpp on the crop,
-upscaled, stretched square when narrow, and sharpened). Printed: reads (right text) per
+is), ``reader`` (poi/detectors/qr.py ``decode_qr`` as it is now: zxing-cpp on the crop,
+upscaled, stretched square when narrow, and sharpened) and ``reader+gyro`` (the same given the
+camera's motion, poi.core.motion_blur.CameraMotion, as a trial's pipeline gets it: a box it does
+not read otherwise is deblurred by the line the motion draws). On the cards the motion is the
+pan that makes each ``--blur-px`` over the exposure; on ``--trial`` the frame's gyro over the
+ladder of exposures below ``qr.max_exposure_ms`` (the default colour camera runs auto-exposure,
+which reports no exposure). Printed: reads (right text) per
 bin of pixels per module (the box's shorter side / 29 modules, the code's quiet zone
 included, as the funnel counts them), of angle and of blur, and each decoder's CPU
 milliseconds per call (process time, so other jobs on the machine do not count).
@@ -31,6 +36,7 @@ or ``MUJOCO_GL=egl python bench/bench_qr.py --trial [--step 2] [--views views.pk
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import pickle
 import time
@@ -44,6 +50,7 @@ import numpy as np
 from maze_assets.mjcf import SceneAssets, fmt
 from maze_assets.models import TEXTURE_PX
 from maze_assets.qr import QUIET_MODULES, draw_qr, qr_modules
+from poi.core.motion_blur import CameraMotion, camera_motion
 from poi.core.types import Intrinsics
 from sim.camera import d435_intrinsics, mujoco_camera_attrs
 from sim.render import SceneRenderer
@@ -129,8 +136,11 @@ def crop_box(gray: np.ndarray, box: tuple[float, float, float, float]) -> np.nda
     return gray[r1:r2, c1:c2]
 
 
-def decoders() -> dict[str, Callable[[np.ndarray, np.ndarray, tuple], str]]:
-    """Name -> f(gray image, crop, box) giving the decoded text ('' when none)."""
+Decoder = Callable[[np.ndarray, np.ndarray, tuple, "CameraMotion | None"], str]
+
+
+def decoders() -> dict[str, Decoder]:
+    """Name -> f(gray image, crop, box, camera motion) giving the decoded text ('' when none)."""
     import zxingcpp
 
     from poi.detectors import qr
@@ -138,7 +148,7 @@ def decoders() -> dict[str, Callable[[np.ndarray, np.ndarray, tuple], str]]:
     aruco, classic = cv2.QRCodeDetectorAruco(), cv2.QRCodeDetector()
 
     def cv(det):
-        def f(_gray, crop, _box):
+        def f(_gray, crop, _box, _motion=None):
             try:
                 return det.detectAndDecode(crop)[0] or ""
             except cv2.error:
@@ -146,11 +156,11 @@ def decoders() -> dict[str, Callable[[np.ndarray, np.ndarray, tuple], str]]:
 
         return f
 
-    def zx(_gray, crop, _box):
+    def zx(_gray, crop, _box, _motion):
         found = zxingcpp.read_barcodes(crop, formats=zxingcpp.BarcodeFormat.QRCode)
         return found[0].text if found else ""
 
-    def cv_reader(_gray, crop, box):
+    def cv_reader(_gray, crop, box, _motion):
         # poi/detectors/qr.py before zxing-cpp (commit d2c3cd5): the crop scaled so a module of a
         # 33-module code is 3 px (at most 8x), then twice that, each as it is and with a white
         # border, through both OpenCV decoders
@@ -160,13 +170,16 @@ def decoders() -> dict[str, Callable[[np.ndarray, np.ndarray, tuple], str]]:
             b = int(np.ceil(4 * min(img.shape) / 33))
             for cand in (img, cv2.copyMakeBorder(img, b, b, b, b, cv2.BORDER_CONSTANT, value=255)):
                 for det in (aruco, classic):
-                    text = cv(det)(None, cand, None)
+                    text = cv(det)(None, cand, None, None)
                     if text:
                         return text
         return ""
 
-    def reader(gray, _crop, box):
+    def reader(gray, _crop, box, _motion):
         return qr.decode_qr(gray, box) or ""
+
+    def reader_gyro(gray, _crop, box, motion):
+        return qr.decode_qr(gray, box, motion=motion) or ""
 
     return {
         "cv-aruco": cv(aruco),
@@ -174,7 +187,15 @@ def decoders() -> dict[str, Callable[[np.ndarray, np.ndarray, tuple], str]]:
         "cv-reader": cv_reader,
         "zxing": zx,
         "reader": reader,
+        "reader+gyro": reader_gyro,
     }
+
+
+def pan_motion(blur_px: float, exposure_s: float, intr: Intrinsics) -> CameraMotion:
+    """The pan (a turn about the optical y axis) that moves the principal point ``blur_px``
+    along u in ``exposure_s``: omega = 2 atan(blur / (2 fx)) / exposure."""
+    w = 2.0 * math.atan(blur_px / (2.0 * intr.fx)) / exposure_s
+    return CameraMotion(omega_optical=np.array([0.0, w, 0.0]), exposures_s=(exposure_s,), intrinsics=intr)
 
 
 def measure(
@@ -186,7 +207,7 @@ def measure(
     side_m: float,
     seed: int,
     anisotropic: bool = True,
-    decs: dict[str, Callable[[np.ndarray, np.ndarray, tuple], str]] | None = None,
+    decs: dict[str, Decoder] | None = None,
 ) -> tuple[list[dict], dict[str, float]]:
     """One row per view (distance, angle, blur, px per module, box, and each decoder's read 0/1),
     and each decoder's CPU seconds in all; ``decs`` defaults to :func:`decoders`."""
@@ -230,6 +251,7 @@ def measure(
                     box = (*uv.min(axis=0), *uv.max(axis=0))
                     for blur in blurs_px:
                         frame = camera.render(rgb, exposure, lux, rng=rng, pool=None, motion_px=(blur, 0.0))
+                        motion = pan_motion(blur, exposure.exposure_ms / 1000.0, intr)
                         gray = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)
                         crop = np.ascontiguousarray(crop_box(gray, box))
                         row = {
@@ -242,7 +264,7 @@ def measure(
                         }
                         for name, f in decs.items():
                             t0 = time.process_time()
-                            got = f(gray, crop, box)
+                            got = f(gray, crop, box, motion)
                             cpu[name] += time.process_time() - t0
                             row[name] = int(got == text)
                         rows.append(row)
@@ -254,13 +276,17 @@ def trial_views(sc: Scenario, step: int = 1) -> list[dict]:
     counts in view (at least 35 % visible, box at least 12 px on its shorter side): each a grey
     crop round the truth box (half its longer side of margin, clipped to the frame), the box in
     the crop's pixels, the text, and the view's distance, angle off the code's normal, visible
-    fraction and the frame's motion blur (px)."""
+    fraction, the frame's motion blur (px) and the camera's motion as the pipeline takes it."""
+    from poi.config import PipelineConfig
     from sim.simulator import Simulation
 
     views = []
+    max_exposure_s = PipelineConfig().qr.max_exposure_ms / 1000.0
     with Simulation(sc) as sim:
         sim.truth_boxes = True
+        T = np.array(sim.T_tracker_optical_nominal)
         for frame, truth in sim.frames(step=step):
+            motion = camera_motion(frame, T, max_exposure_s)
             gray = None
             for v in truth.visible:
                 x1, y1, x2, y2 = v.box_xyxy
@@ -286,15 +312,16 @@ def trial_views(sc: Scenario, step: int = 1) -> list[dict]:
                         "angle": v.view_angle_deg,
                         "visible": v.visible_fraction,
                         "blur": truth.blur_px,
+                        "motion": motion,
+                        "offset": (c1, r1),
                     }
                 )
     return views
 
 
-def decode_views(
-    views: list[dict], decs: dict[str, Callable[[np.ndarray, np.ndarray, tuple], str]] | None = None
-) -> tuple[list[dict], dict[str, float]]:
-    """Rows as :func:`measure` gives them for the views of :func:`trial_views`."""
+def decode_views(views: list[dict], decs: dict[str, Decoder] | None = None) -> tuple[list[dict], dict[str, float]]:
+    """Rows as :func:`measure` gives them for the views of :func:`trial_views` (the motion of a
+    view's crop taken at its place in the frame)."""
     decs = decoders() if decs is None else decs
     cpu = dict.fromkeys(decs, 0.0)
     rows = []
@@ -303,9 +330,18 @@ def decode_views(
         crop = np.ascontiguousarray(crop_box(gray, box))
         row = {k: v[k] for k in ("frame", "id", "dist", "angle", "visible", "blur")}
         row.update(px_per_module=px_per_module(box, v["text"]), box_w=box[2] - box[0], box_h=box[3] - box[1])
+        motion = v.get("motion")
+        if motion is not None:  # the crop's pixels are the frame's shifted by its offset
+            c1, r1 = v["offset"]
+            k = motion.intrinsics
+            motion = CameraMotion(
+                omega_optical=motion.omega_optical,
+                exposures_s=motion.exposures_s,
+                intrinsics=dataclasses.replace(k, ppx=k.ppx - c1, ppy=k.ppy - r1),
+            )
         for name, f in decs.items():
             t0 = time.process_time()
-            got = f(gray, crop, box)
+            got = f(gray, crop, box, motion)
             cpu[name] += time.process_time() - t0
             row[name] = int(got == v["text"])
         rows.append(row)

@@ -420,6 +420,10 @@ class QrConfig:
 
     enabled: bool = True
     settled_votes: int = number(3, lo=0)
+    # the colour camera's exposure cap (the robot's auto-exposure setting): where a frame does not
+    # give its own exposure, a slew's blur is undone at exposures from this down to a quarter of it
+    # (poi.core.motion_blur.EXPOSURE_LADDER)
+    max_exposure_ms: float = number(10.0, lo=0.0, lo_open=True)
 
 
 @dataclass(kw_only=True)

@@ -13,8 +13,9 @@ Per frame (:meth:`Pipeline.process`):
    observation; with ``localize.mode: slam`` the UKF-SLAM (poi.estimation.slam_localizer) then
    corrects the frame's pose from the static landmarks seen, and the observations and
    the rest of the frame's steps use the corrected pose;
-4. QR text is attached by ``poi.detectors.qr.attach_qr_text(rgb, detections)`` when
-   ``qr.enabled`` and that function exists (else QR detections keep the text the
+4. QR text is attached by ``poi.detectors.qr.attach_qr_text(rgb, detections, motion)`` when
+   ``qr.enabled`` and that function exists (``motion``: the camera's turn during the exposure,
+   :func:`poi.core.motion_blur.camera_motion`, where the frame gives it) (else QR detections keep the text the
    detector gave, usually none, and a note says so once), to the QR observations
    that have no text yet and do not fall in the gate of a track whose text is
    settled (``qr.settled_votes`` reads);
@@ -45,6 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from poi.config import PipelineConfig, mount_matrix
+from poi.core.motion_blur import camera_motion
 from poi.core.types import Detection, Frame, Observation, TrackSnapshot
 from poi.detectors.landolt import attach_landolt_text
 from poi.estimation.covariance import Calibration, load_calibration
@@ -113,10 +115,18 @@ def skip_reason(frame: Frame) -> str | None:
     return None
 
 
+def qr_camera_motion(frame: Frame, cfg: PipelineConfig, T_tracker_camera: np.ndarray | None = None):
+    """The camera's motion during ``frame``'s exposure as the QR reader takes it
+    (:func:`poi.core.motion_blur.camera_motion`: the mount's rotation, ``qr.max_exposure_ms``
+    where the frame gives no exposure); ``T_tracker_camera`` saves building the mount again."""
+    T = mount_matrix(cfg) if T_tracker_camera is None else T_tracker_camera
+    return camera_motion(frame, T, cfg.qr.max_exposure_ms / 1000.0)
+
+
 class Pipeline:
     """Frames in, tracked objects out; ``detectors`` have ``detect(frame) -> list[Detection]``.
 
-    ``qr_reader`` (``reader(rgb, detections) -> detections``, as ``attach_qr_text``) replaces
+    ``qr_reader`` (``reader(rgb, detections, motion) -> detections``, as ``attach_qr_text``) replaces
     the QR module's reader when ``qr.enabled``: a replay (eval.trial.perception_cache) gives
     the texts read when its frames were recorded.
     """
@@ -175,15 +185,15 @@ class Pipeline:
         ]
         return bool(settled) and bool(np.isfinite(self.tracker.distances([obs], settled)).any())
 
-    @staticmethod
     def _read_qr(
-        reader: Callable, rgb: np.ndarray, detections: list[Detection], todo: list[int]
+        self, reader: Callable, frame: Frame, detections: list[Detection], todo: list[int]
     ) -> list[Detection]:
         """Decode with ``reader`` the text of detections ``todo`` (qr ones without text) in a copy
-        of ``detections``."""
+        of ``detections``, with the camera's motion where ``frame`` gives it."""
         if not todo:
             return detections
-        read = list(reader(rgb, [detections[k] for k in todo]))
+        motion = qr_camera_motion(frame, self.cfg, self.T_tracker_camera)
+        read = list(reader(frame.rgb, [detections[k] for k in todo], motion))
         if len(read) != len(todo):
             raise RuntimeError(f"{QR_MODULE}.{QR_FUNCTION} returned {len(read)} detections for {len(todo)}")
         out = list(detections)
@@ -238,7 +248,7 @@ class Pipeline:
         if self._qr_reader is not None:
             unread = set(self._unread_qr(detections))
             todo = [i for i, k in enumerate(det_of_obs) if k in unread and not self._settled_qr(observations[i])]
-            read = self._read_qr(self._qr_reader, frame.rgb, detections, [det_of_obs[i] for i in todo])
+            read = self._read_qr(self._qr_reader, frame, detections, [det_of_obs[i] for i in todo])
             for i in todo:
                 observations[i] = dataclasses.replace(observations[i], detection=read[det_of_obs[i]])
             detections = read
@@ -275,7 +285,7 @@ class Pipeline:
         read all the same, nothing is tracked."""
         qr_tried = self._unread_qr(detections) if self._qr_reader is not None else []
         if self._qr_reader is not None:
-            detections = self._read_qr(self._qr_reader, frame.rgb, detections, qr_tried)
+            detections = self._read_qr(self._qr_reader, frame, detections, qr_tried)
         timing["qr"] = 1e3 * (time.perf_counter() - t1)
         return FrameResult(
             frame_index=frame.index,

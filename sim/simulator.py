@@ -48,6 +48,7 @@ from poi.core.geometry import (
     rot_z,
     transform_points,
 )
+from poi.core.motion_blur import image_motion_px
 from poi.core.types import Frame, Intrinsics
 from sim.camera import T_RIG_OPTICAL
 from sim.memory import keep_freed_memory
@@ -62,7 +63,6 @@ from sim.sensors.d435_color import (
     ColourSensor,
     ColourSpec,
     ae_history_frames,
-    image_motion_px,
     lagged_exposure,
     meter,
     steady_state_exposure,
@@ -659,6 +659,20 @@ class Simulation:
         i = self.intrinsics
         return image_motion_px(pose(t - half), pose(t + half), i.fx, i.fy, i.ppx, i.ppy, depth)
 
+    def tracker_angular_velocity(self, k: int, exposure_ms: float) -> np.ndarray:
+        """The tracking camera's mean angular velocity (rad/s, its own axes) over frame k's
+        exposure, as its gyroscope gives it: the rotation vector of R(t - e/2)^T R(t + e/2) over e.
+        Exact: a MEMS gyro's noise, a fraction of a degree a second, is left out (about a
+        thousandth of a scan's 120 deg/s slew; docs/FACTS.md "QR codes")."""
+        t, half = float(self.times_s[k]), exposure_ms / 2000.0
+
+        def rotation(tt: float) -> np.ndarray:  # R_map_tracker at time tt
+            T = rig_pose(self.route, tt, self.mast_height_m, self._tilt_rad) @ self._T_rig_tracker
+            return T[:3, :3]
+
+        rvec, _ = cv2.Rodrigues(rotation(t - half).T @ rotation(t + half))
+        return rvec.reshape(3) / (2.0 * half)
+
     def _sensor_frame(
         self,
         k: int,
@@ -717,6 +731,11 @@ class Simulation:
             pose_relocalised=relocalised,
             **images,
             thermal_intrinsics=self.thermal_intrinsics if "thermal_c" in images else None,
+            # the exposure as the D435's colour metadata gives it: under auto-exposure it does not
+            # (librealsense #2549, #5035; docs/FACTS.md); a view (datasets) has no tour to turn
+            # along: its blur, if any, is drawn, not measured
+            exposure_s=exposure.exposure_ms / 1000.0 if T_map_rig is None and not spec.auto_exposure else None,
+            angular_velocity=self.tracker_angular_velocity(k, exposure.exposure_ms) if T_map_rig is None else None,
         )
         truth = FrameTruth(
             index=k,

@@ -284,6 +284,21 @@ def pose_msg(ts, T: np.ndarray):
     )
 
 
+def twist_msg(ts, angular: np.ndarray | None):
+    """``geometry_msgs/TwistWithCovariance`` of an angular velocity (rad/s; the odometry's child
+    frame's axes, as nav_msgs/Odometry gives its twist); no linear velocity; zero without one."""
+    w = np.zeros(3) if angular is None else np.asarray(angular, float)
+    return build(
+        ts,
+        "geometry_msgs/msg/TwistWithCovariance",
+        twist=build(
+            ts,
+            "geometry_msgs/msg/Twist",
+            angular=build(ts, "geometry_msgs/msg/Vector3", x=float(w[0]), y=float(w[1]), z=float(w[2])),
+        ),
+    )
+
+
 def matrix_of(translation, rotation) -> np.ndarray:
     """4x4 matrix of a translation (x, y, z) and a quaternion message (x, y, z, w fields)."""
     q = (rotation.w, rotation.x, rotation.y, rotation.z)

@@ -11,7 +11,8 @@ is one :class:`poi.core.types.Frame`:
   extrinsics it holds (the Viewer's ``tf/0`` of each stream, else the TF tree between the two
   optical frames);
 * the pose from the odometry topic (nearest stamp within half a colour frame period; none: the
-  frame has no pose, as in a tracker dropout), the camera mount then from the TF tree between the
+  frame has no pose, as in a tracker dropout) and its twist's angular velocity (the tracker's gyro,
+  which the QR reader deblurs a slew by), the camera mount then from the TF tree between the
   odometry's child frame and the colour frame; or, without odometry, the TF tree from ``map``
   (or ``odom``) to the colour frame; with neither, the camera's first pose is the map frame for
   every frame, and :attr:`Recording.notes` says so.
@@ -144,6 +145,8 @@ class Recording:
     _depth_of: list[int | None] = field(default_factory=list, repr=False)
     _thermal_of: list[int | None] = field(default_factory=list, repr=False)
     _poses: list[np.ndarray | None] = field(default_factory=list, repr=False)
+    # per colour frame, the odometry's angular velocity with its pose (the tracker's gyro; None without)
+    _rates: list[np.ndarray | None] = field(default_factory=list, repr=False)
 
     @property
     def fps(self) -> float:
@@ -207,6 +210,7 @@ class Recording:
             intrinsics=self.color_k,
             depth_m=depth,
             pose=self._poses[k],
+            angular_velocity=self._rates[k] if self._rates else None,
             thermal_c=thermal,
             thermal_intrinsics=self.thermal_k if thermal is not None else None,
         )
@@ -344,6 +348,7 @@ def open_recording(
         frame_ids: dict[str, str] = {}
         odom_stamps: list[int] = []
         odom_poses: list[np.ndarray] = []
+        odom_rates: list[np.ndarray] = []  # the twist's angular velocity (rad/s, the child frame's axes)
         odom_child = None
         tree = TfTree()
         ext: dict[str, np.ndarray] = {}
@@ -368,6 +373,8 @@ def open_recording(
                 p = msg.pose.pose
                 odom_stamps.append(stamp_ns(msg.header.stamp))
                 odom_poses.append(_matrix(p.position, p.orientation, t, path))
+                w = msg.twist.twist.angular
+                odom_rates.append(np.array([w.x, w.y, w.z], float))
                 odom_child = odom_child or msg.child_frame_id.lstrip("/")
             elif t in (topics.tf, topics.tf_static):
                 try:
@@ -437,11 +444,15 @@ def open_recording(
 
     color_frame = frame_ids.get(color, "")
     mount = None
+    rates: list[np.ndarray | None] = [None] * len(color_stamps)
     if odom is not None and odom_stamps:
         order = np.argsort(odom_stamps, kind="stable")
         os_ = [odom_stamps[i] for i in order]
         op = [odom_poses[i] for i in order]
-        poses = [None if (j := _nearest(os_, s, tol)) is None else op[j] for s in color_stamps]
+        orates = [odom_rates[i] for i in order]
+        nearest = [_nearest(os_, s, tol) for s in color_stamps]
+        poses = [None if j is None else op[j] for j in nearest]
+        rates = [None if j is None else orates[j] for j in nearest]
         pose_source = f"odometry {odom}"
         mount = tree.between(odom_child or "", color_frame) if odom_child and color_frame else None
         if mount is None:
@@ -493,6 +504,7 @@ def open_recording(
         _depth_of=depth_of,
         _thermal_of=thermal_of,
         _poses=poses,
+        _rates=rates,
     )
 
 

@@ -10,7 +10,8 @@ Per frame, at the frame's stamp (the mission start plus the frame time):
   (or JPEG) on ``<colour topic>/compressed``, depth a lossless 16-bit PNG on
   ``<depth topic>/compressedDepth``;
 * thermal ``32FC1`` degrees Celsius and its ``CameraInfo`` when the trial has a thermal camera;
-* the tracker's pose as ``nav_msgs/Odometry`` (none for a frame without a pose, a dropout);
+* the tracker's pose as ``nav_msgs/Odometry`` (none for a frame without a pose, a dropout), its
+  twist the tracker's angular velocity (its gyro, in the tracker's axes, the child frame's);
 * ``/tf``: ``odom -> base`` and ``base -> mast`` from the same pose;
 * the pipeline's localised detections and its confirmed objects as
   ``visualization_msgs/MarkerArray`` (spheres with a text label each, map frame).
@@ -58,6 +59,7 @@ from eval.ros.messages import (
     image_msg,
     pose_msg,
     transform_msg,
+    twist_msg,
     typestore,
 )
 from eval.ros.topics import FrameNames, Topics
@@ -310,6 +312,7 @@ class LogWriter:
                 header=header(self.ts, t, n.odom),
                 child_frame_id=n.mast,
                 pose=build(self.ts, "geometry_msgs/msg/PoseWithCovariance", pose=pose_msg(self.ts, f.pose)),
+                twist=twist_msg(self.ts, f.angular_velocity),
             )
             self._put(T.odom, "nav_msgs/msg/Odometry", t, odom)
             x, y, yaw = planar_pose(f.pose)

@@ -77,7 +77,7 @@ BOX_IOU = 0.5  # a box is on an object when their IoU is at least this ([Bolya20
 BACKGROUND_IOU = 0.1
 QR_MIN_MODULE_PX = 3.0  # a QR view counts towards the read rate from this many pixels a module
 # A QR code is read from its three finder patterns and every module between them ([ISO18004]): a view
-# cut by the image border is unreadable by any decoder, and so is one smeared over more than a module
+# cut by the image border is unreadable by any decoder
 QR_WHOLE_FRACTION = 0.9
 TEXT_TYPES = ("hazmat", "qr", "landolt-c")  # their identity includes what was read
 
@@ -132,13 +132,14 @@ class ObjectTrace:
     read_frames: int = 0
     read_as: Counter = field(default_factory=Counter)  # text of its localised boxes -> frames
     # The reader on its views (QR codes): every in-view frame at >= QR_MIN_MODULE_PX a module with a QR
-    # box on it, and those whole in the image (>= QR_WHOLE_FRACTION visible) and still (blur under one
-    # module): the views a decoder can read at all. The reader's text on each such box counts, whether or
-    # not the pipeline asked for it (it stops asking once a track's text is settled).
+    # box on it, and those whole in the image (>= QR_WHOLE_FRACTION visible): the views a decoder can
+    # read at all (a slew's blur the reader undoes from the gyro, poi.detectors.qr). The reader's text on
+    # each such box counts, whether or not the pipeline asked for it (it stops asking once a track's text
+    # is settled).
     qr_views: int = 0
     qr_decoded: int = 0
-    qr_clear_views: int = 0
-    qr_clear_decoded: int = 0
+    qr_whole_views: int = 0
+    qr_whole_decoded: int = 0
     tracks: Counter = field(default_factory=Counter)  # track id -> observations of it with its identity
     confirmed_frame: int | None = None  # when the first track of its observations was confirmed (attribute)
     observations_at_confirmation: int | None = None
@@ -292,10 +293,10 @@ def _perception_detail(cause: str, o: ObjectTrace) -> str:
             at = "" if ppm is None else f", best {ppm:.1f} px a module"
             if not o.qr_views:
                 whole = "none of them"
-            elif not o.qr_clear_views:
-                whole = "none whole in the image and still: no decoder could read it there"
+            elif not o.qr_whole_views:
+                whole = "none whole in the image: no decoder could read it there"
             else:
-                whole = f"{o.qr_clear_views} of them whole and still, {o.qr_clear_decoded} read right there"
+                whole = f"{o.qr_whole_views} of them whole in the image, {o.qr_whole_decoded} read right there"
 
             return (
                 f"localised {o.localised_frames} frames; {o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a "
@@ -496,8 +497,8 @@ CSV_COLUMNS = (
     "read",
     "qr_views",
     "qr_decoded",
-    "qr_clear_views",
-    "qr_clear_decoded",
+    "qr_whole_views",
+    "qr_whole_decoded",
     "tracks",
     "confirmed_frame",
     "points_lost",
@@ -541,8 +542,8 @@ def funnel_rows(f: Funnel) -> list[dict[str, Any]]:
                 "read": o.read_frames,
                 "qr_views": o.qr_views if o.type == "qr" else "",
                 "qr_decoded": o.qr_decoded if o.type == "qr" else "",
-                "qr_clear_views": o.qr_clear_views if o.type == "qr" else "",
-                "qr_clear_decoded": o.qr_clear_decoded if o.type == "qr" else "",
+                "qr_whole_views": o.qr_whole_views if o.type == "qr" else "",
+                "qr_whole_decoded": o.qr_whole_decoded if o.type == "qr" else "",
                 "tracks": len(o.tracks),
                 "confirmed_frame": "" if o.confirmed_frame is None else o.confirmed_frame,
                 "points_lost": _r(sum(c.points for c in chs), 3),
@@ -566,8 +567,8 @@ def qr_read_rate(objects: list[ObjectTrace]) -> dict[str, int]:
     return {
         "views": sum(o.qr_views for o in qr),
         "decoded": sum(o.qr_decoded for o in qr),
-        "clear_views": sum(o.qr_clear_views for o in qr),
-        "clear_decoded": sum(o.qr_clear_decoded for o in qr),
+        "whole_views": sum(o.qr_whole_views for o in qr),
+        "whole_decoded": sum(o.qr_whole_decoded for o in qr),
     }
 
 
@@ -627,9 +628,10 @@ def format_funnel(per_type: dict[str, dict[str, float]], lost: float, max_minus_
     if qr.get("qr_views"):
         lines.append(
             f"QR reader: {_g(qr['qr_decoded'])} of {_g(qr['qr_views'])} views at >= {QR_MIN_MODULE_PX:g} px "
-            f"a module read right ({qr['qr_decoded'] / qr['qr_views']:.0%}); of those whole in the image "
-            f"and blurred less than a module, {_g(qr['qr_clear_decoded'])} of {_g(qr['qr_clear_views'])}"
-            + (f" ({qr['qr_clear_decoded'] / qr['qr_clear_views']:.0%})" if qr["qr_clear_views"] else "")
+            f"a module read right ({qr['qr_decoded'] / qr['qr_views']:.0%}); of those whole in the image, "
+            f"{_g(qr['qr_whole_decoded'])} of {_g(qr['qr_whole_views'])}"
+            + (f" ({qr['qr_whole_decoded'] / qr['qr_whole_views']:.0%})" if qr["qr_whole_views"] else "")
+            + f"; the other {_g(qr['qr_views'] - qr['qr_whole_views'])} cut by the image's border"
         )
     if max_minus_score is not None:
         verdict = "ok" if abs(lost - max_minus_score) < 1e-6 else "MISMATCH"

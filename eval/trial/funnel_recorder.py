@@ -262,10 +262,9 @@ class FunnelRecorder:
         right = text == o.text
         o.qr_views += 1
         o.qr_decoded += right
-        module_px = v.min_side_px / o.modules
-        if v.visible_fraction >= QR_WHOLE_FRACTION and (blur_px or 0.0) < module_px:
-            o.qr_clear_views += 1
-            o.qr_clear_decoded += right
+        if v.visible_fraction >= QR_WHOLE_FRACTION:
+            o.qr_whole_views += 1
+            o.qr_whole_decoded += right
 
     def funnel(
         self,

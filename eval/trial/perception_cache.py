@@ -336,8 +336,9 @@ class ReplayDetector:
         # copies: the pipeline writes track ids into the detections it is given
         return [dataclasses.replace(d) for d in self.current.detections if self._keeps(d)]
 
-    def read_qr(self, rgb: np.ndarray, detections: list[Detection]) -> list[Detection]:
-        """``attach_qr_text`` for the current frame, from the texts recorded."""
+    def read_qr(self, rgb: np.ndarray, detections: list[Detection], motion=None) -> list[Detection]:
+        """``attach_qr_text`` for the current frame, from the texts recorded (read with the
+        frame's motion then)."""
         texts = self.current.qr_texts if self.current is not None else {}
         return [dataclasses.replace(d, text=texts[tuple(d.box_xyxy)]) if d.type == "qr" else d for d in detections]
 

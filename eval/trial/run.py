@@ -319,7 +319,7 @@ def run_trial(
         truth_file = read_poi_file(out / "truth.csv")
         rec = _Recorders(
             writer=poi_writer(cfg, sc.name, MISSION_START, out / "pois.csv"),
-            funnel=FunnelRecorder(funnel_objects(rows), cfg, rules, qr_reader=source.funnel_qr_reader()),
+            funnel=FunnelRecorder(funnel_objects(rows), cfg, rules, qr_reader=source.funnel_qr_reader(cfg)),
         )
         observers = rec.observers()
         if video:

@@ -71,15 +71,16 @@ class SimulationSource:
     def pipeline_qr_reader(self):
         return None  # the pipeline's own, on the pixels
 
-    def funnel_qr_reader(self):
-        """(frame, QR box) -> the QR reader's text on the frame's pixels, for the funnel's views
-        the pipeline did not ask about; None without a reader."""
-        from poi.pipeline import find_qr_reader
+    def funnel_qr_reader(self, cfg):
+        """(frame, QR box) -> the QR reader's text on the frame's pixels, with the camera's motion
+        as the pipeline of ``cfg`` reads it, for the funnel's views the pipeline did not ask
+        about; None without a reader."""
+        from poi.pipeline import find_qr_reader, qr_camera_motion
 
         reader = find_qr_reader()
         if reader is None:
             return None
-        return lambda frame, det: reader(frame.rgb, [det])[0].text
+        return lambda frame, det: reader(frame.rgb, [det], qr_camera_motion(frame, cfg))[0].text
 
     def truth_rows(self) -> list:
         return truth_rows(self.sim)
@@ -142,8 +143,8 @@ class RecordSource:
     def pipeline_qr_reader(self):
         return self.replay.read_qr if self.record.qr_read else None
 
-    def funnel_qr_reader(self):
-        """(frame, QR box) -> the text recorded for the box."""
+    def funnel_qr_reader(self, cfg):
+        """(frame, QR box) -> the text recorded for the box (read with the frame's motion then)."""
         return lambda frame, det: self.replay.current.qr_texts.get(tuple(det.box_xyxy), "")
 
     def truth_rows(self) -> list:
@@ -172,12 +173,14 @@ class Perception:
     from the pixels as the pipeline reads them, and the QR reader on every QR box without text
     (a replay may ask for any of them). ``process(frame) -> (detections, {box: text})``."""
 
-    def __init__(self, detectors: list, reader) -> None:
+    def __init__(self, detectors: list, reader, cfg) -> None:
         self.detectors = detectors
         self.reader = reader
+        self.cfg = cfg  # the trial's pipeline configuration: the camera's motion as its pipeline reads it
 
     def process(self, frame):
         from poi.detectors.landolt import attach_landolt_text
+        from poi.pipeline import qr_camera_motion
 
         dets = []
         for det in self.detectors:
@@ -187,7 +190,8 @@ class Perception:
         texts = {}
         unread = [d for d in dets if d.type == "qr" and not d.text]
         if self.reader is not None and unread:
-            for d, r in zip(unread, self.reader(frame.rgb, unread), strict=True):
+            motion = qr_camera_motion(frame, self.cfg)
+            for d, r in zip(unread, self.reader(frame.rgb, unread, motion), strict=True):
                 texts[tuple(d.box_xyxy)] = r.text
         return dets, texts
 
@@ -235,7 +239,7 @@ def record_perception(sc, cfg, detector: str, max_frames: int | None, key: str):
         detectors = source.detectors(detector, apply_overrides(cfg, [f"detector.conf={CONF_FLOOR}"]), notes)
         reader = find_qr_reader()
         records = FrameRecords(unit_m=sc.sensors.d435.depth.depth_unit_m)
-        run_episode(source, Perception(detectors, reader), [records], desc="record")
+        run_episode(source, Perception(detectors, reader, cfg), [records], desc="record")
         sim, n = source.sim, source.n_frames
         return PerceptionRecord(
             key=key,

@@ -110,6 +110,13 @@ class Frame:
     pose_relocalised: bool = False
     thermal_c: np.ndarray | None = None
     thermal_intrinsics: Intrinsics | None = None
+    # what the camera's motion blur is made of (poi.core.motion_blur): the colour image's exposure
+    # time, centred on ``timestamp_s`` (librealsense's ACTUAL_EXPOSURE metadata; its sensor
+    # timestamp is the middle of the exposure), and the tracking camera's angular velocity over it
+    # (rad/s, in the tracker's own axes, as its gyroscope gives it); None where the source does
+    # not give them
+    exposure_s: float | None = None
+    angular_velocity: np.ndarray | None = None
 
 
 @dataclass(kw_only=True)

@@ -20,7 +20,8 @@ mean of the steady-state log P of frames k, k - 1, ... weighted by (1 - alpha) *
 alpha = 1 - exp(-dt / tau) (:func:`lagged_exposure`).
 
 Motion blur: the image moves by (du, dv) pixels during the exposure (the camera's own motion,
-:func:`image_motion_px`); the image is convolved with a line of that length and direction
+:func:`poi.core.motion_blur.image_motion_px`); the image is convolved with a line of that
+length and direction (:func:`poi.core.motion_blur.motion_kernel`)
 (one kernel for the whole frame, from the motion of the image centre: exact for a pure
 rotation about the optical centre's small angles, an approximation for translation, which
 moves near things more). Defocus: a Gaussian of ``defocus_sigma_px``. Vignetting: the
@@ -41,8 +42,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from poi.core.geometry import invert_transform, transform_points
 from poi.core.loader import number
+from poi.core.motion_blur import motion_kernel
 from sim.sensors.base import Exposure, Shot
 from sim.sensors.noise_pool import NoisePool
 
@@ -164,48 +165,6 @@ def vignette_map(
     tan2 = v[:, None] ** 2 + u[None, :] ** 2
     cos4 = 1.0 / (1.0 + tan2) ** 2
     return (1.0 - strength * (1.0 - cos4)).astype(np.float32)
-
-
-def image_motion_px(
-    T_map_optical_start: np.ndarray,
-    T_map_optical_end: np.ndarray,
-    fx: float,
-    fy: float,
-    ppx: float,
-    ppy: float,
-    depth_m: float,
-) -> tuple[float, float]:
-    """(du, dv) pixels the image centre moves from the start to the end of the exposure: the
-    point ``depth_m`` along the centre ray at the end pose, projected at the start pose."""
-    p_map = transform_points(T_map_optical_end, np.array([0.0, 0.0, depth_m]))
-    p0 = transform_points(invert_transform(T_map_optical_start), p_map)
-    if p0[2] <= 1e-6:
-        return 0.0, 0.0
-    u0 = fx * p0[0] / p0[2] + ppx
-    v0 = fy * p0[1] / p0[2] + ppy
-    return float(ppx - u0), float(ppy - v0)
-
-
-def motion_kernel(du: float, dv: float) -> np.ndarray | None:
-    """A normalised line kernel of length hypot(du, dv) along (du, dv), centred (None under 1 px).
-
-    Samples along the segment are splatted bilinearly, so fractional lengths and angles count.
-    """
-    L = math.hypot(du, dv)
-    if L < 1.0:
-        return None
-    r = math.ceil(max(abs(du), abs(dv)) / 2.0) + 1
-    n = 2 * r + 1
-    k = np.zeros((n, n), np.float64)
-    s = np.linspace(-0.5, 0.5, max(2, int(math.ceil(L * 4)) + 1))
-    x, y = r + s * du, r + s * dv
-    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
-    fx, fy = x - x0, y - y0
-    np.add.at(k, (y0, x0), (1 - fx) * (1 - fy))
-    np.add.at(k, (y0, x0 + 1), fx * (1 - fy))
-    np.add.at(k, (y0 + 1, x0), (1 - fx) * fy)
-    np.add.at(k, (y0 + 1, x0 + 1), fx * fy)
-    return (k / k.sum()).astype(np.float32)
 
 
 class ColourCamera:

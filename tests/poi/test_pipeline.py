@@ -144,7 +144,7 @@ def test_qr_reader_fallback_when_module_missing(monkeypatch):
 def test_qr_reader_only_sees_qr_detections_without_text(monkeypatch):
     seen = []
 
-    def fake_reader(rgb, dets):
+    def fake_reader(rgb, dets, motion=None):
         seen.append([(d.type, d.text) for d in dets])
         return [Detection(**{**d.__dict__, "text": "Chart X"}) for d in dets]
 
@@ -157,7 +157,7 @@ def test_qr_reader_only_sees_qr_detections_without_text(monkeypatch):
 
 
 def _counting_reader(calls: list[int], text: str = "Chart X"):
-    def reader(rgb, dets):
+    def reader(rgb, dets, motion=None):
         calls.append(len(dets))
         return [Detection(**{**d.__dict__, "text": text}) for d in dets]
 
@@ -263,3 +263,28 @@ def test_slam_mode_holds_the_pose_against_odometry_drift():
     assert abs(x150) < 0.05 and abs(x300) < 0.03 and abs(x300) < abs(x150)
     assert sign_x == pytest.approx(2.0, abs=0.2)
     assert pipe.slam.n_landmarks == 1
+
+
+def test_the_qr_reader_gets_the_camera_s_turn_from_the_frame_s_gyro(monkeypatch):
+    # the frame's gyro rate (tracker axes) reaches the reader in the colour camera's axes, with the
+    # frame's exposure where it gives one and the ladder below qr.max_exposure_ms where it does not
+    seen = []
+
+    def reader(rgb, dets, motion=None):
+        seen.append(motion)
+        return list(dets)
+
+    monkeypatch.setattr(pipeline_mod, "_find_qr_reader", lambda: (reader, None))
+    cfg = synthetic_config("qr.max_exposure_ms=8")
+    pipe = Pipeline(cfg, [FakeDetector({i: [("qr", DOOR_BOX, 0.9, "")] for i in range(3)})])
+    w = np.array([0.0, 0.0, 2.0])
+    frames = [make_frame(0), make_frame(1), make_frame(2)]
+    frames[1].angular_velocity = w
+    frames[2].angular_velocity, frames[2].exposure_s = w, 0.004
+    for f in frames:
+        pipe.process(f)
+    R = pipe.T_tracker_camera[:3, :3]
+    assert seen[0] is None  # no gyro
+    assert seen[1].omega_optical == pytest.approx(R.T @ w)
+    assert seen[1].exposures_s[0] == pytest.approx(0.008) and len(seen[1].exposures_s) > 1
+    assert seen[2].exposures_s == (0.004,)

@@ -333,10 +333,17 @@ def test_renamed_topics_and_the_tf_chain_give_the_pose_and_mount(tmp_path):
     poses = [make_transform(rot_z(0.3) @ rot_x(0.02), [1.0, 2.0, 0.9]), None]
     topics = parse_overrides(["color=/front/rgb", "color_info=/front/rgb_info"])
     w = LogWriter(tmp_path / "t.bag", "bag", start_ns=START_NS, T_tracker_camera=mount, truth=[], topics=topics)
+    gyro = np.array([0.1, -0.4, 2.1])  # rad/s, the tracker's axes
     for i, pose in enumerate(poses):
         z = np.full((6, 8), 1.234, np.float32)
         f = Frame(
-            index=i, timestamp_s=0.1 * i, rgb=np.zeros((6, 8, 3), np.uint8), intrinsics=k, depth_m=z, pose=pose
+            index=i,
+            timestamp_s=0.1 * i,
+            rgb=np.zeros((6, 8, 3), np.uint8),
+            intrinsics=k,
+            depth_m=z,
+            pose=pose,
+            angular_velocity=gyro,
         )
         w.write(f, [], [])
     w.close()
@@ -348,6 +355,8 @@ def test_renamed_topics_and_the_tf_chain_give_the_pose_and_mount(tmp_path):
     assert np.allclose(rec.T_tracker_camera, mount, atol=1e-12)
     frames = list(rec.frames())
     assert np.allclose(frames[0].pose, poses[0], atol=1e-12) and frames[1].pose is None
+    # the gyro rides in the odometry's twist (the QR reader's deblurring reads it back)
+    assert np.allclose(frames[0].angular_velocity, gyro) and frames[1].angular_velocity is None
     assert frames[0].depth_m[0, 0] == np.float32(1.234)  # 1234 mm
     # the /tf chain: map -> odom -> base_link -> t265_pose_frame -> colour optical frame
     from rosbags.highlevel import AnyReader

@@ -219,8 +219,8 @@ def test_a_qr_view_counts_towards_the_read_rate_from_three_pixels_a_module_whole
         (large, "Chart A", True, 1.0, 0.0),  # read
         (large, "Chart B", True, 1.0, 0.0),  # read wrong
         (large, "", False, 1.0, 0.0),  # not asked (a settled track): the reader reads it
-        (large, "Chart A", True, 0.5, 0.0),  # cut by the border: counted, not clear
-        (large, "", True, 1.0, 4.0),  # smeared over more than a module: counted, not clear
+        (large, "Chart A", True, 0.5, 0.0),  # cut by the border: counted, not whole
+        (large, "", True, 1.0, 4.0),  # smeared over more than a module: whole (the reader deblurs), not read
     ]
     for k, (b, text, tried, fraction, blur) in enumerate(cases):
         res = result(k, [det("qr", text, track=1, box=b)], [0], qr_tried=[0] if tried else [])
@@ -228,7 +228,7 @@ def test_a_qr_view_counts_towards_the_read_rate_from_three_pixels_a_module_whole
     o = rec.traces[0]
     assert asked == [4]
     assert (o.qr_views, o.qr_decoded) == (6, 3)
-    assert (o.qr_clear_views, o.qr_clear_decoded) == (4, 2)
+    assert (o.qr_whole_views, o.qr_whole_decoded) == (5, 2)
     assert o.read_frames == 2  # what the pipeline itself read right
 
 

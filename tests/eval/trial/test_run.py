@@ -153,16 +153,17 @@ def test_counts_take_their_number_and_the_live_header_the_trials_frames(tmp_path
 @pytest.mark.slow
 def test_oracle_trial_on_the_default_scenario_scores_every_point(tmp_path):
     """A perfect detector scores what a robot could see: the default tour shows every object
-    (its QR codes whole and still), so the oracle, with its noise model, scores every point,
-    and the funnel charges nothing."""
+    (its QR codes whole), so the oracle, with its noise model, scores every point, and the
+    funnel charges nothing."""
     out = tmp_path / "default"
     assert main(["run", "--out", str(out), "--detector", "oracle", "--quiet", "--no-video"]) == 0
     doc = json.loads((out / "score.json").read_text())
     assert doc["total"] == doc["max_total"] == 60 and doc["false_reports"] == 0
     assert doc["funnel"]["lost"] == 0 and doc["funnel"]["check"] == "ok"
-    # every QR view whole in the image, still and at >= 3 px a module is read
+    # every QR view whole in the image at >= 3 px a module is read, those in a slew's blur too (the
+    # tour's scans slew at 120 deg/s: 13 px of blur in a 10 ms exposure)
     reads = doc["funnel"]["qr_reads"]
-    assert reads["clear_views"] >= 10 and reads["clear_decoded"] == reads["clear_views"]
+    assert reads["whole_views"] >= 30 and reads["whole_decoded"] == reads["whole_views"]
     # at least 95% of the objects within 0.3 m
     dist = [o["distance_m"] for o in doc["objects"]]
     assert sum(d <= 0.3 for d in dist) >= 0.95 * len(dist), dist

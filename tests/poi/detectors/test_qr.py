@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
+from poi.core.motion_blur import EXPOSURE_LADDER, CameraMotion, motion_kernel
 from poi.core.names import CLASS_INDEX
 from poi.core.types import Frame, Intrinsics
 from poi.detectors import QrDetector, attach_qr_text, build_detector, decode_qr, qr
@@ -153,3 +154,54 @@ def test_qr_detector_settings_checked():
 
     with pytest.raises(DetectorConfigError, match="confidence must be in"):
         QrDetector(confidence=0.0)
+
+
+def _slewed(
+    module_px: float, seed: int, exposure_s: float = 0.010
+) -> tuple[np.ndarray, tuple[float, float, float, float], np.ndarray]:
+    """A code at the image centre smeared as a 120 deg/s pan smears it in an exposure of
+    ``exposure_s`` (12.8 px along u in 10 ms), with sensor noise (sigma 2) and JPEG at 90; and
+    the gyro's rate in the camera's axes."""
+    rng = np.random.default_rng(seed)
+    rgb = _textured(rng)
+    box = _paste(rgb, "Chart M 12", (K.ppx, K.ppy), module_px=module_px, angle_deg=4.0)
+    omega = np.array([0.0, np.radians(120.0), 0.0])
+    du, dv = CameraMotion(omega_optical=omega, exposures_s=(exposure_s,), intrinsics=K).motion_px(
+        K.ppx, K.ppy, exposure_s
+    )
+    smeared = cv2.filter2D(rgb.astype(np.float32), -1, motion_kernel(du, dv), borderType=cv2.BORDER_REFLECT)
+    smeared = np.clip(smeared + rng.normal(0, 2, smeared.shape), 0, 255).astype(np.uint8)
+    _, jpg = cv2.imencode(".jpg", smeared, [cv2.IMWRITE_JPEG_QUALITY, 90])
+    return cv2.imdecode(jpg, cv2.IMREAD_UNCHANGED), box, omega
+
+
+@pytest.mark.parametrize("module_px", [4.0, 6.0])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_code_smeared_by_a_pan_reads_deblurred_by_the_gyro_s_motion(module_px, seed):
+    # a slew smears the code by two to three modules: no try on the pixels reads it; the crop
+    # deconvolved by the kernel of the motion the exposure and the gyro give reads it
+    rgb, box, omega = _slewed(module_px, seed)
+    motion = CameraMotion(omega_optical=omega, exposures_s=(0.010,), intrinsics=K)
+    assert decode_qr(rgb, box) is None
+    assert decode_qr(rgb, box, motion=motion) == "Chart M 12"
+    det = make_detection("qr", box, 0.9, source="onnx", class_probs=None)
+    assert attach_qr_text(rgb, [det], motion)[0].text == "Chart M 12"
+
+
+def test_an_unreported_exposure_is_found_on_the_ladder_below_the_cap():
+    # smeared in 7 ms (9 px) where the camera reports no exposure: the 10 ms kernel (12.8 px)
+    # reads nothing, the ladder's second rung (7.1 ms) reads it
+    rgb, box, omega = _slewed(4.0, 2, exposure_s=0.007)
+    at_cap = CameraMotion(omega_optical=omega, exposures_s=(0.010,), intrinsics=K)
+    ladder = CameraMotion(omega_optical=omega, exposures_s=tuple(0.010 * f for f in EXPOSURE_LADDER), intrinsics=K)
+    assert decode_qr(rgb, box, motion=at_cap) is None
+    assert decode_qr(rgb, box, motion=ladder) == "Chart M 12"
+
+
+def test_a_motion_under_two_pixels_is_not_deblurred(monkeypatch):
+    rgb, box, _ = _slewed(6.0, 0)
+    still = CameraMotion(omega_optical=np.array([0.0, np.radians(15.0), 0.0]), exposures_s=(0.010,), intrinsics=K)
+    tried = []
+    monkeypatch.setattr(qr, "wiener_deconvolve", lambda *a: tried.append(a) or a[0])
+    assert decode_qr(rgb, box, motion=still) is None  # 1.6 px: not deblurred
+    assert tried == []

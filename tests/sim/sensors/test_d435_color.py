@@ -9,14 +9,13 @@ import numpy as np
 import pytest
 
 from poi.core.geometry import make_transform, rot_y
+from poi.core.motion_blur import image_motion_px, motion_kernel
 from sim.sensors.base import Exposure
 from sim.sensors.d435_color import (
     ColourCamera,
     ColourSpec,
-    image_motion_px,
     lagged_exposure,
     meter,
-    motion_kernel,
     steady_state_exposure,
     vignette_map,
 )
