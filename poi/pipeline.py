@@ -115,12 +115,11 @@ def skip_reason(frame: Frame) -> str | None:
     return None
 
 
-def qr_camera_motion(frame: Frame, cfg: PipelineConfig, T_tracker_camera: np.ndarray | None = None):
+def qr_camera_motion(frame: Frame, cfg: PipelineConfig, T_tracker_camera: np.ndarray):
     """The camera's motion during ``frame``'s exposure as the QR reader takes it
-    (:func:`poi.core.motion_blur.camera_motion`: the mount's rotation, ``qr.max_exposure_ms``
-    where the frame gives no exposure); ``T_tracker_camera`` saves building the mount again."""
-    T = mount_matrix(cfg) if T_tracker_camera is None else T_tracker_camera
-    return camera_motion(frame, T, cfg.qr.max_exposure_ms / 1000.0)
+    (:func:`poi.core.motion_blur.camera_motion`: the mount ``T_tracker_camera``, that is
+    ``mount_matrix(cfg)``, and ``qr.max_exposure_ms`` where the frame gives no exposure)."""
+    return camera_motion(frame, T_tracker_camera, cfg.qr.max_exposure_ms / 1000.0)
 
 
 class Pipeline:

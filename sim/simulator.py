@@ -645,13 +645,17 @@ class Simulation:
         ]
         return lagged_exposure(steady, spec, dt)
 
+    def _rig_at(self, t_s: float) -> np.ndarray:
+        """The rig's true pose in the world at time ``t_s`` of the route (mast and tilt included)."""
+        return rig_pose(self.route, t_s, self.mast_height_m, self._tilt_rad)
+
     def motion_px(self, k: int, exposure_ms: float, z_m: np.ndarray) -> tuple[float, float]:
         """(du, dv) pixels the image centre moves during frame k's exposure (centred on the
         frame time), from the true rig poses and the median depth at the image centre."""
         t, half = float(self.times_s[k]), exposure_ms / 2000.0
 
         def pose(tt: float) -> np.ndarray:  # T_map_optical at time tt
-            return self.T_map_world @ rig_pose(self.route, tt, self.mast_height_m, self._tilt_rad) @ T_RIG_OPTICAL
+            return self.T_map_world @ self._rig_at(tt) @ T_RIG_OPTICAL
 
         H, W = z_m.shape
         c = z_m[H // 2 - 8 : H // 2 + 8, W // 2 - 8 : W // 2 + 8]
@@ -666,9 +670,8 @@ class Simulation:
         thousandth of a scan's 120 deg/s slew; docs/FACTS.md "QR codes")."""
         t, half = float(self.times_s[k]), exposure_ms / 2000.0
 
-        def rotation(tt: float) -> np.ndarray:  # R_map_tracker at time tt
-            T = rig_pose(self.route, tt, self.mast_height_m, self._tilt_rad) @ self._T_rig_tracker
-            return T[:3, :3]
+        def rotation(tt: float) -> np.ndarray:  # R_world_tracker at time tt
+            return (self._rig_at(tt) @ self._T_rig_tracker)[:3, :3]
 
         rvec, _ = cv2.Rodrigues(rotation(t - half).T @ rotation(t + half))
         return rvec.reshape(3) / (2.0 * half)

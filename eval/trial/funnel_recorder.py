@@ -218,7 +218,7 @@ class FunnelRecorder:
                 continue
             o.typed_frames += 1
             if o.type == "qr" and v.in_view() and o.modules and v.min_side_px / o.modules >= QR_MIN_MODULE_PX:
-                self._count_qr_view(o, v, det, k in tried, blur_px, frame)
+                self._count_qr_view(o, v, det, k in tried, frame)
             if k not in observed:
                 o.not_localised[self._why_not_localised(det, frame, res.skipped_reason)] += 1
                 continue
@@ -249,9 +249,7 @@ class FunnelRecorder:
         best = np.argmax(overlap, axis=1)
         return {k: int(best[k]) for k in range(overlap.shape[0]) if overlap[k, best[k]] >= BACKGROUND_IOU}
 
-    def _count_qr_view(
-        self, o: ObjectTrace, v: ObjectView, det: Detection, tried: bool, blur_px: float | None, frame: Frame
-    ) -> None:
+    def _count_qr_view(self, o: ObjectTrace, v: ObjectView, det: Detection, tried: bool, frame: Frame) -> None:
         """One QR view at >= QR_MIN_MODULE_PX a module: did the reader read it right? Its text as the
         pipeline read it, or, where the pipeline did not ask (a settled track), the reader's answer."""
         text = det.text

@@ -75,12 +75,14 @@ class SimulationSource:
         """(frame, QR box) -> the QR reader's text on the frame's pixels, with the camera's motion
         as the pipeline of ``cfg`` reads it, for the funnel's views the pipeline did not ask
         about; None without a reader."""
+        from poi.config import mount_matrix
         from poi.pipeline import find_qr_reader, qr_camera_motion
 
         reader = find_qr_reader()
         if reader is None:
             return None
-        return lambda frame, det: reader(frame.rgb, [det], qr_camera_motion(frame, cfg))[0].text
+        mount = mount_matrix(cfg)
+        return lambda frame, det: reader(frame.rgb, [det], qr_camera_motion(frame, cfg, mount))[0].text
 
     def truth_rows(self) -> list:
         return truth_rows(self.sim)
@@ -174,9 +176,12 @@ class Perception:
     (a replay may ask for any of them). ``process(frame) -> (detections, {box: text})``."""
 
     def __init__(self, detectors: list, reader, cfg) -> None:
+        from poi.config import mount_matrix
+
         self.detectors = detectors
         self.reader = reader
-        self.cfg = cfg  # the trial's pipeline configuration: the camera's motion as its pipeline reads it
+        # the trial's pipeline configuration and its mount: the camera's motion as its pipeline reads it
+        self.cfg, self.mount = cfg, mount_matrix(cfg)
 
     def process(self, frame):
         from poi.detectors.landolt import attach_landolt_text
@@ -190,7 +195,7 @@ class Perception:
         texts = {}
         unread = [d for d in dets if d.type == "qr" and not d.text]
         if self.reader is not None and unread:
-            motion = qr_camera_motion(frame, self.cfg)
+            motion = qr_camera_motion(frame, self.cfg, self.mount)
             for d, r in zip(unread, self.reader(frame.rgb, unread, motion), strict=True):
                 texts[tuple(d.box_xyxy)] = r.text
         return dets, texts
