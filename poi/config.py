@@ -118,9 +118,12 @@ class DetectorConfig:
     letterbox: Literal["square", "rect"] = "square"
     providers: list[str] = field(default_factory=lambda: [DEFAULT_PROVIDER])
     label_model: str | None = None
+    # Per object type, the confidence threshold in place of conf (an ONNX detector's).
+    type_conf: dict[str, float] = field(default_factory=dict)
     options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        check_per_type("type_conf", self.type_conf, lambda c: 0.0 <= c <= 1.0, "a score in [0, 1]")
         if not self.providers:
             raise FieldError(
                 "providers", f"expected at least one onnxruntime execution provider, e.g. {DEFAULT_PROVIDER}"
@@ -480,8 +483,8 @@ class PipelineConfig:
     calibration: str | None = None
 
     def detector_spec(self) -> dict[str, Any]:
-        """The detector spec: name, model, conf, nms_iou, imgsz, letterbox, providers, label_model
-        (unset and default ones left out, so a detector without them still builds), options."""
+        """The detector spec: name, model, conf, nms_iou, imgsz, letterbox, providers, label_model,
+        type_conf (unset and default ones left out, so a detector without them still builds), options."""
         d = self.detector
         spec: dict[str, Any] = {"name": d.name, "conf": d.conf, "nms_iou": d.nms_iou}
         if d.model is not None:
@@ -494,6 +497,8 @@ class PipelineConfig:
             spec["providers"] = list(d.providers)
         if d.label_model is not None:
             spec["label_model"] = d.label_model
+        if d.type_conf:
+            spec["type_conf"] = dict(d.type_conf)
         spec.update(d.options)
         return spec
 

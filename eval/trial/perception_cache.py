@@ -2,8 +2,9 @@
 
 A sweep or a tuning study runs the same scenarios again and again with settings that only
 the stages after detection read (``tracker.*``, ``slam.*``, ``localize.*``, ``visibility.*``,
-``detector.conf`` at or above :data:`CONF_FLOOR`, ``calibration``). Rendering and detection,
-about 90% of a trial's CPU, give the same result each time, so they run once per scenario:
+``detector.conf`` and ``detector.type_conf`` at or above :data:`CONF_FLOOR`, ``calibration``).
+Rendering and detection, about 90% of a trial's CPU, give the same result each time, so they
+run once per scenario:
 :func:`eval.trial.sources.record_perception` runs the simulator and the detectors and keeps, per
 frame, what the pipeline after detection reads (:class:`FrameRecord`):
 
@@ -22,7 +23,7 @@ A replay (:meth:`PerceptionRecord.frames`, :class:`ReplayDetector`,
 
 Records are keyed (:func:`perception_key`) by everything that changes them: the scenario
 (its YAML: seed, sensors, robot, maze), the detector choice and the SHA-256 of its model
-files, the detector settings other than ``conf``, ``thermal.*``, the frame count, the
+files, the detector settings other than ``conf`` and ``type_conf``, ``thermal.*``, the frame count, the
 floor, the versions of the libraries that render and detect, and a hash of the source
 that simulates and detects (so a code change never replays an old record). A record is
 one file, written to a temporary name and renamed over the final one (``os.replace``,
@@ -304,20 +305,24 @@ class PerceptionRecord:
 
 
 class ReplayDetector:
-    """The recorded detections of each frame, the ONNX detector's filtered by ``conf`` as it
-    filters them itself: its float32 score test (``top_score >= conf``), and with a label
-    classifier the float64 test of the named score (poi.detectors.onnx_yolo ``_postprocess``).
-    Greedy NMS keeps a box whatever the lower-scored boxes are, so the boxes at or above
-    ``conf`` among those kept at the floor are those a run at ``conf`` keeps."""
+    """The recorded detections of each frame, the ONNX detector's filtered by ``conf`` (or
+    ``type_conf`` of the detection's type) as it filters them itself: its float32 score test
+    (``top_score >= conf``), and with a label classifier the float64 test of the named score
+    (poi.detectors.onnx_yolo ``_postprocess``). Greedy NMS keeps a box whatever the lower-scored
+    boxes are, so the boxes at or above their threshold among those kept at the floor are those
+    a run at those thresholds keeps."""
 
     name = "replay"
 
-    def __init__(self, record: PerceptionRecord, conf: float) -> None:
-        if conf < record.floor:
-            raise ValueError(f"detector.conf {conf} is below the recorded floor {record.floor}")
+    def __init__(self, record: PerceptionRecord, conf: float, type_conf: dict[str, float] | None = None) -> None:
+        thresholds = {None: float(conf), **{t: float(c) for t, c in (type_conf or {}).items()}}
+        for t, c in thresholds.items():
+            if c < record.floor:
+                key = "detector.conf" if t is None else f"detector.type_conf.{t}"
+                raise ValueError(f"{key} {c} is below the recorded floor {record.floor}")
         self._by_index = {f.index: f for f in record.frames}
-        self._conf32 = np.float32(conf)
-        self._conf = float(conf)
+        self._thresholds = thresholds
+        self._thresholds32 = {t: np.float32(c) for t, c in thresholds.items()}
         self._labelled = record.labelled
         self.current: FrameRecord | None = None
         self.highest_score = 0.0  # the best ONNX score recorded in the frames replayed (at or above the floor)
@@ -325,9 +330,10 @@ class ReplayDetector:
     def _keeps(self, d: Detection) -> bool:
         if d.source != ONNX_SOURCE:
             return True
-        if not np.float32(d.confidence) >= self._conf32:
+        t = d.type if d.type in self._thresholds else None
+        if not np.float32(d.confidence) >= self._thresholds32[t]:
             return False
-        return not self._labelled or d.confidence >= self._conf
+        return not self._labelled or d.confidence >= self._thresholds[t]
 
     def detect(self, frame: Frame) -> list[Detection]:
         self.current = self._by_index[frame.index]
@@ -392,7 +398,8 @@ def _library_versions() -> dict[str, str]:
 
 def perception_key(sc, detector: str, cfg, max_frames: int | None, model: Path | None) -> str | None:
     """The cache key of a trial's perception, or None when it cannot be replayed (a team's
-    Python detector, whose code the key cannot cover, or ``detector.conf`` below the floor).
+    Python detector, whose code the key cannot cover, or ``detector.conf`` or a
+    ``detector.type_conf`` below the floor).
 
     ``cfg`` is the pipeline config with the trial's settings; ``model`` the ONNX file the
     detector choice names (None for the oracle)."""
@@ -400,9 +407,9 @@ def perception_key(sc, detector: str, cfg, max_frames: int | None, model: Path |
 
     if detector not in ("default", "oracle") and not detector.endswith(".onnx"):
         return None
-    if cfg.detector.conf < CONF_FLOOR:
+    if min([cfg.detector.conf, *cfg.detector.type_conf.values()]) < CONF_FLOOR:
         return None
-    det = {k: v for k, v in config_to_dict(cfg)["detector"].items() if k != "conf"}
+    det = {k: v for k, v in config_to_dict(cfg)["detector"].items() if k not in ("conf", "type_conf")}
     label = cfg.detector.label_model
     doc = {
         "format": CACHE_FORMAT,

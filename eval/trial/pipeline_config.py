@@ -40,8 +40,11 @@ def trial_pipeline_config(
        true one);
     2. what the ``rules`` preset asks of it (:func:`rules_settings`);
     3. the user's ``pipeline_sets`` (``--set``);
-    4. the shipped detector's label model and calibration (:func:`poi.models.shipped_settings`;
-       ``runs_oracle``: the oracle runs in the shipped detector's place).
+    4. the shipped detector's label model, calibration and operating point
+       (:func:`poi.models.shipped_settings`; ``runs_oracle``: the oracle runs in the shipped
+       detector's place).
+
+    Where the oracle runs, a ``detector.type_conf`` is refused (:func:`refuse_oracle_thresholds`).
 
     None of 1 and 4's calibration reaches detection, so the perception cache keys a record by
     this configuration resolved without the sensors (they are read off the simulation, or the
@@ -55,7 +58,21 @@ def trial_pipeline_config(
 
     sets = list(sensor_sets) + rules_settings(rules) + list(pipeline_sets)
     cfg = apply_overrides(load_config(), sets)
+    if runs_oracle:
+        refuse_oracle_thresholds(cfg)
     return apply_overrides(cfg, shipped_settings(detector, cfg, runs_oracle=runs_oracle))
+
+
+def refuse_oracle_thresholds(cfg) -> None:
+    """Refuse a ``detector.type_conf`` where the oracle detects: its boxes have no detector
+    scores to threshold, so the setting could never take effect."""
+    from poi.detectors import DetectorConfigError
+
+    if cfg.detector.type_conf:
+        raise DetectorConfigError(
+            f"detector.type_conf={dict(cfg.detector.type_conf)}: the oracle's boxes have no detector "
+            "scores to threshold; it takes effect with an ONNX detector (--detector default or FILE.onnx)"
+        )
 
 
 def refuse_detector_model(cfg) -> None:
@@ -72,9 +89,13 @@ def refuse_detector_model(cfg) -> None:
         )
 
 
-def check_trial_settings(pipeline_sets) -> None:
+def check_trial_settings(pipeline_sets, detector: str = "default") -> None:
     """Refuse, before a trial starts, pipeline ``--set`` items that cannot take effect in a
-    trial (``detector.model``: :func:`refuse_detector_model`)."""
+    trial of detector choice ``detector`` (``detector.model``: :func:`refuse_detector_model`;
+    ``detector.type_conf`` with the oracle: :func:`refuse_oracle_thresholds`)."""
     from poi.config import apply_overrides, load_config
 
-    refuse_detector_model(apply_overrides(load_config(), list(pipeline_sets)))
+    cfg = apply_overrides(load_config(), list(pipeline_sets))
+    refuse_detector_model(cfg)
+    if detector == "oracle":
+        refuse_oracle_thresholds(cfg)

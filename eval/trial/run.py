@@ -294,7 +294,7 @@ def run_trial(
     """
     if max_frames is not None and max_frames < 1:
         raise ValueError(f"run_trial: max_frames must be at least 1, got {max_frames}")
-    check_trial_settings(pipeline_sets)
+    check_trial_settings(pipeline_sets, detector)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t = _Trial(

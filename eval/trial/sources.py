@@ -138,7 +138,7 @@ class RecordSource:
     def detectors(self, choice: str, cfg, notes: list[str]) -> list:
         from eval.trial.perception_cache import ReplayDetector
 
-        self.replay = ReplayDetector(self.record, cfg.detector.conf)
+        self.replay = ReplayDetector(self.record, cfg.detector.conf, cfg.detector.type_conf)
         notes.extend(self.record.notes)
         return [self.replay]
 
@@ -241,7 +241,8 @@ def record_perception(sc, cfg, detector: str, max_frames: int | None, key: str):
     source = SimulationSource(sc, max_frames)
     try:
         notes: list[str] = []
-        detectors = source.detectors(detector, apply_overrides(cfg, [f"detector.conf={CONF_FLOOR}"]), notes)
+        at_floor = apply_overrides(cfg, [f"detector.conf={CONF_FLOOR}", "detector.type_conf={}"])
+        detectors = source.detectors(detector, at_floor, notes)
         reader = find_qr_reader()
         records = FrameRecords(unit_m=sc.sensors.d435.depth.depth_unit_m)
         run_episode(source, Perception(detectors, reader, cfg), [records], desc="record")

@@ -67,6 +67,7 @@ import numpy as np
 
 from poi.core.names import (
     CLASS_INDEX,
+    CLASS_TYPES,
     CLASSES,
     HAZMAT_LABELS,
     canonical_type,
@@ -303,7 +304,9 @@ def _as_stride(value: str | None, path: Path) -> int:
 class OnnxYoloDetector:
     """YOLOv5 / YOLOv8 / YOLO11 / YOLO26 / YOLOv10 ONNX export on onnxruntime.
 
-    Settings: ``model`` path; ``conf`` minimum score; ``nms_iou`` IoU above which
+    Settings: ``model`` path; ``conf`` minimum score; ``type_conf`` object type -> the minimum
+    score of that type's boxes in place of ``conf`` (a type the model cannot report is refused;
+    a placard's score is the named one, s q_label, as for ``conf``); ``nms_iou`` IoU above which
     the lower-scored of two same-class boxes is dropped; ``max_det`` detections
     kept per frame; ``imgsz`` input size used when the model's input dims are
     dynamic (int or [h, w]; default the metadata's ``imgsz``, else 640);
@@ -343,6 +346,7 @@ class OnnxYoloDetector:
     threads: int = 1  # a second intra-op thread: +17% CPU (spinning off), same boxes (issue 18)
     read_qr: bool = False
     label_model: str | Path | None = None
+    type_conf: Mapping[str, float] | None = None
     name: str = field(default="onnx", init=False)
     notes: list[str] = field(default_factory=list, init=False)
     last_timing_ms: dict[str, float] = field(default_factory=dict, init=False)
@@ -358,6 +362,8 @@ class OnnxYoloDetector:
     _class_to_ours: np.ndarray = field(default=None, init=False, repr=False)  # type: ignore[assignment]
     _domain: np.ndarray = field(default=None, init=False, repr=False)  # type: ignore[assignment]
     _labeler: HazmatLabelClassifier | None = field(default=None, init=False, repr=False)
+    # (len(CLASSES),) each class's minimum score: conf, or type_conf of its type
+    _thresholds: np.ndarray = field(default=None, init=False, repr=False)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         self._check_settings()
@@ -388,6 +394,7 @@ class OnnxYoloDetector:
                     f"detector 'onnx': label_model names hazmat placards, but {path.name} reports none"
                 )
             self._labeler = HazmatLabelClassifier(model=self.label_model, threads=self.threads)
+        self._thresholds = self._class_thresholds()
 
     def _check_settings(self) -> None:
         if not 0.0 <= float(self.conf) <= 1.0:
@@ -404,6 +411,23 @@ class OnnxYoloDetector:
             raise DetectorConfigError(
                 f"detector 'onnx': letterbox must be one of {LETTERBOXES}, got {self.letterbox!r}"
             )
+
+    def _class_thresholds(self) -> np.ndarray:
+        """(len(CLASSES),) float64: each class's minimum score, ``type_conf`` of its type where
+        given, else ``conf``; a type_conf of a type the model cannot report is refused."""
+        thresholds = np.full(len(CLASSES), float(self.conf))
+        type_conf = dict(self.type_conf or {})
+        unknown = sorted(set(type_conf) - self.known_types)
+        if unknown:
+            raise DetectorConfigError(
+                f"detector 'onnx': type_conf names {', '.join(map(repr, unknown))}, which "
+                f"{Path(self.model).name} cannot report (its types: {', '.join(sorted(self.known_types))})"
+            )
+        for t, c in type_conf.items():
+            if not 0.0 <= float(c) <= 1.0:
+                raise DetectorConfigError(f"detector 'onnx': type_conf.{t} must be in [0, 1], got {c}")
+            thresholds[[k for k, ct in enumerate(CLASS_TYPES) if ct == t]] = float(c)
+        return thresholds
 
     @property
     def known_types(self) -> frozenset[str]:
@@ -577,7 +601,9 @@ class OnnxYoloDetector:
         candidate = finite & (ours >= 0)
         if np.any(candidate):  # the best score of the run, kept or not: a silent detector says how near it came
             self.highest_score = max(self.highest_score, float(np.max(top_score[candidate])))
-        keep = candidate & (top_score >= self.conf)
+        # the lowest threshold first; each class's own after NMS and naming (greedy NMS keeps a
+        # box whatever the lower-scored boxes are, so this is a run at each class's threshold)
+        keep = candidate & (top_score >= float(self._thresholds.min()))  # a float32 test, as conf's
         if not np.any(keep):
             return []
         box_in, scores, cls, top_score, ours = (
@@ -624,8 +650,11 @@ class OnnxYoloDetector:
             t0 = time.perf_counter()
             classes, conf, probs = self._name_placards(self._labeler, rgb, xyxy[order], classes, conf, probs)
             self.last_timing_ms["labels"] = (time.perf_counter() - t0) * 1e3
-            named = np.flatnonzero(conf >= self.conf)
+            named = np.flatnonzero(conf >= self._thresholds[classes])
             named = named[np.argsort(-conf[named], kind="stable")]
+            order, classes, conf, probs = order[named], classes[named], conf[named], probs[named]
+        elif self.type_conf:  # float32, as the score test above
+            named = np.flatnonzero(top_score[order] >= self._thresholds[classes].astype(np.float32))
             order, classes, conf, probs = order[named], classes[named], conf[named], probs[named]
         n = int(self.max_det)
         return [

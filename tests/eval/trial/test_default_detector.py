@@ -10,7 +10,14 @@ from eval.detector.quality import EVAL_SEED, model_training_seeds
 from poi.core.names import CLASSES, HAZMAT_LABELS, RESCUE_CLASSES, RESCUE_TYPES
 from poi.detectors import OnnxYoloDetector
 from poi.estimation.covariance import load_calibration
-from poi.models import DEFAULT_CALIBRATION, DEFAULT_LABEL_MODEL, DEFAULT_MODEL
+from poi.models import (
+    DEFAULT_CALIBRATION,
+    DEFAULT_LABEL_MODEL,
+    DEFAULT_MODEL,
+    DEFAULT_OPERATING_POINT,
+    OperatingPointError,
+    load_operating_point,
+)
 
 MAX_SHIPPED_BYTES = 12 * 2**20  # the limit for what poi/models/ ships
 
@@ -30,6 +37,31 @@ def test_shipped_files_load_and_fit_together():
     # trained on scenes other than the evaluation seed's, and says which
     seeds = model_training_seeds(DEFAULT_MODEL) | model_training_seeds(DEFAULT_LABEL_MODEL)
     assert seeds and EVAL_SEED not in seeds
+
+
+def test_the_shipped_operating_point_applies_unless_the_run_sets_its_own():
+    from eval.trial.pipeline_config import trial_pipeline_config
+
+    shipped = load_operating_point(DEFAULT_OPERATING_POINT).type_conf
+    assert shipped and set(shipped) <= set(RESCUE_TYPES)
+    assert trial_pipeline_config("default").detector.type_conf == shipped
+    # a team's own type_conf replaces it whole; another detector, or the oracle, never gets it
+    assert trial_pipeline_config("default", ["detector.type_conf.door=0.5"]).detector.type_conf == {"door": 0.5}
+    assert trial_pipeline_config("mine.onnx").detector.type_conf == {}
+    assert trial_pipeline_config("default", runs_oracle=True).detector.type_conf == {}
+    # the shipped model reports every type the file names (OnnxYoloDetector refuses any other)
+    det = OnnxYoloDetector(model=DEFAULT_MODEL, label_model=DEFAULT_LABEL_MODEL, type_conf=shipped)
+    assert det.known_types >= set(shipped)
+
+
+def test_a_bad_operating_point_file_names_the_file_the_line_and_the_key(tmp_path):
+    bad = tmp_path / "op.yaml"
+    bad.write_text("poibench_operating_point: 1\ntype_conf:\n  valve: 0.6\n  vavle: 0.5\n")
+    with pytest.raises(OperatingPointError, match=r"op.yaml:4.*type_conf.vavle.*unknown type"):
+        load_operating_point(bad)
+    bad.write_text("poibench_operating_point: 1\ntype_conf: {valve: 1.6}\n")
+    with pytest.raises(OperatingPointError, match=r"type_conf.valve.*a score in \[0, 1\], got 1.6"):
+        load_operating_point(bad)
 
 
 @pytest.mark.slow

@@ -75,6 +75,7 @@ def test_the_key_changes_with_what_changes_perception_only():
     key = perception_key(sc, "oracle", cfg, None, None)
     sets = ["tracker.gate=4", "tracker.n_min=2", "detector.conf=0.6", "localize.inner_fraction=0.3"]
     sets += ["slam.n_min=2", "thermal.confirm_colour_boxes=false"]  # read after detection
+    sets += ["detector.type_conf.valve=0.7"]
     downstream = apply_overrides(cfg, sets)
     assert perception_key(sc, "oracle", downstream, None, None) == key
     assert perception_key(dataclasses.replace(sc, seed=sc.seed + 1), "oracle", cfg, None, None) != key
@@ -87,6 +88,8 @@ def test_the_key_changes_with_what_changes_perception_only():
     assert perception_key(sc, "python:team_det:Detector", cfg, None, None) is None
     low = apply_overrides(cfg, [f"detector.conf={CONF_FLOOR / 2}"])
     assert perception_key(sc, "oracle", low, None, None) is None
+    low = apply_overrides(cfg, [f"detector.type_conf.door={CONF_FLOOR / 2}"])
+    assert perception_key(sc, "default", low, None, None) is None
 
 
 @pytest.mark.slow
@@ -160,6 +163,7 @@ def test_a_replayed_trial_writes_the_full_trials_files_byte_for_byte(tmp_path, m
     run_trial(sc, tmp_path / "first", perception_cache=cache, **kw)
     # ... then settings only the stages after detection read: replayed, nothing rendered again
     sets = ["detector.conf=0.6", "tracker.gate=4", "tracker.n_min=2", "localize.inner_fraction=0.3"]
+    sets += ["detector.type_conf.hazmat=0.8", "detector.type_conf.door=0.3"]  # each type's threshold too
     full = run_trial(sc, tmp_path / "full", pipeline_sets=sets, **kw)
 
     def no_recording(*a):

@@ -111,6 +111,16 @@ def test_detector_model_is_refused_with_one_line_naming_detector(tmp_path, capsy
         make_detectors("default", cfg, None, [])
 
 
+def test_type_conf_for_the_oracle_is_refused_with_one_line(tmp_path, capsys):
+    out = tmp_path / "t"
+    argv = ["run", "--detector", "oracle", "--set", "detector.type_conf.valve=0.6", "--quiet", "--no-video"]
+    assert main([*argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("poibench run: error: detector.type_conf={'valve': 0.6}: the oracle's boxes")
+    assert "\n" not in err
+    assert not (out / "pois.csv").exists()
+
+
 def _no_nan(name: str):
     raise ValueError(f"{name} is not JSON")
 

@@ -103,6 +103,28 @@ def test_conf_threshold(tmp_path):
     assert len(kept) == 1
 
 
+def test_type_conf_sets_one_types_threshold(tmp_path):
+    # doors at 0.3, 0.5 and 0.7, an oxidizer placard at 0.3 and a qr at 0.2; conf 0.25 with
+    # doors at 0.5: the 0.3 door goes, the 0.5 one stays (float32 0.5 is exact), the placard
+    # keeps conf's 0.25; qr at 0.15, under conf, keeps its 0.2 box.
+    boxes = [[40, 100, 20, 20], [100, 100, 20, 20], [160, 100, 20, 20], [220, 100, 20, 20], [280, 100, 20, 20]]
+    scores = [[0, 0, 0.3], [0, 0, 0.5], [0, 0, 0.7], [0.3, 0, 0], [0, 0.2, 0]]
+    path = _v8(tmp_path, boxes, scores)
+    det = OnnxYoloDetector(model=path, conf=0.25, type_conf={"door": 0.5, "qr": 0.15}, read_qr=False)
+    kept = [(d.class_name, round(d.confidence, 6)) for d in det.detect(_frame())]
+    assert kept == [("door", 0.7), ("door", 0.5), ("oxidizer", 0.3), ("qr", 0.2)]
+    plain = OnnxYoloDetector(model=path, conf=0.25, read_qr=False).detect(_frame())
+    assert [d.class_name for d in plain] == ["door", "door", "door", "oxidizer"]
+
+
+def test_type_conf_of_a_type_the_model_lacks_is_refused(tmp_path):
+    path = _v8(tmp_path, [[50, 100, 20, 20]], [[0, 0, 0.9]])
+    with pytest.raises(DetectorConfigError, match=r"type_conf names 'valve', which m.onnx cannot report"):
+        OnnxYoloDetector(model=path, type_conf={"valve": 0.6})
+    with pytest.raises(DetectorConfigError, match=r"type_conf.door must be in \[0, 1\]"):
+        OnnxYoloDetector(model=path, type_conf={"door": 1.5})
+
+
 def test_nms_same_class_vs_different_class(tmp_path):
     # A door (100..200)^2 0.9 and a door shifted 10 px 0.8: IoU = 9000 / 11000 = 0.818 > 0.45,
     # the 0.8 one goes. A valve... here 'oxidizer' on the same shifted box at 0.7 stays.
