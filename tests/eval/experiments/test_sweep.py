@@ -35,13 +35,20 @@ RESULT_COLS = ["trial", "scenario", "seed", "score", "max_score", "fraction", "f
 
 
 def test_shipped_suites_load_and_build():
-    assert shipped_suites() == ["rmrc", "rrl", "rrl-hard", "smoke"]
+    assert shipped_suites() == ["rmrc", "rrl", "rrl-hard", "smoke", "tune"]
     rrl = load_suite("rrl")
     assert len(rrl.scenarios) == 10 and len(load_suite("smoke").scenarios) == 2
     hard = load_suite("rrl-hard")
     sc = hard.build(hard.scenarios[0])
     assert sc.lighting == "dim" and sc.sensors.t265.drift_fraction == 0.03
     assert sc.objects.generate.counts["hazmat"] == 10 and sc.name == "hard-01"
+    # the tuning suite: seeds no scored suite uses; its last three built as rrl-hard's mazes are
+    tune = load_suite("tune")
+    scored = {x.seed for name in ("rrl", "rrl-hard", "rmrc", "smoke") for x in load_suite(name).scenarios}
+    assert len(tune.scenarios) == 9 and not {x.seed for x in tune.scenarios} & scored
+    t7 = tune.build(tune.scenarios[6])
+    assert t7.lighting == "dim" and t7.sensors.t265.drift_fraction == 0.03
+    assert t7.objects.generate.counts == sc.objects.generate.counts
 
 
 def test_suite_files_are_checked(tmp_path):
