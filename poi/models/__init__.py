@@ -26,8 +26,8 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from poi.config import check_per_type
 from poi.core.loader import FieldError, LoadError, build, load_yaml_file
-from poi.core.names import TYPES
 
 MODELS_DIR = Path(__file__).resolve().parent
 DEFAULT_MODEL = MODELS_DIR / "default.onnx"
@@ -56,11 +56,7 @@ class OperatingPoint:
                 "poibench_operating_point",
                 f"expected {OPERATING_POINT_VERSION}, got {self.poibench_operating_point!r}",
             )
-        for t, c in self.type_conf.items():
-            if t not in TYPES:
-                raise FieldError(f"type_conf.{t}", f"unknown type; expected one of {', '.join(TYPES)}")
-            if not 0.0 <= c <= 1.0:
-                raise FieldError(f"type_conf.{t}", f"expected a score in [0, 1], got {c!r}")
+        check_per_type("type_conf", self.type_conf, lambda c: 0.0 <= c <= 1.0, "a score in [0, 1]")
 
 
 def load_operating_point(path: str | Path) -> OperatingPoint:
