@@ -402,14 +402,19 @@ def perception_key(sc, detector: str, cfg, max_frames: int | None, model: Path |
     ``detector.type_conf`` below the floor).
 
     ``cfg`` is the pipeline config with the trial's settings; ``model`` the ONNX file the
-    detector choice names (None for the oracle)."""
+    detector choice names (None for the oracle). Model files count by their SHA-256, so the same
+    files at other paths (another checkout) give the same key."""
     from poi.config import config_to_dict
 
     if detector not in ("default", "oracle") and not detector.endswith(".onnx"):
         return None
     if min([cfg.detector.conf, *cfg.detector.type_conf.values()]) < CONF_FLOOR:
         return None
-    det = {k: v for k, v in config_to_dict(cfg)["detector"].items() if k not in ("conf", "type_conf")}
+    # the thresholds act on the record; the label model counts by its bytes, not where it lies
+    # (two checkouts of one repository share records)
+    det = {
+        k: v for k, v in config_to_dict(cfg)["detector"].items() if k not in ("conf", "type_conf", "label_model")
+    }
     label = cfg.detector.label_model
     doc = {
         "format": CACHE_FORMAT,

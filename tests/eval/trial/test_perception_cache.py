@@ -92,6 +92,26 @@ def test_the_key_changes_with_what_changes_perception_only():
     assert perception_key(sc, "default", low, None, None) is None
 
 
+def test_the_key_holds_the_label_model_by_its_bytes_not_its_path(tmp_path):
+    """The same label model at another path (another checkout) keys the same record; other bytes
+    at the same path do not."""
+    from poi.models import DEFAULT_LABEL_MODEL
+
+    sc, cfg = _smoke(0), load_config()
+    copy = tmp_path / "elsewhere" / "labels.onnx"
+    copy.parent.mkdir()
+    copy.write_bytes(DEFAULT_LABEL_MODEL.read_bytes())
+    here = perception_key(
+        sc, "default", apply_overrides(cfg, [f"detector.label_model={DEFAULT_LABEL_MODEL}"]), None, None
+    )
+    there = perception_key(sc, "default", apply_overrides(cfg, [f"detector.label_model={copy}"]), None, None)
+    assert here == there
+    copy.write_bytes(DEFAULT_LABEL_MODEL.read_bytes() + b"\0")
+    assert (
+        perception_key(sc, "default", apply_overrides(cfg, [f"detector.label_model={copy}"]), None, None) != here
+    )
+
+
 @pytest.mark.slow
 def test_a_torn_corrupt_or_foreign_record_is_recomputed_never_trusted(tmp_path, monkeypatch):
     sc, cfg = apply_settings(_smoke(0), ["robot.max_duration_s=1"]), load_config()
