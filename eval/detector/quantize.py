@@ -4,10 +4,20 @@ Static quantisation in the QDQ format ([ORTQuant]_): every tensor a quantised no
 or writes is stored as 8 bits, ``x = s (q - z)``, with ``s`` and ``z`` chosen so the range
 the calibration images produced, [min, max], maps onto [0, 255] (activations, uint8,
 asymmetric; ``CalibrationMethod.MinMax``), and each convolution's weights per output
-channel onto [-127, 127] (int8, symmetric). onnxruntime then fuses each
+channel onto [-64, 64] (int8, symmetric, 7 bits: ``reduce_range``). onnxruntime then fuses each
 DequantizeLinear -> op -> QuantizeLinear group into its integer kernel (``QLinearConv``,
 ``QLinearMul``, ``QLinearSigmoid``, ...), which on a CPU with AVX-512 VNNI runs the
 shipped YOLO11n at 320 px in 11 ms of CPU instead of 20 under the same load (issue 62).
+
+Why 7 bits: x86 CPUs without VNNI (AVX2, and AVX-512 before Cascade Lake) multiply uint8
+activations by int8 weights with ``vpmaddubsw``, which adds each pair of products in a
+saturating int16 ([OneDNNInt8]_, [ORTQuant]_ FAQ): 255 * 127 * 2 = 64770 overflows 32767,
+255 * 64 * 2 = 32640 does not. With full 8-bit weights the shipped model's outputs depended
+on the CPU: on 24 frames of the default tour, an AVX-512 VNNI machine and the same
+onnxruntime under an emulated AVX2 CPU (``qemu-x86_64 -cpu Haswell``) disagreed on 22 of the
+127 anchors scoring 0.4 or more (one anchor 0.011 against 0.445); with 7-bit weights the two
+gave the same outputs bit for bit, at 13 rather than 9 anchors of 132 crossing 0.4 away
+from the float model.
 
 What stays float, because one 8-bit scale cannot hold it:
 
@@ -31,6 +41,8 @@ Full entries in docs/SOURCES.md.
 
 .. [ORTQuant] ONNX Runtime, "Quantize ONNX models" (onnxruntime.ai/docs/performance/
    model-optimizations/quantization.html).
+.. [OneDNNInt8] oneDNN Developer Guide, "Nuances of int8 computations" (the int16
+   saturation of u8 x s8 products on CPUs without VNNI).
 """
 
 from __future__ import annotations
@@ -164,6 +176,7 @@ def quantize_detector(
             weight_type=QuantType.QInt8,
             nodes_to_exclude=keep_float,
             calibrate_method=CalibrationMethod.MinMax,
+            reduce_range=True,  # 7-bit weights: the same integers on every x86 CPU (module docstring)
             extra_options={"ActivationSymmetric": False, "WeightSymmetric": True},
         )
         q = onnx.load(str(Path(tmp) / "q.onnx"))

@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 import onnx
 import pytest
+from onnx import numpy_helper
 
 from eval.cli.main import main
 from eval.detector.quantize import QUANTIZED_METADATA_KEY, QuantizeError, calibration_images, float_nodes
@@ -47,6 +48,29 @@ def test_the_shipped_detector_is_the_int8_copy_of_the_float_export():
     names_f = [n.name for n in f.graph.node]
     assert {n for n in names_f if _ops(f)[n] == "Conv"} <= set(_ops(q))
     assert DEFAULT_MODEL.stat().st_size < FLOAT_MODEL.stat().st_size / 3
+
+
+def _int8_weights(model: onnx.ModelProto) -> list[np.ndarray]:
+    return [numpy_helper.to_array(t) for t in model.graph.initializer if t.data_type == onnx.TensorProto.INT8]
+
+
+@pytest.mark.parametrize("name", ["the shipped model", "a fresh quantisation"])
+def test_int8_weights_fit_in_7_bits_so_no_x86_cpu_saturates_their_products(name, tmp_path):
+    """x86 CPUs without VNNI add two uint8 x int8 products in a saturating int16 (vpmaddubsw):
+    255 * 127 * 2 = 64770 overflows 32767, 255 * 64 * 2 = 32640 does not. With every weight in
+    [-64, 64] the integer sums are exact on every CPU, so the detector's boxes do not depend on it."""
+    if name == "the shipped model":
+        model = onnx.load(str(DEFAULT_MODEL))
+    else:
+        out = tmp_path / "q.onnx"
+        data = _dataset(tmp_path / "d", 2)
+        args = ["quantize-detector", "--model", str(FLOAT_MODEL), "--data", str(data), "--images", "2"]
+        assert main([*args, "--out", str(out)]) == 0
+        model = onnx.load(str(out))
+    weights = _int8_weights(model)
+    assert len(weights) > 80  # every quantised convolution's
+    assert min(int(w.min()) for w in weights) >= -64 and max(int(w.max()) for w in weights) <= 64
+    assert max(int(np.abs(w).max()) for w in weights) == 64  # the 7 bits are used, not fewer
 
 
 def test_float_nodes_keep_the_head_decode_its_last_convolutions_and_the_matmuls():
