@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import tempfile
 from pathlib import Path
 
 from eval.cli.detector_args import OPERATING_CONF, _detect, _options, _refuse_training_seed
@@ -89,8 +90,11 @@ def cmd_calibrate(args) -> int:
 
     _options(args)
     out = Path(args.out)
-    images = _labelled_images(args, out.parent / f"{out.stem}_scenes")
-    samples, mis = center_samples(_detect(args, images, args.conf))
+    # fresh scenes are rendered into a temporary folder (hundreds of MB), not beside the YAML:
+    # `poibench dataset` and --data keep scenes to reuse
+    with tempfile.TemporaryDirectory(prefix="poibench-calibrate-") as work:
+        images = _labelled_images(args, Path(work) / "scenes")
+        samples, mis = center_samples(_detect(args, images, args.conf))
     counts = write_calibration(out, samples, mis, args.model, args.label_model)
     fitted = [c for c, n in counts.items() if n >= 30]
     print(

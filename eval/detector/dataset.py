@@ -195,7 +195,10 @@ class DatasetSpec:
         return math.ceil(self.images / self.images_per_scenario)
 
     def is_val(self, j: int) -> bool:
-        """Scenario j goes to validation: every ``val_every``-th, and the last if none would."""
+        """Scenario j goes to validation: every ``val_every``-th (all of them at 1, as the evaluation's
+        scenes), and the last if none would, unless it is the only one of a training set."""
+        if self.val_every == 1:
+            return True
         if self.n_scenarios == 1:
             return False
         if j % self.val_every == self.val_every - 1:

@@ -98,6 +98,19 @@ def test_a_folder_with_other_settings_or_other_files_is_refused(tiny, tmp_path):
         write_dataset(spec, tmp_path)
 
 
+def test_scenarios_split_between_train_and_val():
+    # every 5th scenario to val (j = 4, 9); a training set of one scenario keeps it for training
+    assert [DatasetSpec(images=400, val_every=5).is_val(j) for j in range(10)] == [False] * 4 + [True] + [
+        False
+    ] * 4 + [True]
+    assert not DatasetSpec(images=40, val_every=5).is_val(0)
+    # three scenarios, none a 5th: the last goes to val
+    assert [DatasetSpec(images=120, val_every=5).is_val(j) for j in range(3)] == [False, False, True]
+    # val_every 1 (the evaluation's scenes): all of them, even one scenario of fewer images
+    assert DatasetSpec(images=2, val_every=1).is_val(0)
+    assert all(DatasetSpec(images=400, val_every=1).is_val(j) for j in range(10))
+
+
 def test_hazmat_labels_rotate_so_every_label_is_used():
     spec = DatasetSpec(images=80, images_per_scenario=40)
     used = set()

@@ -27,6 +27,7 @@ from eval.detector.quality import (
 )
 from poi.core.names import RESCUE_CLASSES
 from poi.estimation.covariance import load_calibration
+from poi.models import model_file
 
 _spec = importlib.util.spec_from_file_location(
     "onnx_models", Path(__file__).parents[2] / "poi" / "detectors" / "onnx_models.py"
@@ -212,6 +213,16 @@ def test_calibrate_command(hand_dataset, tmp_path):
     assert u.variances(80.0, 80.0)[0] == pytest.approx(4.0, abs=1 / 12)
     assert u.variances(80.0, 80.0)[1] == pytest.approx(1 / 12, abs=1e-9)
     assert out.with_suffix(".png").exists()
+
+
+@pytest.mark.slow
+def test_calibrate_on_fresh_scenes_leaves_only_its_files(tmp_path):
+    """The fresh scenes are rendered into a temporary folder, not beside the calibration file."""
+    model, labels = model_file("default"), model_file("default").with_name("default_labels.onnx")
+    out = tmp_path / "cal" / "calibration.yaml"
+    args = ["calibrate", "--model", str(model), "--label-model", str(labels), "--images", "6", "--out", str(out)]
+    assert main([*args, "--quiet"]) == 0
+    assert sorted(p.name for p in out.parent.iterdir()) == ["calibration.png", "calibration.yaml"]
 
 
 def test_evaluate_refuses_a_missing_dataset(tmp_path, capsys):
