@@ -29,6 +29,7 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import ctypes.util
+import functools
 import os
 import sys
 
@@ -80,6 +81,30 @@ def portable_llvmpipe(flags: str) -> str:
     if GALLIVM_PERF_PORTABLE not in names:
         names.append(GALLIVM_PERF_PORTABLE)
     return ",".join(names)
+
+
+@functools.lru_cache(maxsize=1)
+def renderer_identity() -> str:
+    """What draws the frames, as OpenGL names it (``GL_VENDOR``, ``GL_RENDERER``, ``GL_VERSION``)
+    with llvmpipe's ``GALLIVM_PERF`` flags, read once a process from a 1x1 context of the chosen
+    backend: e.g. ``Mesa/X.org; llvmpipe (LLVM 15.0.6, 256 bits); 4.5 (Compatibility Profile)
+    Mesa 22.3.6; GALLIVM_PERF=no_aos_sampling``. Another Mesa or LLVM draws other pixels, so the
+    perception cache keys its records by it (eval.trial.perception_cache). Where no context can
+    be made, the reason, so that such a machine's key differs from a rendering one's."""
+    import mujoco
+    from OpenGL import GL
+
+    flags = f"GALLIVM_PERF={os.environ.get('GALLIVM_PERF', '')}"
+    try:
+        ctx = mujoco.GLContext(1, 1)
+    except Exception as err:  # noqa: BLE001 (any backend failure: the key says so, recording will fail loudly)
+        return f"no context ({type(err).__name__}); {flags}"
+    try:
+        ctx.make_current()
+        names = [GL.glGetString(n) for n in (GL.GL_VENDOR, GL.GL_RENDERER, GL.GL_VERSION)]
+        return "; ".join([*(n.decode("ascii", "replace") if n else "?" for n in names), flags])
+    finally:
+        ctx.free()
 
 
 def missing_backend_message(err: BaseException) -> str:

@@ -24,7 +24,8 @@ A replay (:meth:`PerceptionRecord.frames`, :class:`ReplayDetector`,
 Records are keyed (:func:`perception_key`) by everything that changes them: the scenario
 (its YAML: seed, sensors, robot, maze), the detector choice and the SHA-256 of its model
 files, the detector settings other than ``conf`` and ``type_conf``, ``thermal.*``, the frame count, the
-floor, the versions of the libraries that render and detect, and a hash of the source
+floor, the versions of the libraries that render and detect and the OpenGL renderer's
+(:func:`sim.gl.renderer_identity`: another Mesa draws other pixels), and a hash of the source
 that simulates and detects (so a code change never replays an old record). A record is
 one file, written to a temporary name and renamed over the final one (``os.replace``,
 atomic on POSIX and Windows), so parallel workers and Ray tasks never read a half-written
@@ -388,11 +389,14 @@ def _library_versions() -> dict[str, str]:
     import mujoco
     import onnxruntime
 
+    from sim.gl import renderer_identity
+
     return {
         "numpy": np.__version__,
         "mujoco": mujoco.__version__,
         "onnxruntime": onnxruntime.__version__,
         "cv2": cv2.__version__,
+        "renderer": renderer_identity(),
     }
 
 

@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 import eval.trial.sources as trial_sources
+import sim.gl
 from eval.cli.main import main
 from eval.experiments.suites import load_suite
 from eval.experiments.sweep import read_rows
@@ -70,7 +71,7 @@ def _smoke(i: int):
     return suite.build(suite.scenarios[i])
 
 
-def test_the_key_changes_with_what_changes_perception_only():
+def test_the_key_changes_with_what_changes_perception_only(monkeypatch):
     sc, cfg = _smoke(0), load_config()
     key = perception_key(sc, "oracle", cfg, None, None)
     sets = ["tracker.gate=4", "tracker.n_min=2", "detector.conf=0.6", "localize.inner_fraction=0.3"]
@@ -84,6 +85,12 @@ def test_the_key_changes_with_what_changes_perception_only():
     assert perception_key(sc, "oracle", apply_overrides(cfg, ["thermal.enabled=false"]), None, None) != key
     assert perception_key(sc, "oracle", cfg, 50, None) != key
     assert perception_key(sc, "default", cfg, None, None) != key
+    # another Mesa (or LLVM, or llvmpipe flags) draws other pixels
+    assert sim.gl.renderer_identity().count("; ") >= 1  # the renderer's names (or why none), the flags
+    other = "Mesa; llvmpipe (LLVM 19.1.7, 256 bits); 4.5 (Compatibility Profile) Mesa 25.0.7; GALLIVM_PERF="
+    monkeypatch.setattr(sim.gl, "renderer_identity", lambda: other)
+    assert perception_key(sc, "oracle", cfg, None, None) != key
+    monkeypatch.undo()
     # no replay where the key cannot cover the detector, or below the recorded floor
     assert perception_key(sc, "python:team_det:Detector", cfg, None, None) is None
     low = apply_overrides(cfg, [f"detector.conf={CONF_FLOOR / 2}"])
