@@ -14,7 +14,10 @@ from __future__ import annotations
 
 import argparse
 
+from eval.scoring.rules import PRESETS
+
 MAX_PORT = 65535
+RULES_HELP = f"a scoring preset ({', '.join(PRESETS)}) or a rules YAML file"
 
 
 def _int(text: str) -> int:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from eval.cli.args import positive_int
+from eval.cli.args import RULES_HELP, positive_int
 from eval.trial.scenarios import split_settings
 
 
@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("recording", help="a .bag file or a rosbag2 folder (with metadata.yaml)")
     p.add_argument("--out", default="replay", help="output folder (default: ./replay)")
     p.add_argument("--truth", metavar="TRUTH.csv", help="ground truth (POI file, mode GT) to score against")
-    p.add_argument("--rules", default="ex3", help="ex3 | rmrc2025 | turtlebot | FILE (default: ex3)")
+    p.add_argument("--rules", default="ex3", help=f"{RULES_HELP} (default: ex3)")
     p.add_argument(
         "--config",
         metavar="CONFIG.yaml",

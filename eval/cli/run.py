@@ -8,7 +8,7 @@ import sys
 from datetime import timezone
 from pathlib import Path
 
-from eval.cli.args import port, positive_int
+from eval.cli.args import RULES_HELP, port, positive_int
 from eval.trial.scenarios import (
     SettingError,
     UnknownScenarioError,
@@ -43,8 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--rules",
         default=None,
-        help="a scoring preset (ex3, rmrc2025, rmrc2026, rmrc2026-finals, turtlebot) or a rules FILE "
-        "(default: the scenario's own rules, else ex3)",
+        help=f"{RULES_HELP} (default: the scenario's own rules, else ex3)",
     )
     p.add_argument("--noise", choices=["on", "off"], help="switch all sensor noise on or off")
     p.add_argument(

@@ -13,6 +13,7 @@ import argparse
 import json
 import sys
 
+from eval.cli.args import RULES_HELP
 from eval.scoring.report import format_tables, to_json_dict
 from eval.scoring.rules import PRESETS, RulesError, load_rules
 from eval.scoring.scorer import score
@@ -35,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "--rules",
         default="ex3",
         metavar="|".join(PRESETS) + "|FILE",
-        help="scoring preset name or a rules YAML file (default: ex3)",
+        help=f"{RULES_HELP} (default: ex3)",
     )
     parser.add_argument("--json", action="store_true", help="print the score report as JSON")
     parser.set_defaults(func=run)

@@ -8,7 +8,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from eval.cli.args import positive_int, shard
+from eval.cli.args import RULES_HELP, positive_int, shard
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -20,7 +20,7 @@ def _common(p: argparse.ArgumentParser) -> None:
         default="default",
         help="default, oracle, FILE.onnx, python:MODULE:CLASS or a poibench.detectors entry point name",
     )
-    p.add_argument("--rules", default="ex3", help="ex3, rmrc2025 or a rules file")
+    p.add_argument("--rules", default="ex3", help=f"{RULES_HELP} (default: ex3)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument(
         "--cache",
