@@ -168,3 +168,31 @@ def test_an_entry_point_names_a_detector_after_the_builtin_ones(tmp_path, monkey
         DetectorConfigError, match=r"entry point 'red_detector' names no class \(expected MODULE:CLASS\)"
     ):
         build_python_detector("bare", {})
+
+
+def test_the_readme_python_detector_runs_as_written(tmp_path, monkeypatch):
+    """README "Bring your own detector": its mydet.py with the options its command gives, on an
+    NMS export's rows (x1 y1 x2 y2 score class): every class it names is one poibench knows."""
+    import re
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from onnx_models import make_constant_model  # noqa: PLC0415  (the tests' model builder, beside this file)
+
+    readme = (Path(__file__).resolve().parents[3] / "README.md").read_text()
+    code = re.search(r"```python\n(# mydet\.py\n.*?)```", readme, re.S).group(1)
+    names = re.search(r"detector\.options\.names=\[([^\]]*)\]", readme).group(1)
+    names = [n.strip() for n in names.split(",")]
+    (tmp_path / "mydet.py").write_text(code)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    rows = [[10, 20, 60, 90, 0.9, c] for c in range(len(names))] + [[0, 0, 5, 5, 0.1, 0]]
+    model = make_constant_model(tmp_path / "m.onnx", np.array([rows], np.float32), input_hw=(480, 640))
+    from mydet import MyDetector  # noqa: PLC0415  (written above)
+
+    rgb = np.zeros((480, 640, 3), np.uint8)
+    K = Intrinsics(width=640, height=480, fx=612.4, fy=610.6, ppx=314.3, ppy=237.8)
+    found = MyDetector(weights=str(model), names=names, conf=0.3).detect(
+        Frame(index=0, timestamp_s=0.0, rgb=rgb, intrinsics=K)
+    )
+    assert [d.class_name for d in found] == names  # the 0.1 row is below conf
+    assert all(d.box_xyxy == (10.0, 20.0, 60.0, 90.0) for d in found)
