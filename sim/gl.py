@@ -62,9 +62,9 @@ def choose_backend() -> str:
         else:
             backend = "egl"  # let MuJoCo fail; sim.render turns that into RenderingUnavailableError
         os.environ["MUJOCO_GL"] = backend
-    if backend in ("egl", "osmesa") and not os.environ.get("PYOPENGL_PLATFORM"):
-        os.environ["PYOPENGL_PLATFORM"] = backend
     if backend in ("egl", "osmesa"):
+        if not os.environ.get("PYOPENGL_PLATFORM"):
+            os.environ["PYOPENGL_PLATFORM"] = backend
         os.environ["GALLIVM_PERF"] = portable_llvmpipe(os.environ.get("GALLIVM_PERF", ""))
     _CHOSEN = backend
     return backend

@@ -174,9 +174,8 @@ def test_the_readme_python_detector_runs_as_written(tmp_path, monkeypatch):
     """README "Bring your own detector": its mydet.py with the options its command gives, on an
     NMS export's rows (x1 y1 x2 y2 score class): every class it names is one poibench knows."""
     import re
-    import sys
 
-    sys.path.insert(0, str(Path(__file__).parent))
+    monkeypatch.syspath_prepend(str(Path(__file__).parent))
     from onnx_models import make_constant_model  # noqa: PLC0415  (the tests' model builder, beside this file)
 
     readme = (Path(__file__).resolve().parents[3] / "README.md").read_text()
