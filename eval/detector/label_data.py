@@ -31,6 +31,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import yaml
 
 from eval.detector.photos import IMAGE_SUFFIXES, load_folder
 from eval.detector.quality import DetectorQualityError, LabelledImage, load_split
@@ -161,6 +162,16 @@ def is_photo_folder(root: str | Path) -> bool:
     return img.is_dir() and any(p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES for p in img.iterdir())
 
 
+def is_route_frames_folder(root: str | Path) -> bool:
+    """Whether ``root`` was written by ``poibench route-frames`` (its ``dataset.yaml`` has the
+    ``route_frames`` key): training frames only, an empty ``val`` split."""
+    meta = Path(root) / "dataset.yaml"
+    if not meta.is_file():
+        return False
+    doc = yaml.safe_load(meta.read_text(encoding="utf-8"))
+    return isinstance(doc, dict) and "route_frames" in doc
+
+
 def image_key(root: str | Path, image: LabelledImage) -> str:
     """An image's name in a holdout list: its path relative to the folder's ``images/``."""
     return Path(image.path).relative_to(Path(root) / "images").as_posix()
@@ -239,15 +250,17 @@ class TrainingImages:
 
 def training_images(data: Sequence[str | Path], holdout: float | None, seed: int) -> TrainingImages:
     """Training and validation images of every ``--data`` folder: a ``poibench dataset`` folder's
-    train and val splits, a photo folder's images less, and its held-back images
-    (:func:`holdout_split`, which needs ``holdout``)."""
+    train and val splits, a ``poibench route-frames`` folder's training frames (it has no val
+    split), a photo folder's images less, and its held-back images (:func:`holdout_split`, which
+    needs ``holdout``). Some folder must give validation images."""
     train: list[LabelledImage] = []
     val: list[LabelledImage] = []
     folders: dict[str, list[str]] = {}
     for root in data:
         if not is_photo_folder(root):
             train += load_split(root, "train")
-            val += load_split(root, "val")
+            if not is_route_frames_folder(root):
+                val += load_split(root, "val")
             continue
         if holdout is None:
             raise DetectorQualityError(
@@ -260,6 +273,11 @@ def training_images(data: Sequence[str | Path], holdout: float | None, seed: int
         if key in folders:
             raise DetectorQualityError(f"{root}: given twice in --data")
         folders[key] = [image_key(root, im) for im in held]
+    if not val:
+        raise DetectorQualityError(
+            f"no validation images in {', '.join(str(d) for d in data)}: "
+            "'poibench route-frames' folders have none; add a 'poibench dataset' folder"
+        )
     doc = {"fraction": holdout, "seed": seed, "folders": folders} if folders else {}
     return TrainingImages(train=train, val=val, holdout=doc)
 

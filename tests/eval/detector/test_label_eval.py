@@ -343,3 +343,29 @@ def test_evaluate_labels_by_box_size_and_at_the_first_folders_sizes(tmp_path):
     report = (out / "report.md").read_text()
     assert "| all, at ref's box sizes | (reference) | 83.3% |" in report
     assert "| boxes 80+ px | 50% (1/2) | 100% (1/1) |" in report
+
+
+def _split_folder(root: Path, train: int, val: int, route_frames: bool = False) -> Path:
+    """A 'poibench dataset' folder (or, with ``route_frames``, a 'poibench route-frames' one:
+    its dataset.yaml under that key, its val split empty) of black 64 px images."""
+    for split, n in (("train", train), ("val", val)):
+        (root / "images" / split).mkdir(parents=True, exist_ok=True)
+        (root / "labels" / split).mkdir(parents=True, exist_ok=True)
+        for i in range(n):
+            assert cv2.imwrite(str(root / "images" / split / f"{i:03d}.jpg"), np.zeros((64, 64, 3), np.uint8))
+    key = "route_frames" if route_frames else "dataset"
+    (root / "dataset.yaml").write_text(f"{key}:\n  seed: 0\n", encoding="utf-8")
+    return root
+
+
+def test_training_images_take_route_frames_folders_for_training_only(tmp_path):
+    data = _split_folder(tmp_path / "data", 3, 2)
+    mined = _split_folder(tmp_path / "mined", 4, 0, route_frames=True)
+    got = training_images([data, mined], None, 0)
+    assert (len(got.train), len(got.val)) == (7, 2)
+    assert {Path(im.path).parent.parent.parent.name for im in got.val} == {"data"}
+    with pytest.raises(DetectorQualityError, match="no validation images in .*mined.*add a 'poibench dataset'"):
+        training_images([mined], None, 0)
+    # a dataset folder keeps needing its val split
+    with pytest.raises(DetectorQualityError, match="val: no images"):
+        training_images([_split_folder(tmp_path / "empty", 3, 0), mined], None, 0)
