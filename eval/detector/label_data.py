@@ -31,10 +31,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import yaml
 
 from eval.detector.photos import IMAGE_SUFFIXES, load_folder
 from eval.detector.quality import DetectorQualityError, LabelledImage, load_split
+from poi.core.loader import safe_load_file
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 from poi.detectors.hazmat_labels import (
     BACKGROUND,
@@ -168,7 +168,7 @@ def is_route_frames_folder(root: str | Path) -> bool:
     meta = Path(root) / "dataset.yaml"
     if not meta.is_file():
         return False
-    doc = yaml.safe_load(meta.read_text(encoding="utf-8"))
+    doc = safe_load_file(meta, error=DetectorQualityError)
     return isinstance(doc, dict) and "route_frames" in doc
 
 

@@ -369,3 +369,8 @@ def test_training_images_take_route_frames_folders_for_training_only(tmp_path):
     # a dataset folder keeps needing its val split
     with pytest.raises(DetectorQualityError, match="val: no images"):
         training_images([_split_folder(tmp_path / "empty", 3, 0), mined], None, 0)
+    # a dataset.yaml that is not YAML is named, not a traceback
+    bad = _split_folder(tmp_path / "bad", 1, 1)
+    (bad / "dataset.yaml").write_text("route_frames: [unclosed\n", encoding="utf-8")
+    with pytest.raises(DetectorQualityError, match=r"bad/dataset.yaml"):
+        training_images([bad], None, 0)
