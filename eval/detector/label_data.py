@@ -34,7 +34,6 @@ import numpy as np
 
 from eval.detector.photos import IMAGE_SUFFIXES, load_folder
 from eval.detector.quality import DetectorQualityError, LabelledImage, load_split
-from poi.core.loader import safe_load_file
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 from poi.detectors.hazmat_labels import (
     BACKGROUND,
@@ -162,16 +161,6 @@ def is_photo_folder(root: str | Path) -> bool:
     return img.is_dir() and any(p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES for p in img.iterdir())
 
 
-def is_route_frames_folder(root: str | Path) -> bool:
-    """Whether ``root`` was written by ``poibench route-frames`` (its ``dataset.yaml`` has the
-    ``route_frames`` key): training frames only, an empty ``val`` split."""
-    meta = Path(root) / "dataset.yaml"
-    if not meta.is_file():
-        return False
-    doc = safe_load_file(meta, error=DetectorQualityError)
-    return isinstance(doc, dict) and "route_frames" in doc
-
-
 def image_key(root: str | Path, image: LabelledImage) -> str:
     """An image's name in a holdout list: its path relative to the folder's ``images/``."""
     return Path(image.path).relative_to(Path(root) / "images").as_posix()
@@ -253,13 +242,20 @@ def training_images(data: Sequence[str | Path], holdout: float | None, seed: int
     train and val splits, a ``poibench route-frames`` folder's training frames (it has no val
     split), a photo folder's images less, and its held-back images (:func:`holdout_split`, which
     needs ``holdout``). Some folder must give validation images."""
+    from eval.detector.dataset import DatasetError
+    from eval.detector.route_frames import is_route_frames_folder
+
     train: list[LabelledImage] = []
     val: list[LabelledImage] = []
     folders: dict[str, list[str]] = {}
     for root in data:
         if not is_photo_folder(root):
             train += load_split(root, "train")
-            if not is_route_frames_folder(root):
+            try:
+                route_frames = is_route_frames_folder(root)
+            except DatasetError as e:
+                raise DetectorQualityError(str(e)) from None
+            if not route_frames:
                 val += load_split(root, "val")
             continue
         if holdout is None:

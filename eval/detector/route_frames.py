@@ -56,6 +56,8 @@ from eval.detector.dataset import (
 from poi.core.loader import safe_load_file
 from poi.core.names import RESCUE_CLASSES
 
+ROUTE_FRAMES_KEY = "route_frames"  # the key of dataset.yaml that holds a route-frames folder's spec
+
 
 @dataclass(kw_only=True)
 class RouteFramesSpec:
@@ -163,7 +165,7 @@ def write_route_frames(
     _scenario(spec, 0)  # a bad --set is refused before anything is written
     if meta.exists():
         old = safe_load_file(meta, error=DatasetError)
-        before = old.get("route_frames") if isinstance(old, dict) else None
+        before = old.get(ROUTE_FRAMES_KEY) if isinstance(old, dict) else None
         # maze j depends on the seed, j and the settings only: a folder grows by more --mazes
         wanted = spec.to_dict()
         hashes = wanted.pop("mine_sha256", None)
@@ -183,7 +185,7 @@ def write_route_frames(
         raise DatasetError(f"{out} exists and is not a route-frames folder; choose an empty or new --out")
     for sub in ("images/train", "labels/train", "images/val", "labels/val", ".done"):
         (out / sub).mkdir(parents=True, exist_ok=True)
-    meta.write_text(yaml.safe_dump({"route_frames": spec.to_dict()}, sort_keys=False), encoding="utf-8")
+    meta.write_text(yaml.safe_dump({ROUTE_FRAMES_KEY: spec.to_dict()}, sort_keys=False), encoding="utf-8")
     label_spec = DatasetSpec(images=1)  # the labelling thresholds of poibench dataset
     detector = None if spec.mine is None else _mining_detector(spec)
     for j in range(spec.mazes):
@@ -238,6 +240,17 @@ def _finish(out: Path, spec: RouteFramesSpec) -> dict:
         summary["frames_with_mistakes"] = sum(bool(r["mistakes"]) for r in rows)
         summary["mistakes"] = dict(kinds.most_common())
     (out / "dataset.yaml").write_text(
-        yaml.safe_dump({"route_frames": spec.to_dict(), "summary": summary}, sort_keys=False), encoding="utf-8"
+        yaml.safe_dump({ROUTE_FRAMES_KEY: spec.to_dict(), "summary": summary}, sort_keys=False), encoding="utf-8"
     )
     return summary
+
+
+def is_route_frames_folder(root: str | Path) -> bool:
+    """Whether ``root`` was written by ``poibench route-frames`` (its ``dataset.yaml`` holds
+    :data:`ROUTE_FRAMES_KEY`): training frames only, an empty ``val`` split. A ``dataset.yaml``
+    that is not YAML raises :class:`DatasetError` naming it."""
+    meta = Path(root) / "dataset.yaml"
+    if not meta.is_file():
+        return False
+    doc = safe_load_file(meta, error=DatasetError)
+    return isinstance(doc, dict) and ROUTE_FRAMES_KEY in doc
