@@ -242,7 +242,6 @@ def training_images(data: Sequence[str | Path], holdout: float | None, seed: int
     train and val splits, a ``poibench route-frames`` folder's training frames (it has no val
     split), a photo folder's images less, and its held-back images (:func:`holdout_split`, which
     needs ``holdout``). Some folder must give validation images."""
-    from eval.detector.dataset import DatasetError
     from eval.detector.route_frames import is_route_frames_folder
 
     train: list[LabelledImage] = []
@@ -251,11 +250,7 @@ def training_images(data: Sequence[str | Path], holdout: float | None, seed: int
     for root in data:
         if not is_photo_folder(root):
             train += load_split(root, "train")
-            try:
-                route_frames = is_route_frames_folder(root)
-            except DatasetError as e:
-                raise DetectorQualityError(str(e)) from None
-            if not route_frames:
+            if not is_route_frames_folder(root, error=DetectorQualityError):
                 val += load_split(root, "val")
             continue
         if holdout is None:

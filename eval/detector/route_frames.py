@@ -245,12 +245,12 @@ def _finish(out: Path, spec: RouteFramesSpec) -> dict:
     return summary
 
 
-def is_route_frames_folder(root: str | Path) -> bool:
+def is_route_frames_folder(root: str | Path, *, error: type[ValueError] = DatasetError) -> bool:
     """Whether ``root`` was written by ``poibench route-frames`` (its ``dataset.yaml`` holds
     :data:`ROUTE_FRAMES_KEY`): training frames only, an empty ``val`` split. A ``dataset.yaml``
-    that is not YAML raises :class:`DatasetError` naming it."""
+    that is not YAML raises ``error`` naming it."""
     meta = Path(root) / "dataset.yaml"
     if not meta.is_file():
         return False
-    doc = safe_load_file(meta, error=DatasetError)
+    doc = safe_load_file(meta, error=error)
     return isinstance(doc, dict) and ROUTE_FRAMES_KEY in doc
