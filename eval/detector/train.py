@@ -213,29 +213,37 @@ def training_dataset(sources: list[Path], dst: Path, placards: str = "named") ->
     k - 15. Labels are rewritten on every call (cheap), so they follow the sources. Returns the
     new data.yaml."""
 
+    from eval.detector.route_frames import is_route_frames_folder
+
     n = len(HAZMAT_LABELS)
     one = placards == "one"
     names = [PLACARD_CLASS, *RESCUE_CLASSES[n:]] if one else list(RESCUE_CLASSES)
+    val_images = 0
     for i, data in enumerate(sources):
         src = data.parent
         prefix = f"{i}-" if i else ""
-        for split in ("train", "val"):
+        # route frames train only: their val split is empty by design
+        for split in ("train",) if is_route_frames_folder(src, error=TrainError) else ("train", "val"):
             images = src / "images" / split
             if not images.is_dir():
-                if split == "val" and i:
-                    continue  # route frames train only
                 raise TrainError(f"{images}: no such folder; give a folder written by 'poibench dataset'")
             linked = dst / "images" / split
             linked.mkdir(parents=True, exist_ok=True)
             for img in sorted(images.iterdir()):
                 if img.is_file():
                     _link(img, linked / f"{prefix}{img.name}")
+                    val_images += split == "val"
             out = dst / "labels" / split
             out.mkdir(parents=True, exist_ok=True)
             for f in sorted((src / "labels" / split).glob("*.txt")):
                 rows = _label_rows(f, one)
                 (out / f"{prefix}{f.name}").write_text("".join(r + "\n" for r in rows))
             (out.parent / f"{split}.cache").unlink(missing_ok=True)  # Ultralytics' label cache
+    if not val_images:
+        raise TrainError(
+            f"no validation images in {', '.join(str(d.parent) for d in sources)}: "
+            "'poibench route-frames' folders have none; add a 'poibench dataset' folder"
+        )
     from eval.detector.dataset import write_data_yaml
 
     return write_data_yaml(dst, names)

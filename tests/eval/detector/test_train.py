@@ -16,6 +16,7 @@ def _dataset(root, rows_by_file):
     for name, rows in rows_by_file.items():
         (root / "images" / "train" / f"{name}.png").write_bytes(b"png")
         (root / "labels" / "train" / f"{name}.txt").write_text("".join(r + "\n" for r in rows))
+    (root / "images" / "val" / "v0.png").write_bytes(b"png")
     doc = {"path": str(root), "train": "images/train", "val": "images/val", "nc": 24}
     doc["names"] = dict(enumerate(RESCUE_CLASSES))
     (root / "data.yaml").write_text(yaml.safe_dump(doc))
@@ -91,6 +92,26 @@ def test_two_datasets_train_as_one_with_the_second_ones_files_prefixed(tmp_path)
     assert (out.parent / "images" / "train" / "1-s0000_i000.png").exists()
     named = training_dataset([a, b], tmp_path / "run" / "data-merged")
     assert (named.parent / "labels" / "train" / "1-s0000_i000.txt").read_text() == f"{door} 0.2 0.3 0.1 0.4\n"
+
+
+def test_route_frames_folders_train_only_and_a_run_needs_validation_images(tmp_path):
+    from eval.detector.route_frames import ROUTE_FRAMES_KEY
+    from eval.detector.train import training_dataset
+
+    ox = CLASS_INDEX["oxidizer"]
+    mined = _dataset(tmp_path / "mined", {"m0": [f"{ox} 0.5 0.5 0.1 0.2"]})
+    (tmp_path / "mined" / "dataset.yaml").write_text(yaml.safe_dump({ROUTE_FRAMES_KEY: {"mazes": 1}}))
+    # a stray image in a route-frames folder's val split is not validation: it was mined
+    data = _dataset(tmp_path / "data", {"s0": [f"{ox} 0.5 0.5 0.1 0.2"]})
+    out = training_dataset([mined, data], tmp_path / "run" / "merged")
+    assert sorted(p.name for p in (out.parent / "images" / "val").iterdir()) == ["1-v0.png"]
+    assert sorted(p.name for p in (out.parent / "images" / "train").iterdir()) == ["1-s0.png", "m0.png"]
+    with pytest.raises(TrainError, match=r"^no validation images in .*mined: 'poibench route-frames' folders"):
+        training_dataset([mined], tmp_path / "run2" / "merged")
+    (tmp_path / "data" / "images" / "val" / "v0.png").unlink()
+    (tmp_path / "data" / "images" / "val").rmdir()
+    with pytest.raises(TrainError, match=r"data/images/val: no such folder"):
+        training_dataset([mined, data], tmp_path / "run3" / "merged")
 
 
 def _photos(root, rows_by_name):
