@@ -237,14 +237,14 @@ def cmd_route_frames(args) -> int:
     )
     if spec.mine is not None:
         kinds = ", ".join(f"{k} {n}" for k, n in summary["mistakes"].items()) or "none"
-        print(f"{summary['frames_with_mistakes']} frames with a mistake of {spec.mine[0]}: {kinds}")
+        print(f"{summary['frames_with_mistakes']} frames with a mistake of {spec.mine_files()[0]}: {kinds}")
     return 0
 
 
-def _mining_pair(args) -> tuple[str, str] | None:
-    """(detector, label model) of --mine: the shipped pair for 'default'; a label model is needed."""
+def _mining_pair(args) -> tuple[str, str] | str | None:
+    """(detector, label model) of --mine, or 'default' for the shipped pair; a label model is needed."""
     from eval.detector.dataset import DatasetError
-    from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL, SHIPPED
+    from poi.models import SHIPPED
 
     if args.mine is None:
         if args.mine_labels is not None:
@@ -253,7 +253,7 @@ def _mining_pair(args) -> tuple[str, str] | None:
     if args.mine == SHIPPED:
         if args.mine_labels is not None:
             raise DatasetError("--mine default brings the shipped label model; give --mine-labels with a file")
-        return str(DEFAULT_MODEL), str(DEFAULT_LABEL_MODEL)
+        return SHIPPED
     if args.mine_labels is None:
         raise DatasetError(f"--mine {args.mine}: give its label model with --mine-labels")
     return args.mine, args.mine_labels

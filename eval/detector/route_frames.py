@@ -55,6 +55,7 @@ from eval.detector.dataset import (
 )
 from poi.core.loader import safe_load_file
 from poi.core.names import RESCUE_CLASSES
+from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL, SHIPPED
 
 ROUTE_FRAMES_KEY = "route_frames"  # the key of dataset.yaml that holds a route-frames folder's spec
 
@@ -66,7 +67,10 @@ class RouteFramesSpec:
     every: int = 10  # one frame in this many (10 Hz frames: one a second)
     jpeg_quality: int = 95
     settings: tuple[str, ...] = ()  # scenario --set items every maze takes after its lighting
-    mine: tuple[str, str] | None = None  # (detector ONNX, label model ONNX) whose mistakes choose
+    # (detector ONNX, label model ONNX) whose mistakes choose, or "default": the shipped pair, kept
+    # by that name (and its files' hashes) so that the folder's dataset.yaml does not depend on
+    # where poibench is installed
+    mine: tuple[str, str] | str | None = None
     keep_easy: int = 4  # with mine: one in this many of the frames the detector gets right stays
 
     def __post_init__(self) -> None:
@@ -77,11 +81,21 @@ class RouteFramesSpec:
         if self.keep_easy < 1:
             raise DatasetError(f"--keep-easy must be at least 1, got {self.keep_easy}")
         self.settings = tuple(self.settings)
-        if self.mine is not None:
+        if self.mine is not None and self.mine != SHIPPED:
+            if isinstance(self.mine, str):
+                raise DatasetError(
+                    f"--mine: expected '{SHIPPED}' or a detector and its label model, got {self.mine!r}"
+                )
             self.mine = (str(self.mine[0]), str(self.mine[1]))
             for f in self.mine:
                 if not Path(f).is_file():
                     raise DatasetError(f"--mine: no such model file {f}")
+
+    def mine_files(self) -> tuple[str, str] | None:
+        """The mining pair's two ONNX files (the shipped pair's for ``mine`` "default")."""
+        if self.mine == SHIPPED:
+            return str(DEFAULT_MODEL), str(DEFAULT_LABEL_MODEL)
+        return self.mine
 
     def to_dict(self) -> dict:
         """The spec as dataset.yaml keeps it; the keys of mining and settings only when used, so
@@ -97,7 +111,7 @@ class RouteFramesSpec:
             elif isinstance(d[key], tuple):
                 d[key] = list(d[key])
         if self.mine is not None:
-            d["mine_sha256"] = [file_sha256(f) for f in self.mine]
+            d["mine_sha256"] = [file_sha256(f) for f in self.mine_files()]
         return d
 
     def maze(self, j: int, attempt: int = 0) -> tuple[int, int, int, str]:
@@ -137,7 +151,7 @@ def _mining_detector(spec: RouteFramesSpec):
     from poi.detectors import build_detector
 
     assert spec.mine is not None
-    model, labels = spec.mine
+    model, labels = spec.mine_files()
     return build_detector({"name": "onnx", "model": model, "label_model": labels, "conf": DetectorConfig().conf})
 
 
@@ -176,7 +190,7 @@ def write_route_frames(
             raise DatasetError(f"{out} holds route frames of other settings; choose a new --out")
         if kept_hashes != hashes:
             raise DatasetError(
-                f"{out} was mined with other weights in {' and '.join(spec.mine or ())} (their SHA-256 "
+                f"{out} was mined with other weights in {' and '.join(spec.mine_files() or ())} (their SHA-256 "
                 "differ from its dataset.yaml's mine_sha256); choose a new --out"
             )
         if before["mazes"] > spec.mazes:

@@ -48,8 +48,8 @@ def _args(**kw):
 
 def test_the_mining_pair_is_checked_before_any_frame():
     assert _mining_pair(_args()) is None
-    model, labels = _mining_pair(_args(mine="default"))
-    assert model.endswith("default.onnx") and labels.endswith("default_labels.onnx")
+    assert _mining_pair(_args(mine="default")) == "default"
+    labels = str(RouteFramesSpec(mazes=1, mine="default").mine_files()[1])
     with pytest.raises(DatasetError, match="--mine-labels goes with --mine MODEL"):
         _mining_pair(_args(mine_labels="x.onnx"))
     with pytest.raises(DatasetError, match="give its label model with --mine-labels"):
@@ -68,3 +68,20 @@ def test_a_suite_setting_reaches_every_maze_and_a_bad_key_is_refused_in_one_line
     with pytest.raises(DatasetError, match="unknown scenario key 'lightning'") as err:
         _scenario(RouteFramesSpec(mazes=1, settings=("lightning=dim",)), 0)
     assert "\n" not in str(err.value)
+
+
+def test_a_folder_mined_with_the_shipped_pair_names_it_so_its_dataset_yaml_is_the_same_anywhere():
+    """``--mine default`` is kept as "default" with the shipped files' hashes, not as the paths of
+    one installation (two checkouts wrote two dataset.yaml files and refused each other's resume)."""
+    from eval.detector.dataset import DatasetError
+    from eval.detector.route_frames import RouteFramesSpec
+    from eval.trial.perception_cache import file_sha256
+    from poi.models import DEFAULT_LABEL_MODEL, DEFAULT_MODEL
+
+    d = RouteFramesSpec(mazes=1, mine="default").to_dict()
+    assert d["mine"] == "default"
+    assert d["mine_sha256"] == [file_sha256(DEFAULT_MODEL), file_sha256(DEFAULT_LABEL_MODEL)]
+    files = RouteFramesSpec(mazes=1, mine="default").mine_files()
+    assert files == (str(DEFAULT_MODEL), str(DEFAULT_LABEL_MODEL))
+    with pytest.raises(DatasetError, match="--mine: expected 'default' or a detector and its label model, got 'b"):
+        RouteFramesSpec(mazes=1, mine="best")
