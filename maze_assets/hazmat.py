@@ -767,6 +767,29 @@ def draw_hazmat(label: str, size_px: int = 256, style: PlacardStyle | None = Non
     return np.clip(np.round(small), 0, 255).astype(np.uint8)
 
 
+def placard_sheet(size_px: int = 96, variants: int = 5, halves: int = 2, gap_px: int = 8) -> np.ndarray:
+    """RGB uint8 picture of every label (rows, :data:`HAZMAT_LABELS` order, in ``halves`` side by
+    side with a white ``gap_px`` between) as its section draws it, then its variants of seeds
+    0 .. ``variants`` - 1 (:func:`placard_style`): docs/placards.png, which tests keep current."""
+    per_half = -(-len(HAZMAT_LABELS) // halves)
+    blank = np.full((size_px, size_px, 3), 255, np.uint8)
+    cols = []
+    for h in range(halves):
+        rows = []
+        for k in range(h * per_half, (h + 1) * per_half):
+            if k >= len(HAZMAT_LABELS):
+                rows.append(np.hstack([blank] * (variants + 1)))
+                continue
+            label = HAZMAT_LABELS[k]
+            tiles = [draw_hazmat(label, size_px)]
+            tiles += [draw_hazmat(label, size_px, placard_style(label, seed)) for seed in range(variants)]
+            rows.append(np.hstack(tiles))
+        cols.append(np.vstack(rows))
+        if h < halves - 1:
+            cols.append(np.full((per_half * size_px, gap_px, 3), 255, np.uint8))
+    return np.hstack(cols)
+
+
 # The colour a viewer sees at the top of the placard, just inside the border (used by tests
 # that check a rendered placard is upright).
 TOP_FIELD_RGB: dict[str, Color] = {

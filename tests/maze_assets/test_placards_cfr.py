@@ -234,3 +234,30 @@ def test_the_biohazard_sign_fills_the_upper_half_over_one_line_of_words():
     word_rows = np.flatnonzero(words.any(axis=1)) / N
     assert word_rows.min() > rows.max()  # under the sign
     assert word_rows.max() - word_rows.min() < 0.09  # one line
+
+
+def test_the_placards_picture_in_the_docs_is_what_the_code_draws():
+    """docs/placards.png (the mazes guide's picture of the 16 and five variants each) is the
+    current drawing: a redrawn label fails this until the picture is made again."""
+    from pathlib import Path
+
+    import cv2
+
+    from maze_assets.hazmat import placard_sheet
+
+    path = Path(__file__).resolve().parents[2] / "docs" / "placards.png"
+    shown = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB).astype(int)
+    drawn = placard_sheet().astype(int)
+    assert shown.shape == drawn.shape == (8 * 96, 2 * 6 * 96 + 8, 3)
+    diff = np.abs(shown - drawn).mean(axis=2)
+    stale = [
+        HAZMAT_LABELS[h * 8 + r]
+        for h in range(2)
+        for r in range(8)
+        if diff[r * 96 : (r + 1) * 96, h * 584 : h * 584 + 576].mean() > 0.5
+    ]
+    assert not stale, (
+        f"docs/placards.png shows an older drawing of {', '.join(stale)}: make it again with "
+        'python -c "import cv2; from maze_assets.hazmat import placard_sheet; '
+        "cv2.imwrite('docs/placards.png', placard_sheet()[..., ::-1], [cv2.IMWRITE_PNG_COMPRESSION, 9])\""
+    )
