@@ -186,7 +186,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--baseline", help="another sim/sensors/d435_depth.py to time side by side")
     ap.add_argument("--frames", type=int, default=40, help="frames timed per model (default 40)")
     ap.add_argument("--figure", metavar="JPG", help="write the default trial's frame --frame, colour beside depth")
-    ap.add_argument("--frame", type=int, default=500, help="the frame of --figure (500: a heater and a crate before far walls)")
+    ap.add_argument(
+        "--frame", type=int, default=500, help="the frame of --figure (500: a heater and a crate before far walls)"
+    )
     args = ap.parse_args(argv)
     if args.figure:
         print(figure(args.figure, args.frame))
