@@ -68,6 +68,7 @@ class FrameResult:
     detections: list[Detection]
     observations: list[Observation]
     newly_confirmed: list[TrackSnapshot]
+    withdrawn: list[int] = field(default_factory=list)  # ids of confirmed tracks unconfirmed (tracker step 6)
     skipped_reason: str | None = None
     timing_ms: dict[str, float] = field(default_factory=dict)
     pose_map: np.ndarray | None = None  # the pose the frame was mapped with (corrected in slam mode)
@@ -269,6 +270,7 @@ class Pipeline:
             detections=detections,
             observations=observations,
             newly_confirmed=step.newly_confirmed,
+            withdrawn=step.withdrawn,
             skipped_reason=None,
             timing_ms=timing,
             pose_map=np.asarray(frame.pose, dtype=float),

@@ -235,6 +235,10 @@ class FunnelRecorder:
             t = self.tracks.setdefault(tid, TrackTrace(track_id=tid))
             j = on.get(k, near.get(k))
             t.on[None if j is None else views[j].id] += 1
+        for tid in res.withdrawn:  # withdrawn from the report (tracker step 6): confirmed no more
+            if tid in self.tracks:
+                self.tracks[tid].confirmed_frame = None
+                self.tracks[tid].observations_at_confirmation = None
         for snap in res.newly_confirmed:
             t = self.tracks.setdefault(snap.track_id, TrackTrace(track_id=snap.track_id))
             t.confirmed_frame = res.frame_index

@@ -39,7 +39,13 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    type some of its mass (measured in docs/results/detectors.md), so an object boxed
    as another type more often than as its own can still win. The radius must
    stay under half the spacing of real neighbours of two types (at least 0.41 m in the
-   shipped worlds).
+   shipped worlds). A Landolt-C track whose rings read (it has text) settles its place
+   without a vote: its rings, each with its gap, were read from pixels, which nothing but a
+   Landolt-C target shows, while a placard there is the network's guess (the shipped
+   detector boxes the black-and-white cards as corrosive placards: 4 of its 6 false reports
+   in the ``rmrc`` trial). A placard track within the radius of one is not confirmed, has no
+   vote there, and one confirmed before the rings read is withdrawn: unconfirmed, its report
+   id dropped.
 
 Errors that repeat (``tracker.shared_errors``, on by default). The document fuses every
 observation as if its error were fresh. Part of it is not: the pose error (the SLAM's, or
@@ -369,6 +375,7 @@ class StepResult:
     new_tracks: list[tuple[int, int]] = field(default_factory=list)  # (observation index, track id)
     duplicates: list[tuple[int, int]] = field(default_factory=list)  # (obs index, track id)
     dropped: list[int] = field(default_factory=list)  # track ids deleted this step
+    withdrawn: list[int] = field(default_factory=list)  # confirmed track ids unconfirmed this step (step 6)
 
 
 class Tracker:
@@ -482,15 +489,32 @@ class Tracker:
 
     def _outvoted(self, tr: Track) -> bool:
         """Whether a track of another type within ``cross_type_radius_m`` of ``tr`` wins the
-        place's vote (:meth:`_votes`; module docstring, step 6)."""
+        place's vote (:meth:`_votes`), or ``tr`` is a placard at a read Landolt-C target's
+        place (:meth:`_on_read_landolt`; module docstring, step 6)."""
         radius = self.cfg.cross_type_radius_m
         if radius <= 0:
             return False
+        if self._on_read_landolt(tr):
+            return True
         return any(
             other.type != tr.type
             and float(np.linalg.norm(other.mu - tr.mu)) < radius
+            and not self._on_read_landolt(other)  # a placard guessed on a read target has no vote
             and self._votes(other, tr) > self._votes(tr, other)
             for other in self.tracks.values()
+        )
+
+    def _on_read_landolt(self, tr: Track) -> bool:
+        """Whether ``tr`` is a placard track within ``cross_type_radius_m`` of a Landolt-C track
+        whose rings read (module docstring, step 6)."""
+        radius = self.cfg.cross_type_radius_m
+        return (
+            radius > 0
+            and tr.type == "hazmat"
+            and any(
+                other.type == "landolt-c" and bool(other.text) and float(np.linalg.norm(other.mu - tr.mu)) < radius
+                for other in self.tracks.values()
+            )
         )
 
     @staticmethod
@@ -554,6 +578,11 @@ class Tracker:
             else:
                 new_tracks.append((i, self._new_track(o, timestamp_s).track_id))
 
+        withdrawn: list[int] = []
+        for tr in self.tracks.values():
+            if tr.confirmed and self._on_read_landolt(tr):
+                tr.confirmed, tr.report_id = False, None
+                withdrawn.append(tr.track_id)
         newly: list[TrackSnapshot] = []
         for tr in self.tracks.values():
             if not tr.confirmed and self._ready(tr):
@@ -568,6 +597,7 @@ class Tracker:
             new_tracks=new_tracks,
             duplicates=duplicates,
             dropped=dropped,
+            withdrawn=withdrawn,
         )
 
     def snapshots(self, confirmed_only: bool = False) -> list[TrackSnapshot]:
