@@ -71,7 +71,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=["mcap", "bag"],
         help="also write the trial as a ROS log: mcap (a rosbag2 folder trial_mcap/, for ros2 bag play and "
         "Foxglove) or bag (a ROS 1 trial.bag, for rosbag play); either is about 1.6 MB a frame at 640x480 "
-        "(colour, depth and thermal images uncompressed): 1.9 GB for the default trial's 1191 frames; "
+        "(colour, depth and thermal images uncompressed): 4 GB for the default trial's 2514 frames; "
         "about 0.77 MB a frame with --log-images png",
     )
     p.add_argument(
