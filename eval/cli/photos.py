@@ -32,7 +32,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     el.add_argument(
         "--holdout-of",
         metavar="RUN",
-        help="a train-labels run folder: its photo folders are scored on their held-back images only",
+        help="a train-labels run folder or its holdout.json: its photo folders are scored on their held-back "
+        "images only",
     )
     el.add_argument(
         "--absent",
@@ -81,7 +82,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     ph.add_argument(
         "--holdout-of",
         metavar="RUN",
-        help="a train or train-labels run folder: its photo folders are scored on their held-back images only",
+        help="a train or train-labels run folder or its holdout.json: its photo folders are scored on their "
+        "held-back images only",
     )
     ph.add_argument("--seed", type=int, default=0, help="seed of --limit's and the overlay's draws (default 0)")
     ph.add_argument("--overlay", type=int, default=12, help="images a folder on overlay.png (default 12; 0: none)")
@@ -105,8 +107,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     sr.add_argument(
         "--holdout-of",
         metavar="RUN",
-        help="a train or train-labels run folder: its photo folders are scored on their held-back images only "
-        "(RUN/holdout.json)",
+        help="a train or train-labels run folder (its holdout.json) or such a file (poi/models/"
+        "real_photos_holdout.json): its photo folders are scored on their held-back images only",
     )
     sr.add_argument(
         "--scenes",

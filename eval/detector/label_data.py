@@ -294,7 +294,9 @@ def read_holdout(run: str | Path) -> dict[str, set[str]]:
     if path.is_dir():
         path = path / HOLDOUT_NAME
     if not path.is_file():
-        raise DetectorQualityError(f"{path}: no such file; --holdout-of takes a train-labels run folder")
+        raise DetectorQualityError(
+            f"{path}: no such file; --holdout-of takes a train or train-labels run folder, or its holdout.json"
+        )
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
         folders = doc["folders"]
