@@ -39,13 +39,13 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    type some of its mass (measured in docs/results/detectors.md), so an object boxed
    as another type more often than as its own can still win. The radius must
    stay under half the spacing of real neighbours of two types (at least 0.41 m in the
-   shipped worlds). A Landolt-C track whose rings read (it has text) settles its place
-   without a vote: its rings, each with its gap, were read from pixels, which nothing but a
-   Landolt-C target shows, while a placard there is the network's guess (the shipped
-   detector boxes the black-and-white cards as corrosive placards: 4 of its 6 false reports
-   in the ``rmrc`` trial). A placard track within the radius of one is not confirmed, has no
-   vote there, and one confirmed before the rings read is withdrawn: unconfirmed, its report
-   id dropped.
+   shipped worlds). A track whose identity was read from pixels (:data:`READ_TYPES` with
+   text: a Landolt-C target's rings, each with its gap, or a QR code's decoded text) settles
+   its place without a vote: that structure shows on nothing else, while a placard there is
+   the network's guess (the shipped detector boxes the black-and-white Landolt-C cards as
+   corrosive placards and QR pages as poison ones: all 6 of its false reports in the ``rmrc``
+   trial). A placard track within the radius of one is not confirmed, has no vote there, and
+   one confirmed before the reading is withdrawn: unconfirmed, its report id dropped.
 
 Errors that repeat (``tracker.shared_errors``, on by default). The document fuses every
 observation as if its error were fresh. Part of it is not: the pose error (the SLAM's, or
@@ -113,6 +113,7 @@ N_CLASSES = len(CLASSES)
 IDENTITY3 = np.eye(3)  # H: a track's position is observed directly
 HAZMAT_SLICE = slice(0, len(HAZMAT_LABELS))  # hazmat labels come first in CLASSES
 TEXT_TYPES = ("qr", "landolt-c")  # types whose text is read from pixels and voted on over frames
+READ_TYPES = TEXT_TYPES  # a track of these with text settles its place against placard guesses (step 6)
 # type -> (N_CLASSES,) bool: the classes of that type (a placard's 16 labels, one for each other type)
 TYPE_CLASSES = {t: np.array([u == t for u in CLASS_TYPES]) for t in set(CLASS_TYPES)}
 
@@ -489,30 +490,30 @@ class Tracker:
 
     def _outvoted(self, tr: Track) -> bool:
         """Whether a track of another type within ``cross_type_radius_m`` of ``tr`` wins the
-        place's vote (:meth:`_votes`), or ``tr`` is a placard at a read Landolt-C target's
-        place (:meth:`_on_read_landolt`; module docstring, step 6)."""
+        place's vote (:meth:`_votes`), or ``tr`` is a placard at a read target's place
+        (:meth:`_on_read_target`; module docstring, step 6)."""
         radius = self.cfg.cross_type_radius_m
         if radius <= 0:
             return False
-        if self._on_read_landolt(tr):
+        if self._on_read_target(tr):
             return True
         return any(
             other.type != tr.type
             and float(np.linalg.norm(other.mu - tr.mu)) < radius
-            and not self._on_read_landolt(other)  # a placard guessed on a read target has no vote
+            and not self._on_read_target(other)  # a placard guessed on a read target has no vote
             and self._votes(other, tr) > self._votes(tr, other)
             for other in self.tracks.values()
         )
 
-    def _on_read_landolt(self, tr: Track) -> bool:
-        """Whether ``tr`` is a placard track within ``cross_type_radius_m`` of a Landolt-C track
-        whose rings read (module docstring, step 6)."""
+    def _on_read_target(self, tr: Track) -> bool:
+        """Whether ``tr`` is a placard track within ``cross_type_radius_m`` of a track of
+        :data:`READ_TYPES` with text (module docstring, step 6)."""
         radius = self.cfg.cross_type_radius_m
         return (
             radius > 0
             and tr.type == "hazmat"
             and any(
-                other.type == "landolt-c" and bool(other.text) and float(np.linalg.norm(other.mu - tr.mu)) < radius
+                other.type in READ_TYPES and bool(other.text) and float(np.linalg.norm(other.mu - tr.mu)) < radius
                 for other in self.tracks.values()
             )
         )
@@ -580,7 +581,7 @@ class Tracker:
 
         withdrawn: list[int] = []
         for tr in self.tracks.values():
-            if tr.confirmed and self._on_read_landolt(tr):
+            if tr.confirmed and self._on_read_target(tr):
                 tr.confirmed, tr.report_id = False, None
                 withdrawn.append(tr.track_id)
         newly: list[TrackSnapshot] = []

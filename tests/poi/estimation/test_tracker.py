@@ -266,30 +266,33 @@ def test_the_place_vote_weighs_unsure_boxes_of_another_type_by_their_class_proba
     assert tr.tracks[0].type == "fire-extinguisher-sign" and tr.tracks[0].n_detections == 3
 
 
-@pytest.mark.parametrize("radius", [0.2, 0.0])
-def test_a_read_landolt_target_withdraws_and_holds_back_the_placards_guessed_at_its_place(radius):
-    """A corrosive placard track boxed on a Landolt-C card is confirmed (n_min 2) before the
-    card's rings read; once a Landolt-C track with text lies within the radius, the placard is
-    withdrawn (unconfirmed, its report id dropped) however many boxes it has, and a second
-    placard guess there is not confirmed. A placard 0.5 m away is confirmed. Radius 0 turns
-    the one-place rule off, this part with it."""
+@pytest.mark.parametrize(
+    ("radius", "target", "text"),
+    [(0.2, "landolt-c", "1:N 2:SE 3:E"), (0.2, "qr", "Chart D 5mm"), (0.0, "landolt-c", "1:N 2:SE 3:E")],
+)
+def test_a_read_target_withdraws_and_holds_back_the_placards_guessed_at_its_place(radius, target, text):
+    """A corrosive placard track boxed on a Landolt-C card (or a QR page) is confirmed (n_min 2)
+    before the card's rings (the code) read; once a track of that type with text lies within the
+    radius, the placard is withdrawn (unconfirmed, its report id dropped) however many boxes it
+    has, and a second placard guess there is not confirmed. A placard 0.5 m away is confirmed.
+    Radius 0 turns the one-place rule off, this part with it."""
     R = 1e-4 * np.eye(3)
     card, beside = [1.0, 0.0, 0.5], [1.0, 0.5, 0.5]
 
     def placard(xyz):
         return obs(xyz, "corrosive", R=R)
 
-    rings = obs([1.02, 0.0, 0.5], "landolt-c", R=R, text="1:N 2:SE 3:E")
+    rings = obs([1.02, 0.0, 0.5], target, R=R, text=text)
     tr = Tracker(cfg(n_min=2, cross_type_radius_m=radius))
     steps = [tr.step(f, 0.1 * k) for k, f in enumerate([[placard(card)], [placard(card)], [rings], [rings]])]
     assert [s.type for s in steps[1].newly_confirmed] == ["hazmat"]
     if radius:
         assert steps[2].withdrawn == [0] and not tr.tracks[0].confirmed and tr.tracks[0].report_id is None
-        assert [s.type for s in steps[3].newly_confirmed] == ["landolt-c"]
+        assert [s.type for s in steps[3].newly_confirmed] == [target]
         more = [tr.step([placard([1.0, 0.05, 0.5]), placard(beside)], 0.5 + 0.1 * k) for k in range(3)]
         confirmed = [(s.type, round(float(s.position_map[1]), 2)) for m in more for s in m.newly_confirmed]
         assert confirmed == [("hazmat", 0.5)]
-        assert [t.type for t in tr.snapshots(confirmed_only=True)] == ["landolt-c", "hazmat"]
+        assert [t.type for t in tr.snapshots(confirmed_only=True)] == [target, "hazmat"]
     else:
         assert steps[2].withdrawn == [] and tr.tracks[0].confirmed
 
