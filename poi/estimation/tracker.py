@@ -479,43 +479,47 @@ class Tracker:
         tr.last_seen_s = t
         return innovation
 
-    def _ready(self, tr: Track) -> bool:
+    def _ready(self, tr: Track, read: np.ndarray) -> bool:
         if tr.n_detections < self.cfg.n_min or tr.max_fresh_std_m > self.cfg.settle_sigma_m:
             return False
-        if self._outvoted(tr):
+        if self._outvoted(tr, read):
             return False
         if tr.type == "landolt-c" and not self._landolt_rings_read(tr):
             return False
         return not (tr.type in TEXT_TYPES and self.cfg.qr_requires_text and not tr.text)
 
-    def _outvoted(self, tr: Track) -> bool:
+    def _outvoted(self, tr: Track, read: np.ndarray) -> bool:
         """Whether a track of another type within ``cross_type_radius_m`` of ``tr`` wins the
         place's vote (:meth:`_votes`), or ``tr`` is a placard at a read target's place
-        (:meth:`_on_read_target`; module docstring, step 6)."""
+        (:meth:`_on_read_target` with ``read`` of :meth:`_read_places`; module docstring, step 6)."""
         radius = self.cfg.cross_type_radius_m
         if radius <= 0:
             return False
-        if self._on_read_target(tr):
+        if self._on_read_target(tr, read):
             return True
         return any(
             other.type != tr.type
             and float(np.linalg.norm(other.mu - tr.mu)) < radius
-            and not self._on_read_target(other)  # a placard guessed on a read target has no vote
+            and not self._on_read_target(other, read)  # a placard guessed on a read target has no vote
             and self._votes(other, tr) > self._votes(tr, other)
             for other in self.tracks.values()
         )
 
-    def _on_read_target(self, tr: Track) -> bool:
-        """Whether ``tr`` is a placard track within ``cross_type_radius_m`` of a track of
-        :data:`READ_TYPES` with text (module docstring, step 6)."""
-        radius = self.cfg.cross_type_radius_m
+    def _read_places(self) -> np.ndarray:
+        """(K, 3) means of the tracks of :data:`READ_TYPES` with text: the places read from
+        pixels (module docstring, step 6); none while ``cross_type_radius_m`` is 0."""
+        if self.cfg.cross_type_radius_m <= 0:
+            return np.zeros((0, 3))
+        mus = [t.mu for t in self.tracks.values() if t.type in READ_TYPES and t.text]
+        return np.array(mus, dtype=float).reshape(-1, 3)
+
+    def _on_read_target(self, tr: Track, read: np.ndarray) -> bool:
+        """Whether ``tr`` is a placard track within ``cross_type_radius_m`` of a place in
+        ``read`` (:meth:`_read_places`)."""
         return (
-            radius > 0
-            and tr.type == "hazmat"
-            and any(
-                other.type in READ_TYPES and bool(other.text) and float(np.linalg.norm(other.mu - tr.mu)) < radius
-                for other in self.tracks.values()
-            )
+            tr.type == "hazmat"
+            and len(read) > 0
+            and bool((np.linalg.norm(read - tr.mu, axis=1) < self.cfg.cross_type_radius_m).any())
         )
 
     @staticmethod
@@ -579,14 +583,15 @@ class Tracker:
             else:
                 new_tracks.append((i, self._new_track(o, timestamp_s).track_id))
 
+        read = self._read_places()  # no confirmation below changes a track's text
         withdrawn: list[int] = []
         for tr in self.tracks.values():
-            if tr.confirmed and self._on_read_target(tr):
+            if tr.confirmed and self._on_read_target(tr, read):
                 tr.confirmed, tr.report_id = False, None
                 withdrawn.append(tr.track_id)
         newly: list[TrackSnapshot] = []
         for tr in self.tracks.values():
-            if not tr.confirmed and self._ready(tr):
+            if not tr.confirmed and self._ready(tr, read):
                 tr.confirmed = True
                 tr.report_id = self._next_report_id
                 self._next_report_id += 1
