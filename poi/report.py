@@ -4,8 +4,11 @@ The format (docs/RULES.md, "The POI file", version 1.2, or 1.3 with ``version="1
 records, layout, the atomic writer) is :mod:`poi.core.poi_file`'s; this module turns tracks into its rows and
 streams them. The header is written on open and each confirmed object is appended
 and flushed to disk (fsync) at once, so a killed run leaves a valid file of what it
-had; :meth:`PoiWriter.finalize` rewrites the file with the final positions
-atomically (:func:`poi.core.poi_file.write_text_atomic`).
+had; an object the tracker withdraws (its step 6: a read target settled its place) is taken
+out of the file at once (:meth:`PoiWriter.withdraw`, an atomic rewrite of the rows streamed so
+far), so a killed run's file never holds a report the pipeline took back;
+:meth:`PoiWriter.finalize` rewrites the file with the final positions atomically
+(:func:`poi.core.poi_file.write_text_atomic`).
 
 >>> from datetime import datetime
 >>> time_hms(datetime(2022, 7, 8, 9, 19, 11), 3.7)
@@ -83,6 +86,7 @@ class PoiWriter:
         self.robot = robot
         self.mode = mode
         self._fh: TextIO | None = open(self.path, "w", encoding="utf-8", newline="")  # noqa: SIM115 (kept open)
+        self._streamed: dict[int, str] = {}  # track id -> its row as appended, in the file's order
         self._write(format_header_text(header.poi_header()))
 
     def _write(self, text: str) -> None:
@@ -116,7 +120,23 @@ class PoiWriter:
         """Append one confirmed object, flushed to disk; time defaults to start + first_seen_s."""
         if self._fh is None:
             raise ReportError(f"{self.path}: already finalized")
-        self._write(format_row_text(self._row(track, time_hms), self.header.version) + "\n")
+        row = format_row_text(self._row(track, time_hms), self.header.version) + "\n"
+        self._write(row)
+        self._streamed[track.track_id] = row
+
+    def withdraw(self, track_id: int) -> bool:
+        """Take track ``track_id``'s streamed row out of the file: the rows appended so far, less
+        it, rewritten atomically and the file reopened for appending. False (nothing written) when
+        it was never appended."""
+        if self._fh is None:
+            raise ReportError(f"{self.path}: already finalized")
+        if self._streamed.pop(track_id, None) is None:
+            return False
+        self.close()
+        header = format_header_text(self.header.poi_header())
+        write_text_atomic(self.path, header + "".join(self._streamed.values()))
+        self._fh = open(self.path, "a", encoding="utf-8", newline="")  # noqa: SIM115 (kept open)
+        return True
 
     def text(self, tracks: Iterable[TrackSnapshot]) -> str:
         """The file :meth:`finalize` would write for these objects (by report id)."""

@@ -24,20 +24,24 @@ from poi.core.geometry import planar_pose, wrap_angle
 
 
 class PoiStream(Observer):
-    """``pois.csv`` takes each object as it is confirmed (``poi.report.PoiWriter.append``); after
-    a failed append streaming stops and the end rewrites the file whole."""
+    """``pois.csv`` takes each object as it is confirmed (``poi.report.PoiWriter.append``) and
+    loses each the tracker withdraws (``PoiWriter.withdraw``); after a failed write streaming
+    stops and the end rewrites the file whole."""
 
     def __init__(self, writer) -> None:
         self.writer = writer
         self.streaming = True
 
     def on_frame(self, tick: Tick) -> None:
-        for snap in tick.res.newly_confirmed:
-            if self.streaming:
-                try:
-                    self.writer.append(snap)
-                except OSError:  # streaming stops; the end rewrites the file whole
-                    self.streaming = False
+        if not self.streaming:
+            return
+        try:
+            for track_id in tick.res.withdrawn:
+                self.writer.withdraw(track_id)
+            for snap in tick.res.newly_confirmed:
+                self.writer.append(snap)
+        except OSError:  # streaming stops; the end rewrites the file whole
+            self.streaming = False
 
 
 class VideoObserver(Observer):

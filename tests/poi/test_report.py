@@ -68,6 +68,28 @@ def test_killed_run_leaves_a_readable_file(tmp_path):
     w.close()
 
 
+def test_a_withdrawn_object_leaves_the_streamed_file_at_once(tmp_path):
+    # tracker step 6 takes a confirmed placard back: a run killed after that must not report it
+    p = tmp_path / "pois.csv"
+    w = PoiWriter(p, HEADER, robot="Arbie", mode="A")
+    w.append(snap(0, "door", "", [1, 2, 0.5], 1.0, track_id=10))
+    w.append(snap(1, "hazmat", "corrosive", [3, 4, 1.2], 2.0, track_id=11))
+    w.append(snap(2, "valve", "", [5, 6, 1.0], 3.0, track_id=12))
+    assert w.withdraw(11)
+    door = b"0,09:19:12,,1.000,2.000,0.500,Arbie,A,door\n"
+    valve = b"2,09:19:14,,5.000,6.000,1.000,Arbie,A,valve\n"
+    assert p.read_bytes() == HEADER_BYTES + door + valve  # no finalize: what a killed run leaves
+    assert not w.withdraw(11) and not w.withdraw(99)  # never streamed (or gone): nothing written
+    assert p.read_bytes() == HEADER_BYTES + door + valve
+    w.append(snap(3, "qr", "M", [0, 0, 1], 4.0, track_id=13))  # streaming goes on after the rewrite
+    assert p.read_bytes() == HEADER_BYTES + door + valve + b"3,09:19:15,M,0.000,0.000,1.000,Arbie,A,qr\n"
+    assert [r.id for r in read_poi_file(p).rows] == [0, 2, 3]
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["pois.csv"]  # no temp file left
+    w.finalize([])
+    with pytest.raises(ReportError, match="already finalized"):
+        w.withdraw(10)
+
+
 def test_finalize_rewrites_atomically(tmp_path):
     p = tmp_path / "pois.csv"
     w = PoiWriter(p, HEADER, robot="Arbie", mode="A")
