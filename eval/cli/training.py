@@ -90,8 +90,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--widths",
         type=int,
         nargs="+",
-        default=[16, 32, 64, 128],
-        help="channels of each conv + max-pool stage (default 16 32 64 128)",
+        default=[32, 64, 128, 256],
+        help="channels of each conv + max-pool stage (default 32 64 128 256)",
     )
     lt.add_argument(
         "--holdout",

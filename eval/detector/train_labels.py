@@ -3,10 +3,11 @@
 The second stage of :mod:`poi.detectors.hazmat_labels`: a small convolutional
 network over 64 x 64 crops, 17 outputs (the 16 labels and ``background``)
 passed through a softmax. Four stages of 3x3 convolution, batch norm and ReLU
-(16, 32, 64, 128 channels at 64, 32, 16 and 8 px), each followed by 2x2 max
-pooling, then a linear layer over the 4 x 4 x 128 map: the layout of a
-placard (symbol on top, text across the middle, class number at the bottom)
-stays in the features. About 30 MFLOPs a crop.
+(32, 64, 128, 256 channels at 64, 32, 16 and 8 px by default, ``--widths``), each
+followed by 2x2 max pooling, then a linear layer over the 4 x 4 x 256 map: the
+layout of a placard (symbol on top, text across the middle, class number at the
+bottom) stays in the features. About 120 MFLOPs a crop (16, 32, 64, 128 channels:
+about 32, and 5 points less validation accuracy on the same crops, docs/FACTS.md).
 
 Training: crops from :mod:`eval.detector.label_data` (every class drawn equally often,
 half of them turned in their plane to any angle, with box, light, noise and resolution
@@ -80,7 +81,7 @@ class LabelTrainSpec:
     seed: int = 0
     threads: int = 2
     margin: float = DEFAULT_CROP_MARGIN
-    widths: tuple[int, ...] = field(default=(16, 32, 64, 128))
+    widths: tuple[int, ...] = field(default=(32, 64, 128, 256))
     holdout: float | None = None  # fraction of each photo folder's images held back
     photo_folders: list[str] = field(default_factory=list, init=False)  # set by train_labels
 
