@@ -86,7 +86,7 @@ class PoiWriter:
         self.robot = robot
         self.mode = mode
         self._fh: TextIO | None = open(self.path, "w", encoding="utf-8", newline="")  # noqa: SIM115 (kept open)
-        self._streamed: dict[int, str] = {}  # track id -> its row as appended, in the file's order
+        self._streamed: dict[int, PoiRow] = {}  # track id -> its row as appended, in the file's order
         self._write(format_header_text(header.poi_header()))
 
     def _write(self, text: str) -> None:
@@ -120,8 +120,8 @@ class PoiWriter:
         """Append one confirmed object, flushed to disk; time defaults to start + first_seen_s."""
         if self._fh is None:
             raise ReportError(f"{self.path}: already finalized")
-        row = format_row_text(self._row(track, time_hms), self.header.version) + "\n"
-        self._write(row)
+        row = self._row(track, time_hms)
+        self._write(format_row_text(row, self.header.version) + "\n")
         self._streamed[track.track_id] = row
 
     def withdraw(self, track_id: int) -> bool:
@@ -133,8 +133,7 @@ class PoiWriter:
         if self._streamed.pop(track_id, None) is None:
             return False
         self.close()
-        header = format_header_text(self.header.poi_header())
-        write_text_atomic(self.path, header + "".join(self._streamed.values()))
+        write_text_atomic(self.path, format_poi_text(self.header.poi_header(), list(self._streamed.values())))
         self._fh = open(self.path, "a", encoding="utf-8", newline="")  # noqa: SIM115 (kept open)
         return True
 
