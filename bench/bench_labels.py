@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from poi.detectors.hazmat_labels import HazmatLabelClassifier
+from poi.detectors.hazmat_labels import HazmatLabelClassifier, LabelModelError
 
 SHIPPED = Path(__file__).resolve().parents[1] / "poi" / "models" / "default_labels.onnx"
 
@@ -42,7 +42,10 @@ def main() -> None:
     args = ap.parse_args()
     rng = np.random.default_rng(0)
     frame = rng.integers(0, 256, size=(480, 640, 3), dtype=np.uint8)
-    models = [HazmatLabelClassifier(model=m) for m in args.models]
+    try:
+        models = [HazmatLabelClassifier(model=m) for m in args.models]
+    except LabelModelError as e:
+        raise SystemExit(f"bench_labels: {e}") from None
     print(f"CPU ms a call (median of {args.rounds} rounds of {args.calls} calls, models in turn)")
     print("model".ljust(50) + "".join(f"{k} box{'es' if k > 1 else ''}".rjust(12) for k in args.boxes))
     table = {m.model: {} for m in models}
