@@ -414,8 +414,9 @@ class QrConfig:
     """QR text reading (poi.detectors.qr).
 
     ``settled_votes``: a QR detection whose observation falls inside the gate of a
-    QR track whose text has been read this many times is not decoded again (its
-    position still updates the track: an empty text pairs with any QR track). 0
+    QR track whose text has been read this many times, and whose box holds that track's
+    projected centre, is not decoded again (its position still updates the track: an
+    empty text pairs with any QR track); a box beside it is another code and is decoded. 0
     decodes every QR detection. Detections without an observation (no valid
     depth) are not decoded on frames with a pose and depth, since they cannot
     feed a track.

@@ -17,8 +17,8 @@ Per frame (:meth:`Pipeline.process`):
    ``qr.enabled`` and that function exists (``motion``: the camera's turn during the exposure,
    :func:`poi.core.motion_blur.camera_motion`, where the frame gives it) (else QR detections keep the text the
    detector gave, usually none, and a note says so once), to the QR observations
-   that have no text yet and do not fall in the gate of a track whose text is
-   settled (``qr.settled_votes`` reads);
+   that have no text yet and do not show a code whose text is settled (``qr.settled_votes``
+   reads of a track in whose gate the observation falls and whose centre projects into its box);
 5. tracks whose centre is in view (poi.estimation.visibility) are passed to the tracker for the
    negative update, and the tracker steps ([Avevor2022]_ 2.4); each paired update's
    innovation, S and NIS come back in ``FrameResult.innovations``;
@@ -54,7 +54,7 @@ from poi.estimation.fiducials import FiducialMapper
 from poi.estimation.localize import localize
 from poi.estimation.slam_localizer import SlamLocalizer
 from poi.estimation.tracker import Innovation, Tracker
-from poi.estimation.visibility import in_view
+from poi.estimation.visibility import in_view, pixel_of_map_point
 from poi.heat_sources import frame_has_thermal_view, vouched_for
 
 QR_MODULE = "poi.detectors.qr"
@@ -173,8 +173,12 @@ class Pipeline:
             )
         }
 
-    def _settled_qr(self, obs: Observation) -> bool:
-        """Whether ``obs`` is in the gate of a QR track whose text has ``qr.settled_votes`` reads."""
+    def _settled_qr(self, obs: Observation, frame: Frame) -> bool:
+        """Whether ``obs`` shows a QR code whose text is settled: it falls in the gate of a QR
+        track whose text has ``qr.settled_votes`` reads, and that track's centre projects into
+        ``obs``'s box in ``frame``. A box in the gate that the centre misses is another code
+        (codes of different sizes sit side by side on one chart, closer than a gate): it is
+        read, and a text of its own keeps it off the settled track."""
         need = self.cfg.qr.settled_votes
         if need <= 0:
             return False
@@ -183,7 +187,16 @@ class Pipeline:
             for tr in self.tracker.tracks.values()
             if tr.type == "qr" and max(tr.text_votes.values(), default=0) >= need
         ]
-        return bool(settled) and bool(np.isfinite(self.tracker.distances([obs], settled)).any())
+        if not settled:
+            return False
+        x1, y1, x2, y2 = obs.detection.box_xyxy
+        for tr, m2 in zip(settled, self.tracker.distances([obs], settled)[0], strict=True):
+            if not np.isfinite(m2):
+                continue
+            seen = pixel_of_map_point(tr.mu, frame, self.T_tracker_camera, frame.intrinsics)
+            if seen is not None and x1 <= seen[0] <= x2 and y1 <= seen[1] <= y2:
+                return True
+        return False
 
     def _read_qr(
         self, reader: Callable, frame: Frame, detections: list[Detection], todo: list[int]
@@ -247,7 +260,9 @@ class Pipeline:
         todo: list[int] = []
         if self._qr_reader is not None:
             unread = set(self._unread_qr(detections))
-            todo = [i for i, k in enumerate(det_of_obs) if k in unread and not self._settled_qr(observations[i])]
+            todo = [
+                i for i, k in enumerate(det_of_obs) if k in unread and not self._settled_qr(observations[i], frame)
+            ]
             read = self._read_qr(self._qr_reader, frame, detections, [det_of_obs[i] for i in todo])
             for i in todo:
                 observations[i] = dataclasses.replace(observations[i], detection=read[det_of_obs[i]])

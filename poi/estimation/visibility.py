@@ -30,6 +30,25 @@ MIN_VIEW_DEPTH_M = 0.05  # points closer than this to the camera plane are not p
 DEFAULT_OCCLUSION_TOLERANCE_M = 0.3
 
 
+def pixel_of_map_point(
+    point_map: np.ndarray, frame: Frame, T_tracker_camera: np.ndarray, intr: Intrinsics
+) -> tuple[float, float, float] | None:
+    """(u, v, z): the pixel the map point projects to in ``frame`` (the pinhole model of
+    :func:`poi.estimation.projection.project_point_to_pixel`, the camera at ``frame.pose`` times
+    the mount ``T_tracker_camera``) and its depth z in the optical frame; None without a pose or
+    closer to the camera plane than ``MIN_VIEW_DEPTH_M`` (behind it included). The pixel may lie
+    outside the image."""
+    if frame.pose is None:
+        return None
+    T_map_camera = np.asarray(frame.pose, dtype=float) @ T_tracker_camera
+    p_c = transform_points(invert_transform(T_map_camera), np.asarray(point_map, dtype=float))
+    z = float(p_c[2])
+    if z < MIN_VIEW_DEPTH_M:
+        return None
+    u, v = project_point_to_pixel(intr, p_c)
+    return float(u), float(v), z
+
+
 def in_view(
     track_mu: np.ndarray,
     frame: Frame,
@@ -40,14 +59,12 @@ def in_view(
     occlusion_tolerance_m: float = DEFAULT_OCCLUSION_TOLERANCE_M,
 ) -> bool:
     """True when the map point ``track_mu`` is visible in ``frame`` (see module docstring)."""
-    if frame.pose is None:
+    seen = pixel_of_map_point(track_mu, frame, T_tracker_camera, intr)
+    if seen is None:
         return False
-    T_map_camera = np.asarray(frame.pose, dtype=float) @ T_tracker_camera
-    p_c = transform_points(invert_transform(T_map_camera), np.asarray(track_mu, dtype=float))
-    z = float(p_c[2])
-    if z < MIN_VIEW_DEPTH_M or z > max_range:
+    u, v, z = seen
+    if z > max_range:
         return False
-    u, v = project_point_to_pixel(intr, p_c)
     if not (margin_px <= u <= intr.width - 1 - margin_px and margin_px <= v <= intr.height - 1 - margin_px):
         return False
     if frame.depth_m is not None:

@@ -10,6 +10,8 @@ Full entries in docs/SOURCES.md.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -188,6 +190,37 @@ def test_a_qr_code_elsewhere_is_decoded_even_when_another_is_settled(monkeypatch
     for i in range(4):
         pipe.process(make_frame(i))
     assert calls == [1, 1, 1, 1]  # frame 3: only the new code is read
+
+
+def test_a_code_beside_a_settled_one_inside_its_gate_is_read_and_tracked_apart(monkeypatch):
+    # a chart's codes of different sizes sit side by side, closer than the tracker's gate: the
+    # settled code's centre projects into its own box only, so the box beside it is read
+    texts = iter(["Chart X"] * 3 + ["Chart Y"] * 3)
+    calls: list[int] = []
+
+    def reader(rgb, dets, motion=None):
+        calls.append(len(dets))
+        return [Detection(**{**d.__dict__, "text": next(texts)}) for d in dets]
+
+    monkeypatch.setattr(pipeline_mod, "_find_qr_reader", lambda: (reader, None))
+    beside = (332.0, 232.0, 348.0, 248.0)  # a smaller code 20 px right of DOOR_BOX's centre: 8 cm at 2 m
+    script = {i: [("qr", DOOR_BOX, 0.9, "")] for i in range(3)}
+    for i in range(3, 6):
+        script[i] = [("qr", DOOR_BOX, 0.9, ""), ("qr", beside, 0.9, "")]
+    pipe = Pipeline(synthetic_config(), [FakeDetector(script)])
+    for i in range(3):
+        pipe.process(make_frame(i))
+    (settled,) = pipe.tracker.tracks.values()
+    res = pipe.process(make_frame(3))
+    # the premise: the code beside, its text unread, lies inside the settled track's gate
+    unread = dataclasses.replace(res.observations[1], detection=make_det("qr", beside, 0.9, ""))
+    assert np.isfinite(pipe.tracker.distances([unread], [settled])).all()
+    for i in range(4, 6):
+        pipe.process(make_frame(i))
+    assert calls == [1, 1, 1, 1, 1, 1]  # frames 3-5: the settled code is not read again, the other is
+    by_text = {t.text: t for t in pipe.tracks()}
+    assert set(by_text) == {"Chart X", "Chart Y"}
+    assert by_text["Chart X"].n_detections == 6 and by_text["Chart Y"].n_detections == 3
 
 
 def test_qr_detections_without_depth_are_not_decoded_on_tracked_frames(monkeypatch):
