@@ -105,8 +105,6 @@ ARENA_LIGHT_HEIGHT_M = 2.5  # the goal arena's lamps hang from a room's ceiling,
 PREFETCH_FRAMES = 2  # frames rendered ahead by Simulation.frames()
 AE_CACHE_FRAMES = 16  # auto-exposure meters kept for the frames that follow
 NOISE_POOL_FRAMES = 3  # frames' worth of pre-drawn noise per pool (sim.sensors.noise_pool)
-# the thermal image integrates THERMAL_SUPERSAMPLE^2 segmentation samples per pixel
-THERMAL_SUPERSAMPLE = 2
 
 
 _R = TypeVar("_R")
@@ -148,8 +146,11 @@ class ColourDepthRender:
 
 @dataclass(kw_only=True)
 class SegmentationRender:
+    """One segmentation pass of frame k's view at the colour camera's size: its geom ids (the
+    thermal camera's input) and, with truth boxes, the object ids they belong to."""
+
+    geom_ids: np.ndarray | None  # (H, W) int32 geom id, -1 for none
     object_ids: np.ndarray | None  # (H, W) int32 object id, -1 for none; only with truth boxes
-    thermal_geoms: np.ndarray | None  # geom ids at THERMAL_SUPERSAMPLE x the thermal size
 
 
 @dataclass(kw_only=True)
@@ -295,10 +296,12 @@ class Simulation:
         self._thermal_scene = self._make_thermal_scene() if sc.sensors.thermal.enabled else None
         self.colour_lux = self._decoded_one_lux(sc.sensors.d435.colour)
         self._meters: dict[int, float] = {}  # frame index -> auto-exposure meter of its render
-        # FrameTruth.visible and .object_mask come from a full-size segmentation render (with the
-        # visible-object boxes, about 13 ms of CPU a frame); a caller that reads neither (a trial
-        # with a trained detector) switches it off before asking for frames (eval.trial.run)
+        # FrameTruth.visible and .object_mask come from the full-size segmentation render's object
+        # ids (the visible objects' boxes about 1 ms of CPU a frame); off, the render is still made
+        # for the thermal camera's geom ids when that camera is on
         self.truth_boxes: bool = sc.sensors.truth_boxes
+        # each geom's object (-1: none), with a -1 appended that background's geom id -1 picks
+        self._object_of_geom = np.append(self.world.geom_box_object_id, -1).astype(np.int32)
         self._tilt_rad = tilt
         self._renderer: SceneRenderer | None = None
         self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
@@ -507,21 +510,17 @@ class Simulation:
         return ColourDepthRender(rgb=rgb, z_m=depth, T_map_optical=T_map_optical)
 
     def _render_segmentation(self, k: int | np.ndarray) -> SegmentationRender:
-        """Object ids at full size when ground-truth boxes are on, geom ids at
-        ``THERMAL_SUPERSAMPLE`` times the thermal size when the thermal camera is on (GL thread)."""
+        """One segmentation pass at full size when ground-truth boxes or the thermal camera are
+        on (GL thread): geom ids, and object ids looked up from them for the truth boxes."""
         sens = self.scenario.sensors
         if not self.truth_boxes and not sens.thermal.enabled:
-            return SegmentationRender(object_ids=None, thermal_geoms=None)
+            return SegmentationRender(geom_ids=None, object_ids=None)
         r = self._renderer_ready()
         self._set_camera(k)
         r.update(self.world.data)
-        objects = r.geom_segmentation(relabel=self.world.geom_box_object_id) if self.truth_boxes else None
-        thermal = None
-        if sens.thermal.enabled:
-            w = min(sens.thermal.width * THERMAL_SUPERSAMPLE, self.intrinsics.width)
-            h = min(sens.thermal.height * THERMAL_SUPERSAMPLE, self.intrinsics.height)
-            thermal = r.geom_segmentation(w, h)
-        return SegmentationRender(object_ids=objects, thermal_geoms=thermal)
+        geoms = r.geom_segmentation()
+        objects = self._object_of_geom.take(geoms) if self.truth_boxes else None  # index -1: the -1 appended
+        return SegmentationRender(geom_ids=geoms, object_ids=objects)
 
     def _submit_renders(self, k: int | np.ndarray) -> tuple[Future, Future]:
         """Queue the two render jobs of frame k (or of a rig pose T_map_rig) on the GL thread; the
@@ -713,7 +712,7 @@ class Simulation:
             T_world_optical=self.T_world_map @ T_map_optical,
             exposure=exposure,
             motion_px=motion,
-            thermal_geoms=lambda: segmentation.result().thermal_geoms,
+            geom_ids=lambda: segmentation.result().geom_ids,
         )
         # each in turn, so each draws from rng in the same order every frame (sim.sensors.base)
         images = {s.frame_field: s.measure(shot, rng) for s in sensors}

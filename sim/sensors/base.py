@@ -43,9 +43,9 @@ class Exposure:
 class Shot:
     """What frame k's sensors read: its renders and the colour camera's settings for it.
 
-    ``thermal_geoms`` waits for the segmentation render (geom ids, (h, w) at a multiple of the
-    thermal size; None with the thermal camera off), which the GL thread finishes while the
-    colour and depth models run.
+    ``geom_ids`` waits for the segmentation render (geom ids per pixel of the colour camera's
+    view, (H, W), -1 where no geom is drawn; None when no segmentation is rendered), which the
+    GL thread finishes while the colour and depth models run.
     """
 
     t_s: float  # the frame's time (0 for a view from an arbitrary pose)
@@ -55,7 +55,7 @@ class Shot:
     T_world_optical: np.ndarray  # the colour camera's optical frame in the world
     exposure: Exposure  # the frame's exposure and gain (auto-exposure's, or fixed)
     motion_px: tuple[float, float]  # (du, dv) the image centre moves during the exposure
-    thermal_geoms: Callable[[], np.ndarray | None]
+    geom_ids: Callable[[], np.ndarray | None]
 
 
 class FrameSensor(Protocol):

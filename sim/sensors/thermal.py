@@ -13,11 +13,13 @@ temperature of what the mirror direction (the view ray reflected about the surfa
 normal, from the depth image) hits, by a ray cast in the scene (ambient if nothing).
 
 The image is the segmentation render mapped through those temperatures, area-averaged
-down to the thermal resolution (each thermal pixel integrates its footprint), blurred by
-the optics, with fixed-pattern noise and NETD noise. Fixed-pattern noise, per pixel and
-fixed for a run: F0 (standard deviation ``fpn_sigma_k``) plus a second pattern F1 (unit
-standard deviation) that grows at ``fpn_drift_k_per_min`` and is reset by the camera's
-flat-field correction every ``ffc_interval_s``. Degrees Celsius, float32.
+down to the thermal resolution (each thermal pixel integrates its footprint:
+``THERMAL_SUPERSAMPLE`` x ``THERMAL_SUPERSAMPLE`` samples of the colour camera's full-size
+segmentation, :func:`sample_grid`), blurred by the optics, with fixed-pattern noise and NETD
+noise. Fixed-pattern noise, per pixel and fixed for a run: F0 (standard deviation
+``fpn_sigma_k``) plus a second pattern F1 (unit standard deviation) that grows at
+``fpn_drift_k_per_min`` and is reset by the camera's flat-field correction every
+``ffc_interval_s``. Degrees Celsius, float32.
 """
 
 from __future__ import annotations
@@ -31,6 +33,27 @@ import numpy as np
 from poi.core.loader import number
 from poi.core.types import Intrinsics
 from sim.sensors.base import MAX_IMAGE_PX, Shot
+
+THERMAL_SUPERSAMPLE = 2  # each thermal pixel integrates THERMAL_SUPERSAMPLE^2 segmentation samples
+
+
+def sample_grid(img: np.ndarray, width: int, height: int) -> np.ndarray:
+    """``img`` (H, W, ...) sampled at a ``width`` x ``height`` grid over the same view: at each
+    grid pixel's centre, the image's pixel under it, row floor((j + 1/2) H / height) and column
+    floor((i + 1/2) W / width) (for H / height = 2 that is pixel 2j + 1, whose centre lies half
+    an image pixel past the grid pixel's). One sampling for the geom ids and the depths, so
+    each sample's depth is the depth of its geom.
+
+    >>> sample_grid(np.arange(16).reshape(4, 4), 2, 2).tolist()
+    [[5, 7], [13, 15]]
+    """
+    H, W = img.shape[:2]
+    if H % height == 0 and W % width == 0:  # whole steps r: rows r j + r // 2, a strided view
+        ry, rx = H // height, W // width
+        return img[ry // 2 :: ry, rx // 2 :: rx]
+    rows = ((np.arange(height) + 0.5) * (H / height)).astype(np.intp)
+    cols = ((np.arange(width) + 0.5) * (W / width)).astype(np.intp)
+    return img[rows[:, None], cols[None, :]]
 
 
 @dataclass(kw_only=True)
@@ -139,8 +162,9 @@ class ThermalView:
 
     @classmethod
     def from_depth(cls, z_m: np.ndarray, K: Intrinsics, T_world_optical: np.ndarray, width: int, height: int):
-        """The view of a ``width`` x ``height`` image of the same camera, from a z-depth image."""
-        z = cv2.resize(z_m.astype(np.float32), (width, height), interpolation=cv2.INTER_NEAREST)
+        """The view of a ``width`` x ``height`` image of the same camera, from a z-depth image
+        (sampled as :func:`sample_grid` samples)."""
+        z = sample_grid(np.asarray(z_m, np.float32), width, height)
         return cls(z_m=z, K=K.scaled(width, height), T_world_optical=np.asarray(T_world_optical, float))
 
     def _rays(self) -> tuple[np.ndarray, np.ndarray]:
@@ -269,10 +293,13 @@ class ThermalSensor:
     scene: ThermalScene
 
     def measure(self, shot: Shot, rng: np.random.Generator) -> np.ndarray:
-        geoms = shot.thermal_geoms()
-        if geoms is None:
+        full = shot.geom_ids()
+        if full is None:
             raise RuntimeError("the thermal camera needs the segmentation render's geom ids")
-        h2, w2 = geoms.shape
+        h, w = full.shape
+        w2 = min(self.spec.width * THERMAL_SUPERSAMPLE, w)
+        h2 = min(self.spec.height * THERMAL_SUPERSAMPLE, h)
+        geoms = sample_grid(full, w2, h2)
         view = ThermalView.from_depth(shot.z_m, self.intrinsics, shot.T_world_optical, w2, h2)
         return thermal_image(
             geoms, self.temp_of_geom, self.spec, rng, self.noise, scene=self.scene, view=view, t_s=shot.t_s

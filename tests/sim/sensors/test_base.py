@@ -11,7 +11,14 @@ from sim.sensors.d435_color import ColourCamera, ColourSensor, ColourSpec
 from sim.sensors.d435_depth import DepthSensor, DepthSpec, DepthTrial, simulate_depth
 from sim.sensors.noise_pool import NoisePool
 from sim.sensors.t265 import T265, T265Spec, pose_interpolator, simulate_t265
-from sim.sensors.thermal import ThermalSensor, ThermalSpec, ThermalView, make_thermal_scene, thermal_image
+from sim.sensors.thermal import (
+    ThermalSensor,
+    ThermalSpec,
+    ThermalView,
+    make_thermal_scene,
+    sample_grid,
+    thermal_image,
+)
 from sim.sensors.wheel_odometry import WheelOdometry, WheelOdometrySpec, simulate_wheel_odometry
 
 H, W = 48, 64
@@ -30,7 +37,7 @@ def _shot(geoms: np.ndarray | None = None) -> Shot:
         T_world_optical=T_WORLD_OPTICAL,
         exposure=Exposure(exposure_ms=4.0, gain=2.0),
         motion_px=(3.0, 1.0),
-        thermal_geoms=lambda: geoms,
+        geom_ids=lambda: geoms,
     )
 
 
@@ -59,8 +66,9 @@ def test_each_frame_sensor_is_its_model_on_the_shot():
     rng = np.random.default_rng(7)  # the same draws, in the same order
     rgb = camera.render(shot.rgb, shot.exposure, 500.0, rng=rng, pool=pool, motion_px=shot.motion_px, effects=True)
     depth = simulate_depth(shot.z_m, DepthSpec(), K.fx, rng, True, pool, rgb=shot.rgb, gamma=2.2, trial=trial)
-    view = ThermalView.from_depth(shot.z_m, K, T_WORLD_OPTICAL, W, H)
-    geoms = np.zeros((H, W), np.int32)
+    # the thermal camera's 16 x 12 pixels integrate 2 x 2 samples each of the 64 x 48 renders
+    view = ThermalView.from_depth(shot.z_m, K, T_WORLD_OPTICAL, 32, 24)
+    geoms = sample_grid(np.zeros((H, W), np.int32), 32, 24)
     thermal = thermal_image(
         geoms, np.array([np.nan]), ThermalSpec(width=16, height=12), rng, True, scene=scene, view=view, t_s=1.5
     )

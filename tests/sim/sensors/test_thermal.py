@@ -8,7 +8,14 @@ import pytest
 
 from poi.core.geometry import make_transform
 from poi.core.types import Intrinsics
-from sim.sensors.thermal import ThermalScene, ThermalSpec, ThermalView, make_thermal_scene, thermal_image
+from sim.sensors.thermal import (
+    ThermalScene,
+    ThermalSpec,
+    ThermalView,
+    make_thermal_scene,
+    sample_grid,
+    thermal_image,
+)
 
 QUIET = ThermalSpec(width=40, height=30, netd_k=0.0, blur_px=0.0, fpn_sigma_k=0.0, fpn_drift_k_per_min=0.0)
 
@@ -112,3 +119,18 @@ def test_metal_mirrors_a_warm_source():
     plain = ThermalScene(gradient_dir=sc.gradient_dir, centre_xy=sc.centre_xy, fpn=sc.fpn, metal=np.zeros(2, bool))
     img = thermal_image(seg, temps, spec, np.random.default_rng(0), False, scene=plain, view=view)
     assert img == pytest.approx(np.full((30, 40), 20.0), abs=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("H", "W", "h", "w"), [(480, 640, 240, 320), (48, 64, 24, 32), (481, 641, 240, 320), (60, 80, 7, 9)]
+)
+def test_a_grid_sample_is_the_image_pixel_under_the_grid_pixels_centre(H, W, h, w):
+    # each pixel holds its own row and column: the sample must be the pixel that contains the
+    # centre ((i + 1/2) W / w, (j + 1/2) H / h) of grid pixel (j, i), whole steps or not
+    rows, cols = np.mgrid[0:H, 0:W]
+    got = sample_grid(np.stack([rows, cols], axis=-1), w, h)
+    centre_y = (np.arange(h) + 0.5) * H / h
+    centre_x = (np.arange(w) + 0.5) * W / w
+    assert got.shape == (h, w, 2)
+    assert np.all((got[..., 0] <= centre_y[:, None]) & (centre_y[:, None] < got[..., 0] + 1))
+    assert np.all((got[..., 1] <= centre_x[None, :]) & (centre_x[None, :] < got[..., 1] + 1))
