@@ -10,8 +10,10 @@ registration error, then the CPU milliseconds (``time.process_time``) of one 640
 of the model.
 
 ``--baseline FILE`` times another version of ``sim/sensors/d435_depth.py`` side by side
-(e.g. ``git show a990b77:sim/sensors/d435_depth.py > /tmp/old_depth.py``), run with
-``min_m=0.28`` as that version needs. Run: ``python bench/bench_depth.py [--baseline FILE]``.
+(e.g. ``git show HEAD~1:sim/sensors/d435_depth.py > /tmp/old_depth.py``), with its own
+settings and the inputs it takes (the colour, the per-trial draws); a version from before the
+minimum range was a setting (a990b77) runs with ``min_m=0.28``. Run: ``python
+bench/bench_depth.py [--baseline FILE] [--frames N]``.
 
 References
 ----------
@@ -26,8 +28,10 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import inspect
 import os
 import platform
+import sys
 import time
 from dataclasses import replace
 
@@ -105,7 +109,10 @@ def plain_wall_fill(spec: DepthSpec, z_m: float) -> float:
 
 def _load(path: str):
     spec = importlib.util.spec_from_file_location("baseline_d435_depth", path)
+    if spec is None or spec.loader is None:
+        raise SystemExit(f"bench_depth: --baseline {path}: not a Python file")
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up while the class is made
     spec.loader.exec_module(mod)
     return mod
 
@@ -130,12 +137,22 @@ def timing(baseline: str | None, n: int) -> list[tuple[str, float]]:
     rows = []
     if baseline:
         old = _load(baseline)
-        old_spec = replace(spec, min_m=0.28)
+        # the baseline's own settings and inputs where it has them (the colour for the texture
+        # effects, the per-trial draws), so that two versions of today's model time the same work;
+        # an early version without a minimum range of its own gets the datasheet's
+        old_spec = old.DepthSpec() if hasattr(old, "DepthSpec") else replace(spec, min_m=0.28)
+        params = inspect.signature(old.simulate_depth).parameters
+        extra = {"rgb": rgb} if "rgb" in params else {}
+        if "trial" in params and hasattr(old, "DepthTrial"):
+            extra["trial"] = old.DepthTrial.draw(old_spec, (H, W), np.random.default_rng(SEED))
         rows.append(
             (
                 f"baseline ({baseline})",
                 cpu_ms(
-                    lambda k: old.simulate_depth(z, old_spec, FX_COLOUR, np.random.default_rng(k), True, pool), n
+                    lambda k: old.simulate_depth(
+                        z, old_spec, FX_COLOUR, np.random.default_rng(k), True, pool, **extra
+                    ),
+                    n,
                 ),
             )
         )

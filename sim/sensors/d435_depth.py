@@ -253,26 +253,28 @@ def edge_shadow_mask(
 
     At a step from a far surface z_f (column e - 1) to a near one z_n (column e) the
     shadow covers w = fx (B + b) (1/z_n - 1/z_f) pixels left of the edge: columns c with
-    c + 1 > e - w (B the stereo baseline, b the colour camera's offset to the left of the
-    reference imager). Each edge's reach is carried leftwards along the row with a running
-    minimum, so the whole mask costs a few array ops.
+    c + 1 > e - w, that is c from floor(e - w) to e - 1 (B the stereo baseline, b the colour
+    camera's offset to the left of the reference imager); steps under half a pixel shadow
+    nothing. The steps are few (none on 24 of 40 frames of the default tour, at most 1876), so the
+    shadowed runs are written by their flat indices, each run's start plus 0, 1, ... its
+    length: the cost follows the shadow's pixels, not the image's.
     """
     z = np.asarray(z_m, dtype=np.float32)
     H, W = z.shape
     inv = np.divide(np.float32(1.0), z, out=np.zeros((H, W), np.float32), where=z > 1e-6)
-    # reach[:, c] for c < W - 1: the leftmost column the step between c (far) and c + 1 (near) shadows
-    reach = np.empty((H, W), np.float32)
-    reach[:, -1] = np.float32(W)
-    width = reach[:, :-1]
-    np.subtract(inv[:, 1:], inv[:, :-1], out=width)
+    width = inv[:, 1:] - inv[:, :-1]  # (H, W - 1): the step between c (far) and c + 1 (near)
     width *= np.float32(fx_color_px * (baseline_m + colour_offset_m))
-    cols = np.arange(W, dtype=np.float32)
-    short = width <= 0.5
-    np.subtract(cols[1:], width, out=width)  # e - w with e = c + 1
-    width[short] = np.float32(W)
-    flipped = reach[:, ::-1]
-    np.minimum.accumulate(flipped, axis=1, out=flipped)
-    return reach < cols + 1
+    mask = np.zeros((H, W), bool)
+    ys, cs = np.nonzero(width > 0.5)
+    if len(ys) == 0:
+        return mask
+    edge = cs + 1
+    first = np.maximum(np.floor(edge.astype(np.float32) - width[ys, cs]).astype(np.int64), 0)
+    length = edge - first
+    ends = np.cumsum(length)
+    flat = np.arange(ends[-1]) + np.repeat(ys * W + first - (ends - length), length)
+    mask.ravel()[flat] = True
+    return mask
 
 
 def texture_quality(lin: np.ndarray, z_m: np.ndarray, spec: DepthSpec) -> np.ndarray:
