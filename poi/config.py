@@ -91,7 +91,8 @@ class TrackerConfig:
     init: Literal["observation", "prior"] = "observation"
     mu0: tuple[float, float, float] = (0.0, 0.0, 1.0)
     Sigma0_diag: tuple[float, float, float] = number((100.0, 100.0, 4.0), lo=0.0, lo_open=True)
-    # a tentative track is not confirmed beside a better-seen track of another type (poi.estimation.tracker)
+    # a track is not confirmed, or is withdrawn, beside a better-seen track of another type (poi.estimation.tracker
+    # step 6)
     cross_type_radius_m: float = number(0.2, lo=0.0, hi=10.0, hi_open=True)
     qr_requires_text: bool = True  # a QR or Landolt-C track is confirmed only once it has text
     landolt_required_rings: tuple[int, ...] = (3,)  # ...and a Landolt-C one once these rings read

@@ -28,9 +28,10 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    once it has text, a Landolt-C one once its rings read include
    ``landolt_required_rings``); confirmed tracks get report ids 0, 1, 2, ... in
    confirmation order.
-6. One place, one object (``cross_type_radius_m``, **poibench**): a tentative track is not
-   confirmed while a track of another type whose mean lies within that radius wins the
-   place's vote: each type's class mass over both tracks' detections, n_1 P_1(type) +
+6. One place, one object (``cross_type_radius_m``, **poibench**): a track is not confirmed,
+   and a confirmed one is withdrawn (unconfirmed, its report id dropped) once another
+   confirmed track does, while a track of another type whose mean lies within that radius
+   wins the place's vote: each type's class mass over both tracks' detections, n_1 P_1(type) +
    n_2 P_2(type), P a track's fused class distribution and n its detections (on a tie, the
    older track wins). Step 1 pairs observations with tracks of their own type only, so a
    sign the detector now and then boxes as a doll grows a doll track on the sign; this is
@@ -41,11 +42,15 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    stay under half the spacing of real neighbours of two types (at least 0.41 m in the
    shipped worlds). A track whose identity was read from pixels (:data:`READ_TYPES` with
    text: a Landolt-C target's rings, each with its gap, or a QR code's decoded text) settles
-   its place without a vote: that structure shows on nothing else, while a placard there is
-   the network's guess (the shipped detector boxes the black-and-white Landolt-C cards as
+   its place without a vote: that structure shows on nothing else, while any other type there
+   is the network's guess (the shipped detector boxes the black-and-white Landolt-C cards as
    corrosive placards and QR pages as poison ones: all 6 of its false reports in the ``rmrc``
-   trial). A placard track within the radius of one is not confirmed, has no vote there, and
-   one confirmed before the reading is withdrawn: unconfirmed, its report id dropped.
+   trial; on the ``rrl`` suite it boxes QR codes as extinguisher signs). A track of a type not
+   read from pixels within the radius of one is not confirmed, has no vote there, and one
+   confirmed before the reading is withdrawn. The vote is taken again each frame, as the
+   class vote within a track is: a track confirmed while it won its place (often before the
+   place's own object was seen enough) is withdrawn once a confirmed track of another type
+   wins it, and may be confirmed again if it wins it back.
 
 Errors that repeat (``tracker.shared_errors``, on by default). The document fuses every
 observation as if its error were fresh. Part of it is not: the pose error (the SLAM's, or
@@ -488,10 +493,11 @@ class Tracker:
             return False
         return not (tr.type in TEXT_TYPES and self.cfg.qr_requires_text and not tr.text)
 
-    def _outvoted(self, tr: Track, read: np.ndarray) -> bool:
-        """Whether a track of another type within ``cross_type_radius_m`` of ``tr`` wins the
-        place's vote (:meth:`_votes`), or ``tr`` is a placard at a read target's place
-        (:meth:`_on_read_target` with ``read`` of :meth:`_read_places`; module docstring, step 6)."""
+    def _outvoted(self, tr: Track, read: np.ndarray, *, by_confirmed: bool = False) -> bool:
+        """Whether a track of another type within ``cross_type_radius_m`` of ``tr`` (a confirmed
+        one, with ``by_confirmed``) wins the place's vote (:meth:`_votes`), or ``tr`` is a guess
+        at a read target's place (:meth:`_on_read_target` with ``read`` of :meth:`_read_places`;
+        module docstring, step 6)."""
         radius = self.cfg.cross_type_radius_m
         if radius <= 0:
             return False
@@ -499,8 +505,9 @@ class Tracker:
             return True
         return any(
             other.type != tr.type
+            and (other.confirmed or not by_confirmed)
             and float(np.linalg.norm(other.mu - tr.mu)) < radius
-            and not self._on_read_target(other, read)  # a placard guessed on a read target has no vote
+            and not self._on_read_target(other, read)  # a guess on a read target has no vote
             and self._votes(other, tr) > self._votes(tr, other)
             for other in self.tracks.values()
         )
@@ -514,10 +521,10 @@ class Tracker:
         return np.array(mus, dtype=float).reshape(-1, 3)
 
     def _on_read_target(self, tr: Track, read: np.ndarray) -> bool:
-        """Whether ``tr`` is a placard track within ``cross_type_radius_m`` of a place in
-        ``read`` (:meth:`_read_places`)."""
+        """Whether ``tr``, of a type not read from pixels (not in :data:`READ_TYPES`), lies within
+        ``cross_type_radius_m`` of a place in ``read`` (:meth:`_read_places`)."""
         return (
-            tr.type == "hazmat"
+            tr.type not in READ_TYPES
             and len(read) > 0
             and bool((np.linalg.norm(read - tr.mu, axis=1) < self.cfg.cross_type_radius_m).any())
         )
@@ -596,6 +603,15 @@ class Tracker:
                 tr.report_id = self._next_report_id
                 self._next_report_id += 1
                 newly.append(tr.snapshot())
+        # the place's vote taken again: a confirmed track that a confirmed one of another type
+        # now outvotes is withdrawn (the losers found first, so that the order does not matter;
+        # one just confirmed is outvoted by no track, confirmed or not)
+        losers = [
+            tr for tr in self.tracks.values() if tr.confirmed and self._outvoted(tr, read, by_confirmed=True)
+        ]
+        for tr in losers:
+            tr.confirmed, tr.report_id = False, None
+            withdrawn.append(tr.track_id)
         return StepResult(
             newly_confirmed=newly,
             pairs=pairs,

@@ -212,7 +212,8 @@ def test_a_shared_pose_error_does_not_hold_confirmation_back():
 @pytest.mark.parametrize("radius", [0.2, 0.0])
 def test_a_track_beside_a_better_seen_track_of_another_type_waits_until_it_is_seen_more(radius):
     """One place, one object: a doll track 5 cm from a sign's track is not confirmed while the
-    sign's has as many detections (a tie goes to the older track), and is once it has more; a
+    sign's has as many detections (a tie goes to the older track), and is once it has more, when
+    the sign's track, confirmed before, is withdrawn (the vote is taken again each frame); a
     doll 0.5 m away is confirmed at n_min. Radius 0 turns the rule off."""
     R = 1e-4 * np.eye(3)  # 1 cm: every track settles, and tracks 5 cm apart do not pair
 
@@ -225,14 +226,18 @@ def test_a_track_beside_a_better_seen_track_of_another_type_waits_until_it_is_se
         ("baby-doll", [0.05, 0, 0]),
     )
     tr = Tracker(cfg(n_min=2, cross_type_radius_m=radius))
-    confirmed = []
+    confirmed, withdrawn = [], []
     for k, frame in enumerate(
         [seen(sign, far_doll), seen(sign, far_doll), seen(near_doll), seen(near_doll), seen(near_doll)]
     ):
-        confirmed.append(sorted((s.type, s.track_id) for s in tr.step(frame, 0.1 * k).newly_confirmed))
+        step = tr.step(frame, 0.1 * k)
+        confirmed.append(sorted((s.type, s.track_id) for s in step.newly_confirmed))
+        withdrawn.append(step.withdrawn)
     near = [[], [("baby-doll", 2)], []] if radius == 0 else [[], [], [("baby-doll", 2)]]
     assert confirmed == [[], [("baby-doll", 1), ("fire-extinguisher-sign", 0)], *near]
     assert tr.tracks[2].n_detections == 3 and tr.tracks[0].n_detections == 2
+    assert withdrawn == ([[]] * 5 if radius == 0 else [[], [], [], [], [0]])
+    assert tr.tracks[0].confirmed == (radius == 0) and tr.tracks[0].report_id == (0 if radius == 0 else None)
 
 
 def test_the_place_vote_weighs_unsure_boxes_of_another_type_by_their_class_probability():
@@ -267,32 +272,38 @@ def test_the_place_vote_weighs_unsure_boxes_of_another_type_by_their_class_proba
 
 
 @pytest.mark.parametrize(
-    ("radius", "target", "text"),
-    [(0.2, "landolt-c", "1:N 2:SE 3:E"), (0.2, "qr", "Chart D 5mm"), (0.0, "landolt-c", "1:N 2:SE 3:E")],
+    ("radius", "target", "text", "guess"),
+    [
+        (0.2, "landolt-c", "1:N 2:SE 3:E", "corrosive"),
+        (0.2, "qr", "Chart D 5mm", "corrosive"),
+        (0.2, "qr", "Chart D 5mm", "fire-extinguisher-sign"),
+        (0.0, "landolt-c", "1:N 2:SE 3:E", "corrosive"),
+    ],
 )
-def test_a_read_target_withdraws_and_holds_back_the_placards_guessed_at_its_place(radius, target, text):
-    """A corrosive placard track boxed on a Landolt-C card (or a QR page) is confirmed (n_min 2)
-    before the card's rings (the code) read; once a track of that type with text lies within the
-    radius, the placard is withdrawn (unconfirmed, its report id dropped) however many boxes it
-    has, and a second placard guess there is not confirmed. A placard 0.5 m away is confirmed.
-    Radius 0 turns the one-place rule off, this part with it."""
+def test_a_read_target_withdraws_and_holds_back_the_guesses_at_its_place(radius, target, text, guess):
+    """A corrosive placard track boxed on a Landolt-C card (or a QR page; or an extinguisher-sign
+    track on a QR page) is confirmed (n_min 2) before the card's rings (the code) read; once a
+    track of that type with text lies within the radius, the guess is withdrawn (unconfirmed, its
+    report id dropped) however many boxes it has, and a second guess there is not confirmed. A
+    guess 0.5 m away is confirmed. Radius 0 turns the one-place rule off, this part with it."""
     R = 1e-4 * np.eye(3)
     card, beside = [1.0, 0.0, 0.5], [1.0, 0.5, 0.5]
+    guess_type = "hazmat" if guess == "corrosive" else guess
 
     def placard(xyz):
-        return obs(xyz, "corrosive", R=R)
+        return obs(xyz, guess, R=R)
 
     rings = obs([1.02, 0.0, 0.5], target, R=R, text=text)
     tr = Tracker(cfg(n_min=2, cross_type_radius_m=radius))
     steps = [tr.step(f, 0.1 * k) for k, f in enumerate([[placard(card)], [placard(card)], [rings], [rings]])]
-    assert [s.type for s in steps[1].newly_confirmed] == ["hazmat"]
+    assert [s.type for s in steps[1].newly_confirmed] == [guess_type]
     if radius:
         assert steps[2].withdrawn == [0] and not tr.tracks[0].confirmed and tr.tracks[0].report_id is None
         assert [s.type for s in steps[3].newly_confirmed] == [target]
         more = [tr.step([placard([1.0, 0.05, 0.5]), placard(beside)], 0.5 + 0.1 * k) for k in range(3)]
         confirmed = [(s.type, round(float(s.position_map[1]), 2)) for m in more for s in m.newly_confirmed]
-        assert confirmed == [("hazmat", 0.5)]
-        assert [t.type for t in tr.snapshots(confirmed_only=True)] == [target, "hazmat"]
+        assert confirmed == [(guess_type, 0.5)]
+        assert [t.type for t in tr.snapshots(confirmed_only=True)] == [target, guess_type]
     else:
         assert steps[2].withdrawn == [] and tr.tracks[0].confirmed
 
