@@ -484,33 +484,48 @@ class Tracker:
         tr.last_seen_s = t
         return innovation
 
-    def _ready(self, tr: Track, read: np.ndarray) -> bool:
+    def _ready(self, tr: Track, read: np.ndarray, rivals: dict[int, list[Track]]) -> bool:
         if tr.n_detections < self.cfg.n_min or tr.max_fresh_std_m > self.cfg.settle_sigma_m:
             return False
-        if self._outvoted(tr, read):
+        if self._outvoted(tr, read, rivals):
             return False
         if tr.type == "landolt-c" and not self._landolt_rings_read(tr):
             return False
         return not (tr.type in TEXT_TYPES and self.cfg.qr_requires_text and not tr.text)
 
-    def _outvoted(self, tr: Track, read: np.ndarray, *, by_confirmed: bool = False) -> bool:
-        """Whether a track of another type within ``cross_type_radius_m`` of ``tr`` (a confirmed
-        one, with ``by_confirmed``) wins the place's vote (:meth:`_votes`), or ``tr`` is a guess
-        at a read target's place (:meth:`_on_read_target` with ``read`` of :meth:`_read_places`;
-        module docstring, step 6)."""
-        radius = self.cfg.cross_type_radius_m
-        if radius <= 0:
+    def _outvoted(
+        self, tr: Track, read: np.ndarray, rivals: dict[int, list[Track]], *, by_confirmed: bool = False
+    ) -> bool:
+        """Whether a track of another type within ``cross_type_radius_m`` of ``tr`` (its
+        ``rivals``, :meth:`_rivals`; a confirmed one, with ``by_confirmed``) wins the place's vote
+        (:meth:`_votes`), or ``tr`` is a guess at a read target's place (:meth:`_on_read_target`
+        with ``read`` of :meth:`_read_places`; module docstring, step 6)."""
+        if self.cfg.cross_type_radius_m <= 0:
             return False
         if self._on_read_target(tr, read):
             return True
         return any(
-            other.type != tr.type
-            and (other.confirmed or not by_confirmed)
-            and float(np.linalg.norm(other.mu - tr.mu)) < radius
+            (other.confirmed or not by_confirmed)
             and not self._on_read_target(other, read)  # a guess on a read target has no vote
             and self._votes(other, tr) > self._votes(tr, other)
-            for other in self.tracks.values()
+            for other in rivals.get(tr.track_id, ())
         )
+
+    def _rivals(self) -> dict[int, list[Track]]:
+        """Each track's rivals for its place: the tracks of another type whose means lie within
+        ``cross_type_radius_m`` of its own (module docstring, step 6), from one distance matrix
+        over the tracks; none while the radius is 0."""
+        radius = self.cfg.cross_type_radius_m
+        tracks = list(self.tracks.values())
+        if radius <= 0 or len(tracks) < 2:
+            return {}
+        mus = np.array([t.mu for t in tracks], dtype=float)
+        types = np.array([t.type for t in tracks])
+        near = np.linalg.norm(mus[:, None, :] - mus[None, :, :], axis=2) < radius
+        near &= types[:, None] != types[None, :]
+        return {
+            tracks[i].track_id: [tracks[j] for j in np.flatnonzero(row)] for i, row in enumerate(near) if row.any()
+        }
 
     def _read_places(self) -> np.ndarray:
         """(K, 3) means of the tracks of :data:`READ_TYPES` with text: the places read from
@@ -590,25 +605,24 @@ class Tracker:
             else:
                 new_tracks.append((i, self._new_track(o, timestamp_s).track_id))
 
-        read = self._read_places()  # no confirmation below changes a track's text
-        withdrawn: list[int] = []
-        for tr in self.tracks.values():
-            if tr.confirmed and self._on_read_target(tr, read):
-                tr.confirmed, tr.report_id = False, None
-                withdrawn.append(tr.track_id)
+        # no confirmation below changes a track's text or mean
+        read, rivals = self._read_places(), self._rivals()
         newly: list[TrackSnapshot] = []
         for tr in self.tracks.values():
-            if not tr.confirmed and self._ready(tr, read):
+            if not tr.confirmed and self._ready(tr, read, rivals):
                 tr.confirmed = True
                 tr.report_id = self._next_report_id
                 self._next_report_id += 1
                 newly.append(tr.snapshot())
-        # the place's vote taken again: a confirmed track that a confirmed one of another type
-        # now outvotes is withdrawn (the losers found first, so that the order does not matter;
-        # one just confirmed is outvoted by no track, confirmed or not)
+        # the place's vote taken again: a confirmed track at a read target's place, or that a
+        # confirmed one of another type now outvotes, is withdrawn (the losers found first, so
+        # that the order does not matter; one just confirmed is outvoted by no track)
         losers = [
-            tr for tr in self.tracks.values() if tr.confirmed and self._outvoted(tr, read, by_confirmed=True)
+            tr
+            for tr in self.tracks.values()
+            if tr.confirmed and self._outvoted(tr, read, rivals, by_confirmed=True)
         ]
+        withdrawn: list[int] = []
         for tr in losers:
             tr.confirmed, tr.report_id = False, None
             withdrawn.append(tr.track_id)
