@@ -1,8 +1,8 @@
 """Milliseconds per frame for the simulated sensors at 640x480 on the RRL example maze.
 
-Prints the render passes (colour and depth share one rasterisation; the
-segmentation pass runs at full size for ground-truth boxes and at twice the
-thermal resolution for the thermal camera), the whole sensor set (noisy colour
+Prints the render passes (colour and depth share one rasterisation; one
+full-size segmentation pass serves the ground-truth boxes and the thermal
+camera), the whole sensor set (noisy colour
 + aligned noisy depth + thermal + pose) per frame, and the same with per-frame
 ground-truth boxes, and the cost of each colour-camera effect alone
 (sim/sensors/d435_color.py) on top of exposure and tone. The whole-sensor-set lines read
@@ -112,7 +112,6 @@ def main() -> None:
         ks = np.linspace(0, s.n_frames - 1, n).astype(int)
         r = s.on_gl_thread(s._renderer_ready)
         d = s.world.data
-        th = sc.sensors.thermal
 
         def on_gl(fn, i):
             def job():
@@ -142,9 +141,6 @@ def main() -> None:
             ),
             "colour + depth render (one pass)": _ms(lambda i=0: on_gl(r.color_depth, i), n),
             "segmentation render 640x480": _ms(lambda i=0: on_gl(r.geom_segmentation, i), n),
-            f"segmentation render {2 * th.width}x{2 * th.height} (thermal)": _ms(
-                lambda i=0: on_gl(lambda: r.geom_segmentation(2 * th.width, 2 * th.height), i), n
-            ),
         }
         s.on_gl_thread(ref.close)
         sensors = apply_settings(sc, ["sensors.truth_boxes=false"])

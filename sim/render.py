@@ -222,15 +222,11 @@ class SceneRenderer:
         np.divide(self._d, z, out=z)
         return rgb, z
 
-    def geom_segmentation(
-        self, width: int | None = None, height: int | None = None, relabel: np.ndarray | None = None
-    ) -> np.ndarray:
+    def geom_segmentation(self, width: int | None = None, height: int | None = None) -> np.ndarray:
         """(h, w) int32 geom id per pixel, -1 where no geom (or a non-geom decoration) is drawn.
 
         ``width``/``height`` default to the colour size; a smaller size with the
-        same aspect gives the same view at a coarser sampling. ``relabel`` (one
-        int32 per geom) maps geom ids to other labels (e.g. object ids) in the
-        same gather; -1 stays -1.
+        same aspect gives the same view at a coarser sampling.
         """
         if self._ctx is None:
             raise RuntimeError("the renderer is closed")
@@ -250,8 +246,6 @@ class SceneRenderer:
         finally:
             np.copyto(flags, saved)
         lut = self._segid_to_geom()
-        if relabel is not None:
-            lut = np.where(lut >= 0, np.asarray(relabel, dtype=np.int32)[lut], -1).astype(np.int32)
         # IDCOLOR writes segid + 1 as 24-bit little-endian RGB; 0 is background. With fewer than
         # 2^16 codes the blue byte is always 0 and two bytes make the code (half the work)
         if lut.size <= 1 << 16:

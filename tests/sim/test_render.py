@@ -76,18 +76,11 @@ def test_one_pass_matches_mujoco_renderer(default_sim, k):
     assert agree.mean() > 0.995
 
 
-def test_segmentation_relabels_in_one_gather(default_sim):
-    def job():
-        sim = default_sim
-        sim._set_camera(300)
-        r = sim._renderer_ready()
-        r.update(sim.world.data)
-        return r.geom_segmentation(), r.geom_segmentation(relabel=sim.world.geom_object_id)
-
-    geoms, objects = default_sim.on_gl_thread(job)
-    lut = np.append(default_sim.world.geom_object_id, -1)
-    assert np.array_equal(objects, lut[geoms])
-    assert (objects >= 0).any()
+def test_the_segmentation_pass_gives_each_pixels_object_from_its_geom(default_sim):
+    seg = default_sim.on_gl_thread(lambda: default_sim._render_segmentation(300))
+    lut = np.append(default_sim.world.geom_box_object_id, -1)
+    assert np.array_equal(seg.object_ids, lut[seg.geom_ids])
+    assert (seg.object_ids >= 0).any()
 
 
 def test_renderer_refuses_sizes_it_cannot_draw(default_sim):
