@@ -83,15 +83,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     lt.add_argument("--samples", type=int, default=32000, help="crops per epoch (default 32000)")
     lt.add_argument("--seed", type=int, default=0, help="seed of the training and of --holdout's draw (default 0)")
     lt.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
-    lt.add_argument(
-        "--imgsz", type=int, default=64, help="crop side in px the classifier reads (multiple of 16; default 64)"
-    )
+    lt.add_argument("--imgsz", type=int, help="crop side in px the classifier reads (multiple of 16; default 64)")
     lt.add_argument(
         "--widths",
         type=int,
         nargs="+",
-        default=[32, 64, 128, 256],
         help="channels of each conv + max-pool stage (default 32 64 128 256)",
+    )
+    lt.add_argument(
+        "--model",
+        help="a classifier checkpoint to fine-tune from (a run's label_model.pt or last.pt, e.g. "
+        "poi/models/default_labels.pt); its crop size and widths are kept",
+    )
+    lt.add_argument(
+        "--lr",
+        type=float,
+        help="peak of the one-cycle learning rate (default 3e-3 from scratch, 1e-3 fine-tuning --model)",
     )
     lt.add_argument(
         "--holdout",
@@ -146,10 +153,15 @@ def cmd_train_labels(args) -> int:
             seed=args.seed,
             threads=args.threads,
             imgsz=args.imgsz,
-            widths=tuple(args.widths),
+            widths=None if args.widths is None else tuple(args.widths),
             holdout=args.holdout,
+            model=args.model,
+            lr=args.lr,
         )
     )
     print(f"label model: {out}")
-    print("to use it with the default detector: cp it to poi/models/default_labels.onnx")
+    print(
+        "to use it with the default detector: cp it to poi/models/default_labels.onnx and "
+        f"{out.parent}/label_model.pt to poi/models/default_labels.pt"
+    )
     return 0

@@ -112,6 +112,20 @@ def _conv_blocks(model) -> dict[str, tuple]:
     return blocks
 
 
+def load_fused_conv(conv, bn, weight: np.ndarray, bias: np.ndarray) -> None:
+    """One convolution and its BatchNorm from the export's fused weight and bias: the weight into
+    the convolution, the BatchNorm the identity plus the bias (mu = 0, var = 1, gamma = sqrt(1 +
+    eps), beta = b; eq. (1)) until :func:`estimate_batchnorm` gives it statistics."""
+    import torch
+
+    with torch.no_grad():
+        conv.weight.copy_(torch.from_numpy(np.array(weight, dtype=np.float32)))
+        bn.running_mean.zero_()
+        bn.running_var.fill_(1.0)
+        bn.weight.fill_(float(np.sqrt(1.0 + bn.eps)))
+        bn.bias.copy_(torch.from_numpy(np.array(bias, dtype=np.float32)))
+
+
 def load_fused(model, tensors: dict[str, np.ndarray], where: Path) -> None:
     """Copy the fused weights into an unfused DetectionModel; every BatchNorm is the identity
     plus the fused bias (mu = 0, var = 1, gamma = sqrt(1 + eps), beta = b; eq. (1)).
@@ -132,11 +146,7 @@ def load_fused(model, tensors: dict[str, np.ndarray], where: Path) -> None:
                     f"{where}: {name}.conv.weight is {tuple(w.shape)}, the architecture expects "
                     f"{tuple(conv.weight.shape)}"
                 )
-            conv.weight.copy_(torch.from_numpy(w))
-            bn.running_mean.zero_()
-            bn.running_var.fill_(1.0)
-            bn.weight.fill_(float(np.sqrt(1.0 + bn.eps)))
-            bn.bias.copy_(torch.from_numpy(b))
+            load_fused_conv(conv, bn, w, b)
             given.update({f"{name}.conv.weight", f"{name}.conv.bias"})
         for key, value in tensors.items():
             if key in given:
@@ -160,13 +170,15 @@ def load_fused(model, tensors: dict[str, np.ndarray], where: Path) -> None:
         raise RebuildError(f"{where}: the export gives no value for {len(left)} weights, e.g. {left[0]}")
 
 
-def estimate_batchnorm(model, batches: Iterable) -> int:
+def estimate_batchnorm(model, batches: Iterable, blocks: dict[str, tuple] | None = None) -> int:
     """Set each BatchNorm's running statistics to its input's per-channel mean and variance over
-    ``batches`` (float tensors (B, 3, H, W) in [0, 1]) and keep the function (eq. (1): gamma =
-    sqrt(var + eps), beta = mu + b). Returns the number of images seen."""
+    ``batches`` (the model's input tensors, e.g. (B, 3, H, W) in [0, 1]) and keep the function (eq. (1):
+    gamma = sqrt(var + eps), beta = mu + b). ``blocks`` names each (conv, BatchNorm) pair whose
+    BatchNorm holds a fused bias (default: a DetectionModel's, by module name). Returns the number
+    of inputs seen."""
     import torch
 
-    blocks = _conv_blocks(model)
+    blocks = _conv_blocks(model) if blocks is None else blocks
     sums: dict[str, list] = {}
     hooks = []
     for name, (_conv, bn) in blocks.items():

@@ -18,8 +18,15 @@ epoch the run folder gets ``last.pt`` (model, optimiser, schedule, history) and
 a row of ``history.csv`` (loss, train and validation accuracy); running the
 same command again resumes from ``last.pt``. At the end it writes
 ``label_model.onnx`` (names, input size, crop margin and the dataset seeds
-in its metadata), ``confusion.png`` (validation) and ``history.png``.
-A finished run (``label_model.onnx`` present) is left alone.
+in its metadata), ``label_model.pt`` (the weights alone, with the shape, classes
+and seeds: the checkpoint to fine-tune from), ``confusion.png`` (validation) and
+``history.png``. A finished run (``label_model.onnx`` present) is left alone.
+
+``model`` fine-tunes instead of starting over: the weights of a ``label_model.pt``,
+a run's ``last.pt`` or a float ``label_model.onnx`` (:mod:`eval.detector.label_checkpoint`)
+start the network, its crop size and widths are the run's, and the learning rate peaks
+at ``FINE_TUNE_LR`` unless ``lr`` is given; the seeds of the data it was trained on stay
+in the new model's metadata.
 
 A ``--data`` folder of labelled photos (flat ``images/``, ``labels/``) has no
 splits: ``holdout`` of its images (by image, seeded by ``seed``) are held back
@@ -45,6 +52,14 @@ from pathlib import Path
 
 import numpy as np
 
+from eval.detector.label_checkpoint import (
+    CHECKPOINT_NAME,
+    LabelCheckpoint,
+    build_model,
+    conv_blocks,
+    read_checkpoint,
+    torch_or_error,
+)
 from eval.detector.label_data import (
     CropSet,
     balanced_draw,
@@ -61,10 +76,16 @@ from eval.detector.quality import (
     DetectorQualityError,
     plot_confusion,
 )
+from eval.detector.rebuild import estimate_batchnorm
 from eval.detector.train import TrainError, dataset_seed
 from poi.detectors.hazmat_labels import DEFAULT_CROP_MARGIN, LABEL_CLASSES, TASK, crops_to_input
 
 ONNX_NAME = "label_model.onnx"
+DEFAULT_IMGSZ = 64
+DEFAULT_WIDTHS = (32, 64, 128, 256)
+SCRATCH_LR = 3e-3  # one-cycle peak from random weights
+FINE_TUNE_LR = 1e-3  # one-cycle peak from a trained classifier
+BN_STATS_CROPS = 1024  # training crops that estimate the BatchNorms of an ONNX start (label_checkpoint)
 
 
 @dataclass(kw_only=True)
@@ -72,22 +93,26 @@ class LabelTrainSpec:
     data: Sequence[str]
     out: str
     epochs: int = 16
-    imgsz: int = 64
+    imgsz: int | None = None  # DEFAULT_IMGSZ, or the checkpoint's when fine-tuning
     batch: int = 128
     samples_per_epoch: int = 32000
-    lr: float = 3e-3
+    lr: float | None = None  # SCRATCH_LR, or FINE_TUNE_LR when fine-tuning
     weight_decay: float = 1e-4
     label_smoothing: float = 0.05
     seed: int = 0
     threads: int = 2
     margin: float = DEFAULT_CROP_MARGIN
-    widths: tuple[int, ...] = field(default=(32, 64, 128, 256))
+    widths: tuple[int, ...] | None = None  # DEFAULT_WIDTHS, or the checkpoint's when fine-tuning
     holdout: float | None = None  # fraction of each photo folder's images held back
+    model: str | None = None  # a classifier checkpoint to fine-tune from (read_checkpoint)
     photo_folders: list[str] = field(default_factory=list, init=False)  # set by train_labels
+    start: LabelCheckpoint | None = field(default=None, init=False)  # the checkpoint read from model
 
     def __post_init__(self) -> None:
         if not self.data:
             raise TrainError("give at least one --data folder ('poibench dataset' or labelled photos)")
+        if self.lr is not None and not self.lr > 0:
+            raise TrainError(f"--lr must be positive, got {self.lr}")
         if self.holdout is not None and not 0.0 < self.holdout < 1.0:
             raise TrainError(f"--holdout must be between 0 and 1, got {self.holdout}")
         photos = [d for d in self.data if is_photo_folder(d)]
@@ -98,6 +123,19 @@ class LabelTrainSpec:
         for name in ("epochs", "batch", "samples_per_epoch", "threads"):
             if getattr(self, name) < 1:
                 raise TrainError(f"--{name.replace('_', '-')} must be at least 1, got {getattr(self, name)}")
+        if self.model is not None:
+            self.start = read_checkpoint(self.model)
+            shape = self.start.imgsz, self.start.widths
+            if self.imgsz not in (None, shape[0]) or self.widths not in (None, shape[1]):
+                raise TrainError(
+                    f"{self.model} was trained with --imgsz {shape[0]} --widths {' '.join(map(str, shape[1]))}: "
+                    "leave --imgsz and --widths out to fine-tune it"
+                )
+            self.imgsz, self.widths = self.start.imgsz, self.start.widths
+        self.imgsz = DEFAULT_IMGSZ if self.imgsz is None else self.imgsz
+        self.widths = DEFAULT_WIDTHS if self.widths is None else tuple(self.widths)
+        if self.lr is None:
+            self.lr = SCRATCH_LR if self.start is None else FINE_TUNE_LR
         if self.imgsz % 16 or self.imgsz < 32:
             raise TrainError(f"--imgsz must be a multiple of 16 and at least 32, got {self.imgsz}")
         if not self.widths or min(self.widths) < 1:
@@ -109,34 +147,6 @@ class LabelTrainSpec:
             )
 
 
-def _torch():
-    try:
-        import torch
-    except ImportError:
-        raise TrainError(
-            "poibench train-labels needs the 'train' extra (torch): pip install -e '.[train]' "
-            "in its own environment (see the README)"
-        ) from None
-    return torch
-
-
-def build_model(widths: Sequence[int], imgsz: int, n_classes: int):
-    """The classifier network of the module docstring (softmax included, so the export gives
-    probabilities)."""
-    torch = _torch()
-    nn = torch.nn
-    layers: list = []
-    c_in = 3
-    for c in widths:
-        layers += [nn.Conv2d(c_in, c, 3, padding=1, bias=False), nn.BatchNorm2d(c), nn.ReLU(inplace=True)]
-        layers += [nn.MaxPool2d(2)]
-        c_in = c
-    side = imgsz // 2 ** len(widths)
-    features = nn.Sequential(*layers)
-    head = nn.Sequential(nn.Flatten(), nn.Dropout(0.2), nn.Linear(c_in * side * side, n_classes))
-    return nn.Sequential(features, head)
-
-
 def _batch(crops: CropSet, idx: np.ndarray, size: int, margin: float, rng: np.random.Generator | None):
     x = crops_to_input([sample_crop(crops.patches[i], crops.boxes[i], size, rng, margin) for i in idx])
     return x, crops.labels[idx]
@@ -144,7 +154,7 @@ def _batch(crops: CropSet, idx: np.ndarray, size: int, margin: float, rng: np.ra
 
 def _evaluate(model, crops: CropSet, spec: LabelTrainSpec) -> np.ndarray:
     """(17, 17) confusion counts, rows true class, columns predicted, on the exact boxes."""
-    torch = _torch()
+    torch = torch_or_error()
     conf = np.zeros((len(LABEL_CLASSES), len(LABEL_CLASSES)), dtype=np.int64)
     model.eval()
     with torch.no_grad():
@@ -158,7 +168,7 @@ def _evaluate(model, crops: CropSet, spec: LabelTrainSpec) -> np.ndarray:
 
 def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Path:
     """Train (or resume) and export; returns the path of ``label_model.onnx``."""
-    torch = _torch()
+    torch = torch_or_error()
     out = Path(spec.out)
     onnx_path = out / ONNX_NAME
     if onnx_path.exists():
@@ -177,7 +187,8 @@ def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Pa
     if images.holdout:
         held = write_holdout(out, images.holdout)
         spec.photo_folders = images.photo_folders
-        log(f"{len(images.val)} photos held back (validation), listed in {held}")
+        n_held = sum(len(names) for names in images.holdout["folders"].values())
+        log(f"{n_held} photos held back (validation with the renders' val splits), listed in {held}")
     train_set = crops_from_images(images.train, "train", spec.seed)
     val_set = crops_from_images(images.val, "val", spec.seed)
     log(
@@ -191,6 +202,16 @@ def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Pa
         log(f"no training crops of {missing}: the classifier will not name them")
 
     model = build_model(spec.widths, spec.imgsz, len(LABEL_CLASSES))
+    if spec.start is not None:
+        model.load_state_dict(spec.start.state)
+        if spec.start.fused:
+            sample = np.random.default_rng(spec.seed).permutation(len(train_set))[:BN_STATS_CROPS]
+            batches = (
+                torch.from_numpy(_batch(train_set, sample[i : i + spec.batch], spec.imgsz, spec.margin, None)[0])
+                for i in range(0, len(sample), spec.batch)
+            )
+            estimate_batchnorm(model, batches, conv_blocks(model))
+        log(f"fine-tuning {spec.start.path} (peak learning rate {spec.lr:g})")
     steps = math.ceil(spec.samples_per_epoch / spec.batch)
     opt = torch.optim.AdamW(model.parameters(), lr=spec.lr, weight_decay=spec.weight_decay)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=spec.lr, total_steps=spec.epochs * steps)
@@ -272,8 +293,25 @@ def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Pa
         tick_fontsize=8,
     )
     _plot_history(history, out / "history.png")
+    torch.save(
+        {
+            "model": model.state_dict(),
+            "imgsz": spec.imgsz,
+            "widths": list(spec.widths),
+            "classes": list(LABEL_CLASSES),
+            "seeds": list(trained_seeds(spec)),
+        },
+        out / CHECKPOINT_NAME,
+    )
     _export(model, spec, onnx_path)
     return onnx_path
+
+
+def trained_seeds(spec: LabelTrainSpec) -> list[int]:
+    """The seeds of every rendered dataset behind the weights: the run's folders and, when
+    fine-tuning, those of the checkpoint (so evaluation refuses all of them)."""
+    seeds = [s for s in map(dataset_seed, spec.data) if s is not None]
+    return sorted({*seeds, *(spec.start.seeds if spec.start is not None else ())})
 
 
 def _recalls(conf: np.ndarray) -> np.ndarray:
@@ -316,7 +354,7 @@ def _plot_history(history: list[dict], path: Path) -> None:
 
 def _export(model, spec: LabelTrainSpec, path: Path) -> None:
     """ONNX with a softmax output, a dynamic batch and the metadata the pipeline reads."""
-    torch = _torch()
+    torch = torch_or_error()
     import onnx
 
     net = torch.nn.Sequential(model, torch.nn.Softmax(dim=1)).eval()
@@ -337,7 +375,7 @@ def _export(model, spec: LabelTrainSpec, path: Path) -> None:
         "names": str(dict(enumerate(LABEL_CLASSES))),
         "imgsz": str(spec.imgsz),
         "crop_margin": str(spec.margin),
-        SEEDS_METADATA_KEY: ",".join(str(s) for s in map(dataset_seed, spec.data) if s is not None),
+        SEEDS_METADATA_KEY: ",".join(map(str, trained_seeds(spec))),
     }
     if spec.photo_folders:
         meta[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(spec.photo_folders)

@@ -374,3 +374,79 @@ def test_training_images_take_route_frames_folders_for_training_only(tmp_path):
     (bad / "dataset.yaml").write_text("route_frames: [unclosed\n", encoding="utf-8")
     with pytest.raises(DetectorQualityError, match=r"bad/dataset.yaml"):
         training_images([bad], None, 0)
+
+
+def test_train_labels_fine_tunes_from_a_checkpoint_and_keeps_its_shape_and_seeds(tmp_path, capsys):
+    """A run's label_model.pt starts a second run: its weights are the start (at a learning rate
+    of ~0 the second run ends with the first's convolution and linear weights; only the batch
+    norms' running statistics move), its shape is kept, another shape is refused in one line,
+    and the seeds it was trained on stay in the metadata (torch: the 'train' extra)."""
+    pytest.importorskip("torch")
+    import onnx
+    import torch
+
+    from eval.detector.train_labels import CHECKPOINT_NAME, SEEDS_METADATA_KEY, read_checkpoint, train_labels
+
+    root = _many(tmp_path / "p", 10)
+    spec = dict(data=[str(root)], epochs=1, samples_per_epoch=16, batch=8, threads=1, holdout=0.2)
+    first = train_labels(LabelTrainSpec(**spec, out=str(tmp_path / "a"), widths=(8, 16)), log=lambda _: None)
+    ck_path = first.parent / CHECKPOINT_NAME
+    ck = torch.load(ck_path, weights_only=True)
+    ck["seeds"] = [8400]  # as if trained on a rendered dataset of seed 8400 too
+    torch.save(ck, ck_path)
+    tuned = LabelTrainSpec(**spec, out=str(tmp_path / "b"), model=str(ck_path), lr=1e-12)
+    assert (tuned.imgsz, tuned.widths) == (64, (8, 16))
+    second = train_labels(tuned, log=lambda _: None)
+    after = read_checkpoint(second.parent / CHECKPOINT_NAME).state
+    learnt = [k for k, v in ck["model"].items() if k.endswith("weight") and v.dim() > 1]
+    assert len(learnt) == 3  # two convolutions and the linear layer
+    for k in learnt:
+        torch.testing.assert_close(after[k], ck["model"][k], atol=1e-8, rtol=0)
+    meta = {p.key: p.value for p in onnx.load(str(second)).metadata_props}
+    assert meta[SEEDS_METADATA_KEY] == "8400" and read_checkpoint(second.parent / CHECKPOINT_NAME).seeds == (8400,)
+    argv = ["train-labels", "--data", str(root), "--out", str(tmp_path / "c"), "--holdout", "0.2"]
+    assert main([*argv, "--model", str(ck_path), "--widths", "8", "32"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "was trained with --imgsz 64 --widths 8 16: leave --imgsz and --widths out" in err
+    assert len(err.splitlines()) == 1
+    assert main([*argv, "--model", str(tmp_path / "none.pt")]) == 2
+    assert "none.pt: no such checkpoint" in capsys.readouterr().err
+
+
+def test_train_labels_starts_from_a_float_onnx_export_at_the_exported_function(tmp_path):
+    """A label_model.onnx (BatchNorms folded into the convolutions) read back as a checkpoint
+    computes what onnxruntime computes; with its BatchNorm statistics estimated on a batch, the
+    network in train mode gives that batch the same features as in eval mode, so training starts
+    at the exported function. A detector's ONNX is refused in one line (torch: the 'train' extra)."""
+    pytest.importorskip("torch")
+    import onnxruntime as ort
+    import torch
+
+    from eval.detector.label_checkpoint import build_model, conv_blocks, read_checkpoint
+    from eval.detector.rebuild import estimate_batchnorm
+    from eval.detector.train import TrainError
+    from eval.detector.train_labels import train_labels
+
+    root = _many(tmp_path / "p", 10)
+    spec = dict(data=[str(root)], epochs=1, samples_per_epoch=32, batch=8, threads=1, holdout=0.2)
+    exported = train_labels(LabelTrainSpec(**spec, out=str(tmp_path / "a"), widths=(8, 16)), log=lambda _: None)
+    ck = read_checkpoint(exported)
+    assert ck.fused and (ck.imgsz, ck.widths) == (64, (8, 16))
+    model = build_model(ck.widths, ck.imgsz, len(LABEL_CLASSES))
+    model.load_state_dict(ck.state)
+    x = torch.from_numpy(np.random.default_rng(0).random((6, 3, 64, 64), dtype=np.float32))
+    want = ort.InferenceSession(str(exported)).run(None, {"images": x.numpy()})[0]
+    model.eval()
+    with torch.no_grad():
+        np.testing.assert_allclose(torch.softmax(model(x), 1).numpy(), want, atol=1e-5)
+        estimate_batchnorm(model, [x], conv_blocks(model))
+        np.testing.assert_allclose(torch.softmax(model(x), 1).numpy(), want, atol=1e-5)
+        eval_features = model[0](x)
+        model.train()
+        np.testing.assert_allclose(model[0](x).numpy(), eval_features.numpy(), rtol=1e-3, atol=1e-4)
+    # a whole fine-tune from the export runs and keeps its shape
+    tuned = train_labels(LabelTrainSpec(**spec, out=str(tmp_path / "b"), model=str(exported)), log=lambda _: None)
+    assert read_checkpoint(tuned).widths == (8, 16)
+    detector = Path(__file__).parents[3] / "poi" / "models" / "default_fp32.onnx"
+    with pytest.raises(TrainError, match=r"default_fp32.onnx: not a label classifier"):
+        read_checkpoint(detector)
