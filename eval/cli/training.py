@@ -110,32 +110,31 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_train(args) -> int:
-    from eval.detector.train import TrainSpec, train
+    from eval.detector.train import TrainSpec, exported_checkpoint, train
 
-    out = train(
-        TrainSpec(
-            data=args.data,
-            out=args.out,
-            model=args.model,
-            epochs=args.epochs,
-            imgsz=args.imgsz,
-            batch=args.batch,
-            seed=args.seed,
-            device=args.device,
-            workers=args.workers,
-            threads=args.threads,
-            placards=args.placards,
-            hours=args.hours,
-            lr0=args.lr0,
-            holdout=args.holdout,
-            export_imgsz=None if args.export_imgsz is None else tuple(args.export_imgsz),
-        )
+    spec = TrainSpec(
+        data=args.data,
+        out=args.out,
+        model=args.model,
+        epochs=args.epochs,
+        imgsz=args.imgsz,
+        batch=args.batch,
+        seed=args.seed,
+        device=args.device,
+        workers=args.workers,
+        threads=args.threads,
+        placards=args.placards,
+        hours=args.hours,
+        lr0=args.lr0,
+        holdout=args.holdout,
+        export_imgsz=None if args.export_imgsz is None else tuple(args.export_imgsz),
     )
+    out = train(spec)
     print(f"model: {out}")
     print(
         f"to make it the default detector: cp it to poi/models/default_fp32.onnx, quantise that "
         "(poibench quantize-detector --out poi/models/default.onnx, or cp it there as it is), and "
-        f"{out.parent}/weights/best.pt to"
+        f"{exported_checkpoint(spec)} (the weights it was exported from) to"
     )
     print("poi/models/default.pt (the checkpoint later training fine-tunes from)")
     return 0

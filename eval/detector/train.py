@@ -366,8 +366,7 @@ def train(spec: TrainSpec) -> Path:
             fliplr=0.0,
             **schedule,
         )
-    # with held-back photos as the validation split, the model chosen on them would flatter them
-    best = out / "weights" / ("last.pt" if spec.holdout is not None else "best.pt")
+    best = exported_checkpoint(spec)
     if not best.exists():
         raise TrainError(f"{best}: training ended without that checkpoint")
     size = list(spec.export_size_hw)
@@ -375,6 +374,12 @@ def train(spec: TrainSpec) -> Path:
     photo_roots = [str(Path(d).resolve()) for d in sources_of(spec) if is_photo_folder(d)]
     _stamp_metadata(exported, onnx_path, sources, photo_roots)
     return onnx_path
+
+
+def exported_checkpoint(spec: TrainSpec) -> Path:
+    """The weights ``model.onnx`` is exported from: ``best.pt``, or ``last.pt`` when held-back
+    photos are the validation split (the model chosen on them would flatter them)."""
+    return Path(spec.out) / "weights" / ("last.pt" if spec.holdout is not None else "best.pt")
 
 
 def dataset_seed(root: str | Path) -> int | None:

@@ -1,11 +1,13 @@
 """poibench train's dataset preparation (the training itself needs the 'train' extra)."""
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
 import yaml
 
-from eval.detector.train import TrainError, TrainSpec, data_yaml, placard_dataset
+from eval.detector.train import TrainError, TrainSpec, data_yaml, exported_checkpoint, placard_dataset
 from poi.core.names import CLASS_INDEX, RESCUE_CLASSES
 
 
@@ -155,3 +157,10 @@ def test_a_photo_folder_needs_a_holdout_and_valid_labels(tmp_path):
     with pytest.raises(TrainError, match="--holdout is for a folder of photos"):
         rendered = _dataset(tmp_path / "d", {"a": ["3 0.5 0.5 0.1 0.1"]}).parent
         train(TrainSpec(data=str(rendered), out=str(tmp_path / "run2"), holdout=0.5))
+
+
+def test_the_export_is_made_from_last_pt_when_held_back_photos_validate():
+    """Held-back photos as the validation split would flatter the checkpoint chosen on them: the
+    run exports (and names, for poi/models/default.pt) last.pt then, best.pt otherwise."""
+    assert exported_checkpoint(TrainSpec(data="d", out="o")) == Path("o/weights/best.pt")
+    assert exported_checkpoint(TrainSpec(data="d", out="o", holdout=0.2)) == Path("o/weights/last.pt")
