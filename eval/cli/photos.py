@@ -108,7 +108,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--holdout-of",
         metavar="RUN",
         help="a train or train-labels run folder (its holdout.json) or such a file (poi/models/"
-        "real_photos_holdout.json): its photo folders are scored on their held-back images only",
+        "photos_holdout.json): its photo folders are scored on their held-back images only",
     )
     sr.add_argument(
         "--scenes",
@@ -259,6 +259,7 @@ def _refuse_trained_photos(models, folders) -> None:
         _model_metadata,
     )
     from poi.detectors import is_team_detector
+    from poi.models import SHIPPED_HOLDOUT
 
     for model in models:
         if model is None or is_team_detector(model):
@@ -269,6 +270,7 @@ def _refuse_trained_photos(models, folders) -> None:
             if listed_folder(folder.root, trained_on) is not None and not cut:
                 raise DetectorQualityError(
                     f"{model} was trained on part of {folder.root}; give --holdout-of its run folder"
+                    f" (the shipped models': {SHIPPED_HOLDOUT})"
                 )
 
 

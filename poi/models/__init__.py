@@ -34,6 +34,8 @@ DEFAULT_MODEL = MODELS_DIR / "default.onnx"
 DEFAULT_LABEL_MODEL = MODELS_DIR / "default_labels.onnx"  # names the placards DEFAULT_MODEL finds
 DEFAULT_CALIBRATION = MODELS_DIR / "default_calibration.yaml"  # poibench calibrate of the two
 DEFAULT_OPERATING_POINT = MODELS_DIR / "default_operating_point.yaml"  # detector.type_conf of the pair
+# the photos of hazmat-photos-dev that every shipped model trained on it held back (score them only)
+SHIPPED_HOLDOUT = MODELS_DIR / "photos_holdout.json"
 SHIPPED = "default"  # the detector choice that names the shipped detector
 OPERATING_POINT_VERSION = 1
 
