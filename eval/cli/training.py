@@ -92,8 +92,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     lt.add_argument(
         "--model",
-        help="a classifier checkpoint to fine-tune from (a run's label_model.pt or last.pt, e.g. "
-        "poi/models/default_labels.pt); its crop size and widths are kept",
+        help="a classifier to fine-tune from: a run's label_model.pt or last.pt, or a float label_model.onnx "
+        "(e.g. poi/models/default_labels.pt or .onnx); its crop size and widths are kept",
     )
     lt.add_argument(
         "--lr",
@@ -152,7 +152,7 @@ def cmd_train_labels(args) -> int:
             seed=args.seed,
             threads=args.threads,
             imgsz=args.imgsz,
-            widths=None if args.widths is None else tuple(args.widths),
+            widths=args.widths,
             holdout=args.holdout,
             model=args.model,
             lr=args.lr,

@@ -123,6 +123,8 @@ class LabelTrainSpec:
         for name in ("epochs", "batch", "samples_per_epoch", "threads"):
             if getattr(self, name) < 1:
                 raise TrainError(f"--{name.replace('_', '-')} must be at least 1, got {getattr(self, name)}")
+        if self.widths is not None:
+            self.widths = tuple(self.widths)  # a list from the caller compares equal to the checkpoint's
         if self.model is not None:
             self.start = read_checkpoint(self.model)
             shape = self.start.imgsz, self.start.widths
@@ -133,7 +135,7 @@ class LabelTrainSpec:
                 )
             self.imgsz, self.widths = self.start.imgsz, self.start.widths
         self.imgsz = DEFAULT_IMGSZ if self.imgsz is None else self.imgsz
-        self.widths = DEFAULT_WIDTHS if self.widths is None else tuple(self.widths)
+        self.widths = DEFAULT_WIDTHS if self.widths is None else self.widths
         if self.lr is None:
             self.lr = SCRATCH_LR if self.start is None else FINE_TUNE_LR
         if self.imgsz % 16 or self.imgsz < 32:

@@ -396,6 +396,8 @@ def test_train_labels_fine_tunes_from_a_checkpoint_and_keeps_its_shape_and_seeds
     torch.save(ck, ck_path)
     tuned = LabelTrainSpec(**spec, out=str(tmp_path / "b"), model=str(ck_path), lr=1e-12)
     assert (tuned.imgsz, tuned.widths) == (64, (8, 16))
+    # the checkpoint's own widths, given as a list, are its shape, not another one
+    assert LabelTrainSpec(**spec, out=str(tmp_path / "d"), model=str(ck_path), widths=[8, 16]).widths == (8, 16)
     second = train_labels(tuned, log=lambda _: None)
     after = read_checkpoint(second.parent / CHECKPOINT_NAME).state
     learnt = [k for k, v in ck["model"].items() if k.endswith("weight") and v.dim() > 1]
