@@ -17,7 +17,8 @@ oracle), writing everything ``poibench run`` writes, the video included
   start: world build and imports) and the children (video and live-record ffmpeg),
   read from ``/proc/self/task`` once a second (Linux only; left out elsewhere).
 
-Run: ``python bench/bench_trial.py [--detector oracle] [--no-video] [--max-frames N] [--set KEY=VALUE ...]``
+Run: ``python bench/bench_trial.py [--detector oracle] [--no-video] [--no-record] [--max-frames N]
+[--set KEY=VALUE ...]``
 (``--max-frames 300``: the first 300 frames, a quick look at the per-frame figures; the start's
 share of the main thread is then larger).
 """
@@ -92,6 +93,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--detector", default="default", help="default | oracle | FILE.onnx (default: default)")
     ap.add_argument("--no-video", action="store_true", help="do not write trial.mp4")
+    ap.add_argument(
+        "--no-record",
+        action="store_true",
+        help="leave out the live record (the replayable live view and its H.264 insets)",
+    )
     ap.add_argument("--max-frames", type=int, default=None, help="stop after this many frames")
     ap.add_argument(
         "--set", action="append", default=[], metavar="KEY=VALUE", help="a scenario setting; repeatable"
@@ -125,6 +131,7 @@ def main() -> None:
             rules=load_rules("ex3"),
             rules_name="ex3",
             video=not args.no_video,
+            record_live=not args.no_record,
             progress=False,
             live_server=server,
             max_frames=args.max_frames,
@@ -138,12 +145,13 @@ def main() -> None:
         pw.stop()
         server.stop()
     video = "with" if not args.no_video else "without"
+    record = ", no live record" if args.no_record else ""
     live = "; live view open in Chromium" if args.live else ""
     cpu = cpu_self + cpu_children
     per_sim = cpu / r.sim_duration_s
     print(
         f"machine: {platform.machine()}, {os.cpu_count()} cores, load average {load0[0]:.1f} at the start, "
-        f"{load1[0]:.1f} at the end; detector {r.detector}; {video} video{live}"
+        f"{load1[0]:.1f} at the end; detector {r.detector}; {video} video{record}{live}"
     )
     print(
         f"frames {r.n_frames}, simulated {r.sim_duration_s:.1f} s, wall {r.wall_s:.1f} s, "

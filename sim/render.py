@@ -226,7 +226,9 @@ class SceneRenderer:
         """(h, w) int32 geom id per pixel, -1 where no geom (or a non-geom decoration) is drawn.
 
         ``width``/``height`` default to the colour size; a smaller size with the
-        same aspect gives the same view at a coarser sampling.
+        same aspect gives the same view at a coarser sampling. With an MSAA buffer
+        (``offsamples`` > 0) a driver may average the samples' ID colours where two
+        geoms meet; a code beyond every segid is then read as no geom (-1).
         """
         if self._ctx is None:
             raise RuntimeError("the renderer is closed")
@@ -256,11 +258,14 @@ class SceneRenderer:
             code = buf[::-1, :, 0].astype(np.int32)
             code |= buf[::-1, :, 1].astype(np.int32) << 8
             code |= buf[::-1, :, 2].astype(np.int32) << 16
+        # a code past the last segid names no geom: MSAA resolved by averaging the samples (NVIDIA's
+        # EGL driver does; llvmpipe does not) blends two geoms' codes at their common edge
+        np.minimum(code, lut.size - 1, out=code)
         return lut.take(code)
 
     def _segid_to_geom(self) -> np.ndarray:
         scn = self._scene
-        lut = np.full(scn.ngeom + 1, -1, dtype=np.int32)
+        lut = np.full(scn.ngeom + 2, -1, dtype=np.int32)  # [0]: background, [-1]: no segid
         geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
         for g in scn.geoms[: scn.ngeom]:
             if g.segid >= 0 and g.objtype == geom_type:
