@@ -71,6 +71,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("name", help="shipped suite name or suite file")
     r.add_argument("--out", help="folder for trials.csv and each trial's files (default: a temporary one)")
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
+    r.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a pipeline or scenario setting for every trial, e.g. detector.label_model=L.onnx; repeatable",
+    )
     _common(r)
     _shard_option(r)
     r.set_defaults(func=cmd_suite_run)
@@ -89,7 +96,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "compare",
         help="rank finished suite runs (detectors or settings) on the same mazes, with intervals",
         description="Rank the --out folders of finished suite runs of one suite: mean score fraction "
-        "with its 95%% bootstrap interval over the mazes, the paired difference to the first, and the "
+        "with its 95% bootstrap interval over the mazes, the paired difference to the first, and the "
         "points each lost per type; writes compare.csv.",
     )
     c.add_argument("runs", nargs="+", metavar="RUN", help="a finished suite run's --out folder (two or more)")
@@ -108,7 +115,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     g = sub.add_parser("regress", help="run a suite and fail when the score drops below a baseline")
     g.add_argument("--suite", default="smoke", help="suite to run (default smoke)")
     g.add_argument("--baseline", required=True, help="baseline JSON file (written with --update)")
-    g.add_argument("--tolerance", type=float, default=0.02, help="allowed drop of the mean score fraction")
+    g.add_argument(
+        "--tolerance", type=float, default=0.02, help="allowed drop of the mean score fraction (default 0.02)"
+    )
     g.add_argument("--update", action="store_true", help="write the baseline from this run")
     g.add_argument("--junit", help="write JUnit XML here")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="pipeline or scenario setting")
@@ -260,12 +269,14 @@ def shard_note(args, out: Path, n_rows: int) -> str:
 
 def cmd_suite_run(args) -> int:
     from eval.experiments.suites import load_suite
+    from eval.experiments.sweep import parse_settings
 
     check_shard(args)
     suite = load_suite(args.name)
+    settings = parse_settings(args.set)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.out) if args.out else Path(tmp)
-        df, _ = _run(_spec(args, args.name, []), out, args.quiet)
+        df, _ = _run(_spec(args, args.name, settings), out, args.quiet)
         print_suite_table(f"suite {suite.name} v{suite.version}: {suite.description}", df, out)
         if args.shard is not None:
             print(shard_note(args, out, len(df)))
@@ -352,12 +363,12 @@ def merged_rows(folder: Path, spec):
 def cmd_regress(args) -> int:
     from eval.experiments.regress import RegressError, baseline_doc, compare, load_baseline, write_junit
     from eval.experiments.suites import load_suite
-    from eval.experiments.sweep import summed_funnel
+    from eval.experiments.sweep import parse_settings, summed_funnel
 
     suite = load_suite(args.suite)
     base_path = Path(args.baseline)
     check_shard(args)
-    grid = [(k, [v]) for k, v in (item.split("=", 1) for item in args.set)] if args.set else []
+    grid = parse_settings(args.set)
     if args.shard is not None and (args.update or args.junit or args.merged):
         flag = "--update" if args.update else ("--junit" if args.junit else "--merged")
         raise RegressError(

@@ -118,6 +118,21 @@ def parse_grid(items: list[str]) -> list[tuple[str, list[str]]]:
     return grid
 
 
+def parse_settings(items: list[str]) -> list[tuple[str, list[str]]]:
+    """``key=value`` items, one value each (commas kept: ``[0, 1]`` is one value) -> a grid of one
+    combination, keys unique, in the given order (``suite run --set``, ``regress --set``)."""
+    grid: list[tuple[str, list[str]]] = []
+    for item in items:
+        if "=" not in item:
+            raise SweepError(f"--set {item!r}: expected key=value")
+        key, value = item.split("=", 1)
+        key = key.strip()
+        if any(k == key for k, _ in grid):
+            raise SweepError(f"--set {key}: given twice")
+        grid.append((key, [value]))
+    return grid
+
+
 def combinations(grid: list[tuple[str, list[str]]]) -> list[dict[str, str]]:
     """The cross product of the grid, first key slowest.
 

@@ -463,7 +463,7 @@ class OnnxYoloDetector:
                 if self.label_model is None:
                     raise DetectorConfigError(
                         f"detector 'onnx': model class {model_name!r} finds placards without naming their "
-                        "label; give the label classifier that names them (detector.options.label_model)"
+                        "label; give the label classifier that names them (the setting detector.label_model)"
                     )
                 ours[j] = HAZMAT_INDICES[0]
                 continue

@@ -268,15 +268,25 @@ def test_suite_run_then_compare_end_to_end(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "error" not in printed.splitlines()[1]  # no trial failed: no error column
     assert "mean score fraction" in printed and "95% interval [" in printed
-    assert main(["suite", "run", TINY, "--out", str(b), "--quiet", "--no-cache", "--detector", "oracle"]) == 0
+    oracle = ["--detector", "oracle", "--set", "detector.conf=0.55"]  # a setting every trial takes
+    assert main(["suite", "run", TINY, "--out", str(b), "--quiet", "--no-cache", *oracle]) == 0
     capsys.readouterr()
+    assert (pd.read_csv(b / "trials.csv")["set.detector.conf"] == 0.55).all()
     assert main(["suite", "compare", str(a), str(b), "--out", str(tmp_path / "compare.csv")]) == 0
     table = pd.read_csv(tmp_path / "compare.csv")
-    assert sorted(table["run"]) == ["default", "oracle"] and (table["mazes"] == 2).all()
+    folders = {"default": a, "oracle detector.conf=0.55": b}  # a run is named with its settings
+    assert sorted(table["run"]) == sorted(folders) and (table["mazes"] == 2).all()
     assert table["fraction_mean"].is_monotonic_decreasing
     # a percentile interval of the mean lies within the mazes' own fractions (which false
     # reports can take below 0)
     for _, row in table.iterrows():
-        trials = pd.read_csv(tmp_path / row["run"] / "trials.csv")
+        trials = pd.read_csv(folders[row["run"]] / "trials.csv")
         assert trials["fraction"].min() - 1e-4 <= row["fraction_ci95_low"] <= row["fraction_ci95_high"]
         assert row["fraction_ci95_high"] <= trials["fraction"].max() + 1e-4  # compare.csv: 4 decimals
+
+
+def test_suite_run_refuses_a_setting_without_a_value_or_given_twice(capsys):
+    assert main(["suite", "run", TINY, "--set", "detector.conf"]) == 2
+    assert "--set 'detector.conf': expected key=value" in capsys.readouterr().err
+    assert main(["suite", "run", TINY, "--set", "detector.conf=0.5", "--set", "detector.conf=0.6"]) == 2
+    assert "--set detector.conf: given twice" in capsys.readouterr().err
