@@ -106,30 +106,25 @@ def split_values(text: str) -> list[str]:
 
 def parse_grid(items: list[str]) -> list[tuple[str, list[str]]]:
     """``key=v1,v2`` items -> [(key, [v1, v2])], keys unique, in the given order."""
-    grid: list[tuple[str, list[str]]] = []
-    for item in items:
-        if "=" not in item:
-            raise SweepError(f"--set {item!r}: expected key=value[,value...]")
-        key, values = item.split("=", 1)
-        key = key.strip()
-        if any(k == key for k, _ in grid):
-            raise SweepError(f"--set {key}: given twice")
-        grid.append((key, split_values(values)))
-    return grid
+    return _parse_set(items, split_values, "key=value[,value...]")
 
 
 def parse_settings(items: list[str]) -> list[tuple[str, list[str]]]:
     """``key=value`` items, one value each (commas kept: ``[0, 1]`` is one value) -> a grid of one
     combination, keys unique, in the given order (``suite run --set``, ``regress --set``)."""
+    return _parse_set(items, lambda value: [value], "key=value")
+
+
+def _parse_set(items: list[str], values_of, expected: str) -> list[tuple[str, list[str]]]:
     grid: list[tuple[str, list[str]]] = []
     for item in items:
         if "=" not in item:
-            raise SweepError(f"--set {item!r}: expected key=value")
-        key, value = item.split("=", 1)
+            raise SweepError(f"--set {item!r}: expected {expected}")
+        key, values = item.split("=", 1)
         key = key.strip()
         if any(k == key for k, _ in grid):
             raise SweepError(f"--set {key}: given twice")
-        grid.append((key, [value]))
+        grid.append((key, values_of(values)))
     return grid
 
 
