@@ -258,10 +258,9 @@ class SceneRenderer:
             code = buf[::-1, :, 0].astype(np.int32)
             code |= buf[::-1, :, 1].astype(np.int32) << 8
             code |= buf[::-1, :, 2].astype(np.int32) << 16
-        # a code past the last segid names no geom: MSAA resolved by averaging the samples (NVIDIA's
-        # EGL driver does; llvmpipe does not) blends two geoms' codes at their common edge
-        np.minimum(code, lut.size - 1, out=code)
-        return lut.take(code)
+        # a code past the last segid names no geom (lut[-1]): MSAA resolved by averaging the samples
+        # (NVIDIA's EGL driver does; llvmpipe does not) blends two geoms' codes at their common edge
+        return lut.take(code, mode="clip")
 
     def _segid_to_geom(self) -> np.ndarray:
         scn = self._scene
