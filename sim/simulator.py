@@ -29,7 +29,7 @@ import itertools
 from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
 import cv2
@@ -136,6 +136,16 @@ class VisibleObject:
 
 
 @dataclass(kw_only=True)
+class VisiblePage:
+    """What shows of a QR chart's A4 page (its sheet and the codes printed on it): a detector
+    may box the whole page as one code, a box that no code's truth box pairs with."""
+
+    codes: tuple[int, ...]  # object ids of the codes printed on the page
+    box_xyxy: tuple[float, float, float, float]
+    pixels: int
+
+
+@dataclass(kw_only=True)
 class ColourDepthRender:
     """One rasterisation of frame k's view."""
 
@@ -163,6 +173,7 @@ class FrameTruth:
     object_mask: np.ndarray | None = None  # (H, W) object id per pixel, -1 elsewhere
     # pixels the image centre moved during the colour exposure (the motion blur's length); 0 without it
     blur_px: float = 0.0
+    pages: list[VisiblePage] = field(default_factory=list)  # QR chart pages in view (with truth boxes)
 
 
 def _rpy(deg) -> np.ndarray:
@@ -302,6 +313,7 @@ class Simulation:
         self.truth_boxes: bool = sc.sensors.truth_boxes
         # each geom's object (-1: none), with a -1 appended that background's geom id -1 picks
         self._object_of_geom = np.append(self.world.geom_box_object_id, -1).astype(np.int32)
+        self._page_of_geom, self._page_codes = self._qr_pages()
         self._tilt_rad = tilt
         self._renderer: SceneRenderer | None = None
         self._gl_thread: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="poibench-gl")
@@ -750,6 +762,8 @@ class Simulation:
         if seg.object_ids is not None:
             truth.object_mask = seg.object_ids
             truth.visible = self._visible_objects(seg.object_ids, T_map_optical)
+            if self._page_codes:
+                truth.pages = self._visible_pages(seg.geom_ids)
         return frame, truth
 
     def frames(
@@ -783,6 +797,38 @@ class Simulation:
                 f.cancel()
 
     # ------------------------------------------------------- visible objects
+    def _qr_pages(self) -> tuple[np.ndarray, list[tuple[int, ...]]]:
+        """Each geom's QR chart page (-1: none; a -1 appended for background's geom id -1) and
+        each page's codes. A page is the sheet geom of the code that carries ``page_m`` and the
+        geoms of every code whose text names the same chart (sim.world.placement.place_qr_sheets:
+        "<chart> <module>mm")."""
+        geom_object = self.world.geom_object_id
+        page_of_geom = np.full(len(geom_object) + 1, -1, dtype=np.int32)
+        pages: list[tuple[int, ...]] = []
+        for o in self.objects:
+            if o.page_m is None:
+                continue
+            chart = o.text.rsplit(" ", 1)[0]
+            codes = tuple(c.id for c in self.objects if c.type == "qr" and c.text.rsplit(" ", 1)[0] == chart)
+            sheet = mujoco.mj_name2id(self.world.model, mujoco.mjtObj.mjOBJ_GEOM, f"qr_page_{o.id}_sheet")
+            page_of_geom[np.flatnonzero(np.isin(geom_object, codes))] = len(pages)
+            page_of_geom[sheet] = len(pages)
+            pages.append(codes)
+        return page_of_geom, pages
+
+    def _visible_pages(self, geom_ids: np.ndarray) -> list[VisiblePage]:
+        """Box and pixel count of every QR chart page with a pixel in ``geom_ids``."""
+        page_map = self._page_of_geom.take(geom_ids)
+        ys, xs = np.nonzero(page_map >= 0)
+        ids = page_map[ys, xs]
+        out = []
+        for p in np.unique(ids):
+            sel = ids == p
+            px, py = xs[sel], ys[sel]
+            box = (float(px.min()), float(py.min()), float(px.max() + 1), float(py.max() + 1))
+            out.append(VisiblePage(codes=self._page_codes[int(p)], box_xyxy=box, pixels=int(sel.sum())))
+        return out
+
     def _visible_objects(self, objmap: np.ndarray, T_map_optical: np.ndarray) -> list[VisibleObject]:
         """Box, pixel count and visible fraction of every object with a pixel in ``objmap``."""
         ys, xs = np.nonzero(objmap >= 0)

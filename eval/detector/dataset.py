@@ -53,6 +53,7 @@ LIGHTING = ("bright", "dim", "uneven")
 HAZMAT_PER_SCENARIO = 8
 SCENARIO_TRIES = 10
 RESCUE_CLASS_INDEX: dict[str, int] = {c: i for i, c in enumerate(RESCUE_CLASSES)}
+QR_CLASS = RESCUE_CLASS_INDEX["qr"]
 DISTANCE_DRAWS = ("uniform", "log")
 VIEW_TRIES = 120  # viewpoint draws per image before the target is given up for another
 MSAA_SAMPLES = (0, 2, 4, 8)
@@ -499,16 +500,24 @@ def blur(rgb: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, str]:
     return cv2.GaussianBlur(rgb, (0, 0), sigma), f"defocus{sigma:.2f}"
 
 
+def _big_enough(box: tuple[float, float, float, float], spec: DatasetSpec) -> bool:
+    return min(box[2] - box[0], box[3] - box[1]) >= spec.min_box_px
+
+
 def label_boxes(
     truth, objects_by_id, spec: DatasetSpec, ignored: bool = False
 ) -> list[tuple[int, tuple[float, float, float, float]]]:
     """(class, (x1, y1, x2, y2) pixels) of the objects that show enough; with ``ignored``, of
     those big enough in pixels that show less than ``min_visible_fraction`` of themselves (a door
-    filling the frame from close by): evaluation neither wants nor penalises detections of them."""
+    filling the frame from close by) and of the QR chart pages in view (``qr``: the sheet and its
+    codes, which a detector may box as one code): evaluation neither wants nor penalises
+    detections of them, and the label classifier learns them as background
+    (:mod:`eval.detector.label_data`)."""
     out = []
+    if ignored:
+        out += [(QR_CLASS, p.box_xyxy) for p in truth.pages if _big_enough(p.box_xyxy, spec)]
     for v in truth.visible:
-        x1, y1, x2, y2 = v.box_xyxy
-        if min(x2 - x1, y2 - y1) < spec.min_box_px:
+        if not _big_enough(v.box_xyxy, spec):
             continue
         if (v.visible_fraction < spec.min_visible_fraction) != ignored:
             continue
@@ -559,15 +568,19 @@ def _label_lines(labels: list[tuple[int, float, float, float, float]]) -> str:
 
 
 def write_labelled_image(
-    out: Path, split: str, name: str, rgb: np.ndarray, labels: list, jpeg_quality: int
+    out: Path, split: str, name: str, rgb: np.ndarray, labels: list, jpeg_quality: int, ignore: list = ()
 ) -> None:
-    """``images/SPLIT/NAME.jpg`` and its YOLO label file ``labels/SPLIT/NAME.txt`` in ``out``."""
+    """``images/SPLIT/NAME.jpg`` and its YOLO label file ``labels/SPLIT/NAME.txt`` in ``out``, and
+    ``ignore/SPLIT/NAME.txt`` when ``ignore`` (YOLO rows of :func:`yolo_labels` ``ignored``) has any."""
     cv2.imwrite(
         str(out / "images" / split / f"{name}.jpg"),
         cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
         [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality],
     )
     (out / "labels" / split / f"{name}.txt").write_text(_label_lines(labels), encoding="utf-8")
+    if ignore:
+        (out / "ignore" / split).mkdir(parents=True, exist_ok=True)
+        (out / "ignore" / split / f"{name}.txt").write_text(_label_lines(ignore), encoding="utf-8")
 
 
 def write_rows(path: Path, rows: list[dict]) -> None:
@@ -691,11 +704,8 @@ def write_dataset(spec: DatasetSpec, out_dir: str | Path, progress: Callable[[in
                 for c, *_ in labels:
                     per_class[RESCUE_CLASSES[c]] += 1
                 name = _image_name(j, i)
-                write_labelled_image(out, split, name, rgb, labels, spec.jpeg_quality)
                 ignore = yolo_labels(truth, by_id, spec, rgb.shape[1], rgb.shape[0], ignored=True)
-                if ignore:
-                    (out / "ignore" / split).mkdir(parents=True, exist_ok=True)
-                    (out / "ignore" / split / f"{name}.txt").write_text(_label_lines(ignore), encoding="utf-8")
+                write_labelled_image(out, split, name, rgb, labels, spec.jpeg_quality, ignore)
                 rows.append(
                     {
                         "image": f"images/{split}/{name}.jpg",

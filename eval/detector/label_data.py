@@ -1,7 +1,8 @@
 """Training crops for the hazmat label classifier, cut from ``poibench dataset`` folders.
 
 Every labelled placard of a split, and as ``background`` every labelled
-non-placard object plus one random box per image clear of the placards, is
+non-placard object, every ignored one (``ignore/``: too hidden to label, or a QR
+chart's page) and one random box per image clear of the placards, is
 kept with its surroundings: the box grown by :data:`CONTEXT` of its size on
 each side, in the image's own pixels (reduced when the box is larger than
 :data:`MAX_BOX_PX`, which is still above the classifier's input). A training
@@ -137,6 +138,11 @@ def crops_from_images(
         px = im.boxes_px(w, h)  # (G, 4)
         lab = RESCUE_TO_LABEL[im.classes]  # (G,)
         placards = px[lab != BACKGROUND_INDEX]
+        # what a detector may box but evaluation ignores: a hidden door, a QR chart's whole page;
+        # the classifier must call those background (a partly hidden placard is left out)
+        other = RESCUE_TO_LABEL[im.ignore_classes] == BACKGROUND_INDEX
+        px = np.vstack([px, im.ignore_px(w, h)[other]])
+        lab = np.append(lab, np.full(int(other.sum()), BACKGROUND_INDEX))
         extra = _random_box(w, h, placards, rng)
         if extra is not None:
             px, lab = np.vstack([px, extra[None]]), np.append(lab, BACKGROUND_INDEX)

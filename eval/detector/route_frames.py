@@ -10,8 +10,9 @@ generated RRL mazes (the trial's own camera, sensor models and lighting presets)
 and labels them with the simulator's truth boxes, as ``poibench dataset``
 labels its views (:func:`eval.detector.dataset.yolo_labels`: at least
 ``min_visible_fraction`` visible and ``min_box_px`` wide; Landolt-C targets
-unlabelled). Frames with nothing labelled stay in: they are the background
-the detector must keep quiet on.
+unlabelled; the objects that show less, and QR chart pages, in ``ignore/``).
+Frames with nothing labelled stay in: they are the background the detector
+must keep quiet on.
 
 Mazes are generated from seeds drawn from ``SeedSequence([seed, j, 9])`` (31
 bits: far from the suites' own seeds, 201-210, 301-...), 4-5 cells a side, a
@@ -25,8 +26,8 @@ object, boxes one as another type or boxes nothing there; of the frames it gets 
 one in ``keep_easy``. The manifest's ``mistakes`` column names them and the summary
 counts them by kind: what the detector gets wrong on tours, before any training.
 
-Layout: ``images/train/*.jpg``, ``labels/train/*.txt``, ``data.yaml``, ``manifest.csv``;
-all frames are training frames (validate on ``poibench dataset``'s val split or on trials).
+Layout: ``images/train/*.jpg``, ``labels/train/*.txt``, ``ignore/train/*.txt``, ``data.yaml``,
+``manifest.csv``; all frames are training frames (validate on ``poibench dataset``'s val split or on trials).
 A rerun skips finished mazes.
 """
 
@@ -222,8 +223,9 @@ def write_route_frames(
                         continue
                 height, width = frame.rgb.shape[:2]
                 labels = yolo_labels(truth, by_id, label_spec, width, height)
+                ignore = yolo_labels(truth, by_id, label_spec, width, height, ignored=True)
                 name = f"r{j:04d}_{k:05d}"
-                write_labelled_image(out, "train", name, frame.rgb, labels, spec.jpeg_quality)
+                write_labelled_image(out, "train", name, frame.rgb, labels, spec.jpeg_quality, ignore)
                 rows.append(
                     {
                         "image": f"images/train/{name}.jpg",

@@ -293,3 +293,26 @@ def test_the_frame_tells_the_camera_s_turn_as_the_blur_it_rendered():
                     assert got == pytest.approx(truth.blur_px, rel=0.1)
                 else:
                     assert truth.blur_px < 0.5 and got < 0.5
+
+
+def test_a_qr_chart_page_in_view_boxes_its_sheet_and_codes():
+    """A QR chart's A4 page (its white sheet and the codes on it) is boxed as one: a detector may
+    box it so, and no code's own truth box covers the sheet."""
+    sc = with_noise(load_scenario("rmrc"), False)
+    with Simulation(sc) as sim:
+        charts = {o.text.rsplit(" ", 1)[0] for o in sim.objects if o.page_m is not None}
+        frame, truth = sim.frame(640)  # Chart B's page face-on at about 1.5 m (found by touring)
+        by_id = {v.id: v for v in truth.visible}
+        assert len(truth.pages) == 1
+        page = truth.pages[0]
+        texts = {by_id[c].text.rsplit(" ", 1)[0] for c in page.codes if c in by_id}
+        assert len(page.codes) == 3 and len(texts) == 1 and texts <= charts
+        codes = np.array([by_id[c].box_xyxy for c in page.codes])
+        union = (*codes[:, :2].min(axis=0), *codes[:, 2:].max(axis=0))
+        px1, py1, px2, py2 = page.box_xyxy
+        # the sheet shows around the codes on every side (the page's margins)
+        assert px1 < union[0] and py1 < union[1] and union[2] < px2 and union[3] < py2
+        assert page.pixels > sum(by_id[c].pixels for c in page.codes)
+    sc_default = with_noise(load_scenario("default"), False)
+    with Simulation(sc_default) as sim:
+        assert sim.frame(0)[1].pages == [] and not sim._page_codes

@@ -20,7 +20,7 @@ from eval.detector.dataset import (
 )
 from eval.detector.train import TrainError, TrainSpec, data_yaml
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
-from sim.simulator import FrameTruth, VisibleObject
+from sim.simulator import FrameTruth, VisibleObject, VisiblePage
 
 
 def _tree_hash(root: Path) -> str:
@@ -164,6 +164,16 @@ def test_labels_follow_visibility_and_size_rules():
     # the 10%-visible door is big enough to be an ignored object; the 3 px one is not
     ignored = yolo_labels(truth, objs, DatasetSpec(images=1), 640, 480, ignored=True)
     assert ignored == [(RESCUE_CLASSES.index("door"), 25 / 640, 25 / 480, 50 / 640, 50 / 480)]
+    # a QR chart's page in view is ignored as one qr box, when big enough; never labelled
+    truth.pages = [
+        VisiblePage(codes=(2, 3), box_xyxy=(200, 100, 240, 160), pixels=2000),
+        VisiblePage(codes=(4,), box_xyxy=(300, 100, 303, 160), pixels=150),
+    ]
+    assert yolo_labels(truth, objs, DatasetSpec(images=1), 640, 480) == labels
+    assert yolo_labels(truth, objs, DatasetSpec(images=1), 640, 480, ignored=True) == [
+        (RESCUE_CLASSES.index("qr"), 220 / 640, 130 / 480, 40 / 640, 60 / 480),
+        *ignored,
+    ]
 
 
 def test_sight_line_crossing():

@@ -14,10 +14,11 @@ from eval.detector.label_data import (
     MIN_BOX_PX,
     balanced_draw,
     collect_crops,
+    crops_from_images,
     sample_crop,
     turned,
 )
-from eval.detector.quality import load_split
+from eval.detector.quality import LabelledImage, load_split
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 from poi.detectors.hazmat_labels import LABEL_CLASSES, crop_box
 
@@ -37,14 +38,18 @@ def placards(tmp_path_factory):
 
 
 def _expected(root: Path, split: str) -> tuple[int, int]:
-    """(placards, labelled non-placard objects) with both box sides >= MIN_BOX_PX."""
+    """(placards, labelled or ignored non-placard objects) with both box sides >= MIN_BOX_PX."""
     n_hz = n_other = 0
+    placard_classes = [RESCUE_CLASSES.index(c) for c in HAZMAT_LABELS]
     for im in load_split(root, split):
-        px = im.boxes_px(640, 480)
-        big = np.minimum(px[:, 2] - px[:, 0], px[:, 3] - px[:, 1]) >= MIN_BOX_PX
-        hz = np.isin(im.classes, [RESCUE_CLASSES.index(c) for c in HAZMAT_LABELS])
-        n_hz += int(np.sum(big & hz))
-        n_other += int(np.sum(big & ~hz))
+        for px, classes, counted in (
+            (im.boxes_px(640, 480), im.classes, True),
+            (im.ignore_px(640, 480), im.ignore_classes, False),  # ignored placards are no sample
+        ):
+            big = np.minimum(px[:, 2] - px[:, 0], px[:, 3] - px[:, 1]) >= MIN_BOX_PX
+            hz = np.isin(classes, placard_classes)
+            n_hz += int(np.sum(big & hz)) if counted else 0
+            n_other += int(np.sum(big & ~hz))
     return n_hz, n_other
 
 
@@ -55,10 +60,34 @@ def test_every_placard_and_object_becomes_a_sample(placards):
     assert n_hz > 0
     counts = crops.counts()
     assert counts[:BACKGROUND_INDEX].sum() == n_hz
-    # background: every other labelled object and at most one random box per image
+    # background: every other labelled or ignored object and at most one random box per image
     n_images = len(load_split(placards, "train"))
     assert n_other <= counts[BACKGROUND_INDEX] <= n_other + n_images
     assert len(crops.patches) == len(crops.boxes) == len(crops.labels)
+
+
+def test_an_ignored_object_is_background_and_an_ignored_placard_no_sample(tmp_path):
+    """A box a detector may make on something evaluation ignores (a door seen in part, a QR
+    chart's whole page) is a background sample; a placard too hidden to label is none."""
+    import cv2
+
+    path = tmp_path / "frame.jpg"
+    cv2.imwrite(str(path), np.random.default_rng(0).integers(0, 255, (480, 640, 3), dtype=np.uint8))
+    poison, qr, door = (RESCUE_CLASSES.index(c) for c in ("poison", "qr", "door"))
+    labelled = dict(path=path, boxes_norm=np.array([[0.1, 0.1, 0.2, 0.2]]), classes=np.array([poison]))
+    ignore = dict(
+        ignore_norm=np.array([[0.5, 0.5, 0.6, 0.7], [0.7, 0.1, 0.8, 0.5], [0.3, 0.6, 0.4, 0.7]]),
+        ignore_classes=np.array([qr, door, poison]),
+    )
+    without = crops_from_images([LabelledImage(**labelled)], "train", seed=3)
+    crops = crops_from_images([LabelledImage(**labelled, **ignore)], "train", seed=3)
+    added = crops.counts() - without.counts()
+    assert added[BACKGROUND_INDEX] == 2 and added.sum() == 2  # the page and the door; not the placard
+    # each around its own box: the page 64 x 96 px, the door 64 x 192 stored at half size (MAX_BOX_PX)
+    sizes = sorted(tuple(np.round(b[2:] - b[:2])) for b in crops.boxes)
+    for b in without.boxes:
+        sizes.remove(tuple(np.round(b[2:] - b[:2])))
+    assert sizes == [(32.0, 96.0), (64.0, 96.0)]
 
 
 @pytest.mark.slow
