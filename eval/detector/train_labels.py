@@ -295,17 +295,18 @@ def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Pa
         tick_fontsize=8,
     )
     _plot_history(history, out / "history.png")
+    seeds = trained_seeds(spec)  # each dataset.yaml read once, for the checkpoint and the export
     torch.save(
         {
             "model": model.state_dict(),
             "imgsz": spec.imgsz,
             "widths": list(spec.widths),
             "classes": list(LABEL_CLASSES),
-            "seeds": list(trained_seeds(spec)),
+            "seeds": seeds,
         },
         out / CHECKPOINT_NAME,
     )
-    _export(model, spec, onnx_path)
+    _export(model, spec, onnx_path, seeds)
     return onnx_path
 
 
@@ -354,7 +355,7 @@ def _plot_history(history: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def _export(model, spec: LabelTrainSpec, path: Path) -> None:
+def _export(model, spec: LabelTrainSpec, path: Path, seeds: list[int]) -> None:
     """ONNX with a softmax output, a dynamic batch and the metadata the pipeline reads."""
     torch = torch_or_error()
     import onnx
@@ -377,7 +378,7 @@ def _export(model, spec: LabelTrainSpec, path: Path) -> None:
         "names": str(dict(enumerate(LABEL_CLASSES))),
         "imgsz": str(spec.imgsz),
         "crop_margin": str(spec.margin),
-        SEEDS_METADATA_KEY: ",".join(map(str, trained_seeds(spec))),
+        SEEDS_METADATA_KEY: ",".join(map(str, seeds)),
     }
     if spec.photo_folders:
         meta[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(spec.photo_folders)
