@@ -409,7 +409,7 @@ def _stamp_metadata(src: Path, dst: Path, data: list[Path], photo_folders: list[
     seeds = [str(s) for s in dict.fromkeys(dataset_seed(d.parent) for d in data) if s is not None]
     # a key stamped None is dropped: the single seed an earlier export of the model may carry too
     stamps = {SEED_METADATA_KEY: None, SEEDS_METADATA_KEY: ",".join(seeds) or None}
-    stamps[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(photo_folders) or None
+    stamps[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(dict.fromkeys(photo_folders)) or None
     model = onnx.load(str(src))
     kept = [p for p in model.metadata_props if p.key not in stamps]
     del model.metadata_props[:]

@@ -372,7 +372,9 @@ def test_train_stamps_the_photo_folders_it_trained_on(photos, tmp_path):
     route = tmp_path / "route"  # a route-frames folder: maze seeds, not a dataset's
     route.mkdir()
     (route / "dataset.yaml").write_text(yaml.safe_dump({"route_frames": {"seed": 1}}))
-    _stamp_metadata(src, tmp_path / "out.onnx", [*folders, route / "data.yaml"], [str(photos.resolve())])
+    # a photo folder named twice in --data (trained on twice an epoch) is stamped once
+    twice = [str(photos.resolve())] * 2
+    _stamp_metadata(src, tmp_path / "out.onnx", [*folders, route / "data.yaml"], twice)
     meta = _model_metadata(tmp_path / "out.onnx")
     assert meta["poibench_photo_folders"] == str(photos.resolve()) and meta["poibench_dataset_seeds"] == "77,78"
     assert "names" in meta and "poibench_dataset_seed" not in meta  # its own kept, the stale seed not
