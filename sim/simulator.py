@@ -176,6 +176,19 @@ class FrameTruth:
     pages: list[VisiblePage] = field(default_factory=list)  # QR chart pages in view (with truth boxes)
 
 
+def _regions(label_map: np.ndarray) -> list[tuple[int, tuple[float, float, float, float], int]]:
+    """(label, box xyxy in pixels, pixel count) of every label >= 0 in ``label_map``, in label order."""
+    ys, xs = np.nonzero(label_map >= 0)
+    ids = label_map[ys, xs]
+    out = []
+    for label in np.unique(ids):
+        sel = ids == label
+        px, py = xs[sel], ys[sel]
+        box = (float(px.min()), float(py.min()), float(px.max() + 1), float(py.max() + 1))
+        out.append((int(label), box, int(sel.sum())))
+    return out
+
+
 def _rpy(deg) -> np.ndarray:
     """Rotation of roll, pitch, yaw (degrees): Rz(yaw) Ry(pitch) Rx(roll)."""
     a = np.deg2rad(deg)
@@ -818,35 +831,25 @@ class Simulation:
 
     def _visible_pages(self, geom_ids: np.ndarray) -> list[VisiblePage]:
         """Box and pixel count of every QR chart page with a pixel in ``geom_ids``."""
-        page_map = self._page_of_geom.take(geom_ids)
-        ys, xs = np.nonzero(page_map >= 0)
-        ids = page_map[ys, xs]
-        out = []
-        for p in np.unique(ids):
-            sel = ids == p
-            px, py = xs[sel], ys[sel]
-            box = (float(px.min()), float(py.min()), float(px.max() + 1), float(py.max() + 1))
-            out.append(VisiblePage(codes=self._page_codes[int(p)], box_xyxy=box, pixels=int(sel.sum())))
-        return out
+        return [
+            VisiblePage(codes=self._page_codes[p], box_xyxy=box, pixels=n)
+            for p, box, n in _regions(self._page_of_geom.take(geom_ids))
+        ]
 
     def _visible_objects(self, objmap: np.ndarray, T_map_optical: np.ndarray) -> list[VisibleObject]:
         """Box, pixel count and visible fraction of every object with a pixel in ``objmap``."""
-        ys, xs = np.nonzero(objmap >= 0)
         out: list[VisibleObject] = []
-        if len(xs) == 0:
+        regions = _regions(objmap)
+        if not regions:
             return out
-        ids = objmap[ys, xs]
         T_optical_map = invert_transform(T_map_optical)
         T_optical_world = T_optical_map @ self.T_map_world
         by_id = {o.id: o for o in self.objects}
-        for oid in np.unique(ids):
-            sel = ids == oid
-            px, py = xs[sel], ys[sel]
-            o = by_id[int(oid)]
+        for oid, box, n in regions:
+            o = by_id[oid]
             p_world = self._reference_world[o.id]
             p_cam = transform_points(T_optical_map, transform_points(self.T_map_world, p_world))
-            n = int(sel.sum())
-            full = self._unoccluded_pixels(int(oid), T_optical_world)
+            full = self._unoccluded_pixels(oid, T_optical_world)
             angle = float("nan")
             if o.type in FLAT_TYPES:
                 # cos = n . (camera - p) / |camera - p|, in the optical frame, where the camera is at 0
@@ -859,12 +862,7 @@ class Simulation:
                     id=o.id,
                     type=o.type,
                     text=o.text,
-                    box_xyxy=(
-                        float(px.min()),
-                        float(py.min()),
-                        float(px.max() + 1),
-                        float(py.max() + 1),
-                    ),
+                    box_xyxy=box,
                     pixels=n,
                     visible_fraction=float(min(1.0, n / full)) if full > 0 else 0.0,
                     position_cam=p_cam,
