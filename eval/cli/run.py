@@ -17,8 +17,6 @@ from eval.trial.scenarios import (
     split_settings,
 )
 
-DEFAULT_RULES = "ex3"
-
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -172,7 +170,7 @@ def cmd_run(args) -> int:
     from eval.scoring.funnel import format_funnel
     from eval.scoring.map_error import MapErrorResult
     from eval.scoring.report import format_tables
-    from eval.scoring.rules import load_rules
+    from eval.scoring.rules import DEFAULT_RULES, load_rules
     from eval.trial.interrupt import DeferredInterrupt
     from eval.trial.run import run_trial
     from eval.trial.trial_config import load_trial_config

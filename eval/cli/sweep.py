@@ -20,7 +20,7 @@ def _common(p: argparse.ArgumentParser) -> None:
         default="default",
         help="default, oracle, FILE.onnx, python:MODULE:CLASS or a poibench.detectors entry point name",
     )
-    p.add_argument("--rules", default="ex3", help=f"{RULES_HELP} (default: ex3)")
+    p.add_argument("--rules", help=f"{RULES_HELP} (default: each scenario's own rules, else ex3)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument(
         "--cache",
@@ -99,7 +99,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         "with its 95% bootstrap interval over the mazes, the paired difference to the first, and the "
         "points each lost per type; writes compare.csv.",
     )
-    c.add_argument("runs", nargs="+", metavar="RUN", help="a finished suite run's --out folder (two or more)")
+    c.add_argument(
+        "runs",
+        nargs="+",
+        metavar="RUN",
+        help="a finished suite run's --out folder: two or more, or one sweep's folder of two setting "
+        "combinations or more",
+    )
     c.add_argument("--out", default="compare.csv", help="the table as CSV (default compare.csv)")
     c.set_defaults(func=cmd_suite_compare, out_is_file=True)
 

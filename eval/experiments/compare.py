@@ -119,7 +119,7 @@ def load_run(folder: str | Path) -> list[Entrant]:
             label=label,
             folder=str(folder),
             detector=str(ident.get("detector", "")),
-            rules=str(ident.get("rules", "")),
+            rules=str(ident.get("rules") or "each scenario's own"),
             suite=suites[0][0],
             suite_version=suites[0][1],
             settings=settings,

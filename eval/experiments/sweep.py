@@ -161,7 +161,7 @@ class SweepSpec:
     suite: str
     grid: list[tuple[str, list[str]]] = field(default_factory=list)
     detector: str = "default"
-    rules: str = "ex3"
+    rules: str | None = None  # None: each scenario's own (``rules:``), else eval.scoring.rules.DEFAULT_RULES
     workers: int = 1
     backend: str = "local"
     address: str | None = None
@@ -188,6 +188,7 @@ def trial_id(scenario: str, settings: dict[str, str]) -> str:
 
 def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     """Grid x scenarios, settings outer, scenarios inner; scenario settings applied to the scenario."""
+    from eval.scoring.rules import DEFAULT_RULES, RulesError, load_rules
     from eval.trial.pipeline_config import refuse_detector_model
     from eval.trial.scenarios import SettingError, apply_scenario_settings, split_settings
     from poi.config import ConfigError, apply_overrides, load_config
@@ -195,6 +196,7 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     from sim.scenario import ScenarioError
 
     tasks = []
+    scoring: dict[str, str] = {}  # rules name -> its scoring ("points", "map_error"), each loaded once
     for combo in combinations(spec.grid) or [{}]:
         items = [f"{k}={v}" for k, v in combo.items()]
         sim_sets, pipe_sets = split_settings(items)
@@ -209,6 +211,18 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
                 sc = apply_scenario_settings(sc, sim_sets) if sim_sets else sc
             except (ScenarioError, SettingError) as e:
                 raise SweepError(f"--set: {e}") from None
+            rules = spec.rules or sc.rules or DEFAULT_RULES
+            if rules not in scoring:
+                try:
+                    scoring[rules] = load_rules(rules).scoring
+                except RulesError as e:
+                    raise SweepError(f"{entry.name}: rules {rules}: {e}") from None
+            if scoring[rules] != "points":
+                given = "--rules" if spec.rules else f"scenario {entry.name}'s own rules"
+                raise SweepError(
+                    f"{given} {rules}: sweeps, tune and regress aggregate points scores; "
+                    f"{rules} scores a map error (run its trials with poibench run, or give --rules)"
+                )
             tid = trial_id(entry.name, combo)
             tasks.append(
                 TrialTask(
@@ -221,7 +235,7 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
                     settings=combo,
                     pipeline_sets=pipe_sets,
                     detector=spec.detector,
-                    rules=spec.rules,
+                    rules=rules,
                     out_dir=str(out_dir / "trials" / tid),
                     cache=None if spec.cache is None else str(spec.cache),
                 )
@@ -524,20 +538,13 @@ def run_sweep(
     spec: SweepSpec, out_dir: str | Path, progress: Callable[[int, int], None] | None = None
 ) -> tuple[object, object]:
     """Run (or resume) a sweep; returns (rows, aggregate) DataFrames, also written to out_dir."""
-    from eval.scoring.rules import load_rules
-
     if spec.workers < 1:
         raise SweepError(f"--workers must be at least 1, got {spec.workers}")
     out = Path(out_dir)
     suite = load_suite(spec.suite)
-    if load_rules(spec.rules).scoring != "points":
-        raise SweepError(
-            f"--rules {spec.rules}: sweeps, tune and regress aggregate points scores; "
-            f"{spec.rules} scores a map error (run its trials with poibench run)"
-        )
+    all_tasks = make_tasks(suite, spec, out)  # refuses settings and rules that cannot take effect, first
     _check_out(out, spec)
     out.mkdir(parents=True, exist_ok=True)
-    all_tasks = make_tasks(suite, spec, out)
     (out / "sweep.yaml").write_text(
         yaml.safe_dump(sweep_doc(spec, suite, all_tasks), sort_keys=False), encoding="utf-8"
     )

@@ -104,6 +104,7 @@ from poi.core.names import TYPES
 
 RULES_DIR = Path(__file__).resolve().parent / "rules"
 PRESETS: tuple[str, ...] = ("ex3", "rmrc2025", "rmrc2026", "rmrc2026-finals", "turtlebot")
+DEFAULT_RULES = "ex3"  # a trial's rules where neither --rules nor its scenario (``rules:``) names any
 QR_MAPPINGS: tuple[str, ...] = ("radius", "fiducials")
 SCORINGS: tuple[str, ...] = ("points", "map_error")
 PENALTIES: tuple[str, ...] = ("type_points", "zero")

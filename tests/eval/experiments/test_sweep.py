@@ -131,6 +131,25 @@ def test_a_map_error_preset_is_refused_before_any_trial(tmp_path):
     assert not (tmp_path / "s").exists()
 
 
+def test_each_trial_is_scored_by_its_scenarios_own_rules_unless_rules_are_given(tmp_path):
+    # as poibench run: the rmrc scenario names rmrc2026, a generated maze none (ex3)
+    suite = tmp_path / "mixed.yaml"
+    suite.write_text(
+        "poibench_suite: 1\nname: mixed\nversion: 1\nscenarios:\n"
+        "  - {name: lab, scenario: rmrc, seed: 1}\n"
+        "  - {name: gen, generate: {rows: 2, cols: 2, preset: rrl}, seed: 2}\n"
+    )
+    tasks = make_tasks(load_suite(suite), SweepSpec(suite=str(suite)), tmp_path / "s")
+    assert [(t.scenario_name, t.rules) for t in tasks] == [("lab", "rmrc2026"), ("gen", "ex3")]
+    tasks = make_tasks(load_suite(suite), SweepSpec(suite=str(suite), rules="rmrc2025"), tmp_path / "s")
+    assert [t.rules for t in tasks] == ["rmrc2025", "rmrc2025"]
+    # a scenario whose own rules score a map error is refused by name, before any trial
+    suite.write_text(suite.read_text().replace("scenario: rmrc", "scenario: turtlebot-goal"))
+    with pytest.raises(SweepError, match="scenario lab's own rules turtlebot: .* map error"):
+        run_sweep(SweepSpec(suite=str(suite)), tmp_path / "t")
+    assert not (tmp_path / "t").exists()
+
+
 def test_an_existing_sweep_needs_resume_with_the_same_settings(tmp_path):
     run_sweep(SweepSpec(suite=TINY), tmp_path)
     with pytest.raises(SweepError, match="--resume"):
