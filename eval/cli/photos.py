@@ -252,20 +252,14 @@ def _refuse_trained_photos(models, folders) -> None:
     """Refuse a photo folder that a model (detector or label classifier) was trained on part of,
     unless it was cut to that training's held-back images (``--holdout-of RUN``)."""
     from eval.detector.label_eval import listed_folder
-    from eval.detector.quality import (
-        PATH_SEPARATOR,
-        PHOTO_FOLDERS_METADATA_KEY,
-        DetectorQualityError,
-        _model_metadata,
-    )
+    from eval.detector.quality import DetectorQualityError, model_photo_folders
     from poi.detectors import is_team_detector
     from poi.models import SHIPPED_HOLDOUT
 
     for model in models:
         if model is None or is_team_detector(model):
             continue
-        meta = _model_metadata(model).get(PHOTO_FOLDERS_METADATA_KEY, "")
-        trained_on = set(filter(None, meta.split(PATH_SEPARATOR)))
+        trained_on = set(model_photo_folders(model))
         for folder, cut in folders:
             if listed_folder(folder.root, trained_on) is not None and not cut:
                 raise DetectorQualityError(

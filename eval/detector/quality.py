@@ -96,6 +96,12 @@ def _model_metadata(model: str | Path) -> dict[str, str]:
     return dict(meta.custom_metadata_map)
 
 
+def model_photo_folders(model: str | Path) -> list[str]:
+    """The photo folders a model was trained on part of (``poibench_photo_folders``), resolved
+    paths in the order stamped."""
+    return list(filter(None, _model_metadata(model).get(PHOTO_FOLDERS_METADATA_KEY, "").split(PATH_SEPARATOR)))
+
+
 def _seed_of(value: str | None) -> int | None:
     return int(value) if value is not None and value.lstrip("-").isdigit() else None
 

@@ -372,7 +372,7 @@ def train(spec: TrainSpec) -> Path:
     size = list(spec.export_size_hw)
     exported = Path(ul.YOLO(str(best)).export(format="onnx", imgsz=size, dynamic=False, simplify=False))
     photo_roots = [str(Path(d).resolve()) for d in sources_of(spec) if is_photo_folder(d)]
-    _stamp_metadata(exported, onnx_path, sources, photo_roots)
+    _stamp_metadata(exported, onnx_path, sources, photo_roots, start_export(spec))
     return onnx_path
 
 
@@ -392,11 +392,27 @@ def dataset_seed(root: str | Path) -> int | None:
     return int(spec["seed"]) if isinstance(spec, dict) and "seed" in spec else None
 
 
-def _stamp_metadata(src: Path, dst: Path, data: list[Path], photo_folders: list[str]) -> None:
+def start_export(spec: TrainSpec) -> Path | None:
+    """The ONNX export whose metadata says what a fine-tune's start was trained on: ``--model``
+    itself when it is one; for a checkpoint, the export beside it (``X.onnx`` for ``X.pt``, as
+    ``poi/models`` ships them) or its run's (``RUN/model.onnx`` for ``RUN/weights/*.pt``); None
+    from scratch or where neither exists."""
+    if not spec.fine_tune:
+        return None
+    start = Path(spec.model)
+    if start.suffix == ".onnx":
+        return start
+    return next((p for p in (start.with_suffix(".onnx"), start.parent.parent / "model.onnx") if p.is_file()), None)
+
+
+def _stamp_metadata(
+    src: Path, dst: Path, data: list[Path], photo_folders: list[str], start: Path | None = None
+) -> None:
     """Copy the exported model, adding to its metadata the seed of every rendered dataset it
     trained on (``data``: each folder's data.yaml), so that evaluate-detector can refuse scenes
     the model was trained on, and the photo folders it trained on part of, so that
-    evaluate-photos and sim2real score it on their held-back images only (``--holdout-of RUN``)."""
+    evaluate-photos and sim2real score it on their held-back images only (``--holdout-of RUN``);
+    a fine-tune's weights also hold what its ``start`` (:func:`start_export`) was trained on."""
     import onnx
 
     from eval.detector.quality import (
@@ -404,9 +420,14 @@ def _stamp_metadata(src: Path, dst: Path, data: list[Path], photo_folders: list[
         PHOTO_FOLDERS_METADATA_KEY,
         SEED_METADATA_KEY,
         SEEDS_METADATA_KEY,
+        model_photo_folders,
+        model_training_seeds,
     )
 
-    seeds = [str(s) for s in dict.fromkeys(dataset_seed(d.parent) for d in data) if s is not None]
+    inherited = sorted(model_training_seeds(start)) if start is not None else []
+    trained = [*inherited, *(dataset_seed(d.parent) for d in data)]
+    seeds = [str(s) for s in dict.fromkeys(trained) if s is not None]
+    photo_folders = [*(model_photo_folders(start) if start is not None else []), *photo_folders]
     # a key stamped None is dropped: the single seed an earlier export of the model may carry too
     stamps = {SEED_METADATA_KEY: None, SEEDS_METADATA_KEY: ",".join(seeds) or None}
     stamps[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(dict.fromkeys(photo_folders)) or None

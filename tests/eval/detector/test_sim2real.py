@@ -383,6 +383,35 @@ def test_train_stamps_the_photo_folders_it_trained_on(photos, tmp_path):
     assert "poibench_photo_folders" not in _model_metadata(tmp_path / "plain.onnx")
 
 
+def test_a_fine_tune_keeps_what_its_start_was_trained_on(photos, tmp_path):
+    """A detector fine-tuned from a model (its ONNX export, or a checkpoint with the export
+    beside it) carries the start's seeds and photo folders too: the shipped default.onnx, fine-
+    tuned from a pair that trained on other seeds, named only its last data's seed."""
+    from eval.detector.quality import model_photo_folders, model_training_seeds
+    from eval.detector.train import TrainSpec, _stamp_metadata, start_export
+
+    older = tmp_path / "older"
+    older.mkdir()
+    start = _model(
+        older / "start.onnx", 0.9, {"poibench_dataset_seeds": "3,8400", "poibench_photo_folders": "/real/a"}
+    )
+    (older / "start.pt").write_bytes(b"checkpoint")
+    run = tmp_path / "run"
+    (run / "weights").mkdir(parents=True)
+    (run / "weights" / "last.pt").write_bytes(b"checkpoint")
+    for model, export in [(start, start), (older / "start.pt", start), (run / "weights" / "last.pt", None)]:
+        assert start_export(TrainSpec(data="d", model=str(model), out=str(tmp_path / "o"))) == export
+    (run / "model.onnx").write_bytes(start.read_bytes())
+    spec = TrainSpec(data="d", model=str(run / "weights" / "last.pt"), out=str(tmp_path / "o"))
+    assert start_export(spec) == run / "model.onnx"
+    assert start_export(TrainSpec(data="d", out=str(tmp_path / "o"))) is None  # from scratch: yolo11n.yaml
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / "dataset.yaml").write_text(yaml.safe_dump({"spec": {"seed": 77}}))
+    _stamp_metadata(start, tmp_path / "out.onnx", [tmp_path / "d" / "data.yaml"], [str(photos.resolve())], start)
+    assert model_training_seeds(tmp_path / "out.onnx") == {3, 77, 8400}
+    assert model_photo_folders(tmp_path / "out.onnx") == ["/real/a", str(photos.resolve())]
+
+
 def test_a_photo_set_moved_to_another_folder_is_known_by_its_name(photos, tmp_path):
     """A holdout file or a model's metadata written on another machine names the photo set by a
     path that does not exist here: the folder of the same name is taken for it."""
