@@ -94,6 +94,8 @@ class TrackerConfig:
     # a track is not confirmed, or is withdrawn, beside a better-seen track of another type (poi.estimation.tracker
     # step 6)
     cross_type_radius_m: float = number(0.2, lo=0.0, hi=10.0, hi_open=True)
+    # a QR track is not confirmed, or is withdrawn, near an earlier confirmed one of its text (step 7)
+    same_text_radius_m: float = number(1.0, lo=0.0, hi=10.0, hi_open=True)
     qr_requires_text: bool = True  # a QR or Landolt-C track is confirmed only once it has text
     landolt_required_rings: tuple[int, ...] = (3,)  # ...and a Landolt-C one once these rings read
 

@@ -16,7 +16,8 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    that has no ground truth. An unpaired observation inside the gate of a
    track already taken this frame (or started by an earlier observation of this
    frame) is a duplicate detection of that object (two detectors, or two boxes on one
-   object) and is dropped; the other unpaired observations start tentative tracks.
+   object) and is dropped, unless both are QR boxes that do not meet (two codes side by side
+   on one chart, closer than a gate); the other unpaired observations start tentative tracks.
 4. Tracks in view but not paired lose ``miss_penalty`` support; a tentative track
    whose support falls below ``drop_support``, or not seen for ``t_max`` s ([Bouda2025]_
    2.2.5), is deleted. Confirmed tracks are never deleted.
@@ -51,6 +52,13 @@ with their vote counts. Per frame (:meth:`Tracker.step`):
    class vote within a track is: a track confirmed while it won its place (often before the
    place's own object was seen enough) is withdrawn once a confirmed track of another type
    wins it, and may be confirmed again if it wins it back.
+7. One code, one report (``same_text_radius_m``, **poibench**): a QR track is not confirmed,
+   and a confirmed one is withdrawn, while a QR track confirmed before it with the same decoded
+   text lies within that radius. A code's text is its identity (a second report of it is a
+   false duplicate under every preset), and two tracks of one code arise when its observations
+   are biased alike and their covariances small (a miscalibrated mount: ``rrl-hard``'s
+   ``hard-02`` reported Chart B twice, 0.19 m apart and 0.27 m above the code, each outside
+   the other's gate). Codes of other texts side by side, as on an RMRC chart, are unaffected.
 
 Errors that repeat (``tracker.shared_errors``, on by default). The document fuses every
 observation as if its error were fresh. Part of it is not: the pose error (the SLAM's, or
@@ -381,7 +389,7 @@ class StepResult:
     new_tracks: list[tuple[int, int]] = field(default_factory=list)  # (observation index, track id)
     duplicates: list[tuple[int, int]] = field(default_factory=list)  # (obs index, track id)
     dropped: list[int] = field(default_factory=list)  # track ids deleted this step
-    withdrawn: list[int] = field(default_factory=list)  # confirmed track ids unconfirmed this step (step 6)
+    withdrawn: list[int] = field(default_factory=list)  # confirmed track ids unconfirmed this step (steps 6, 7)
 
 
 class Tracker:
@@ -487,7 +495,7 @@ class Tracker:
     def _ready(self, tr: Track, read: np.ndarray, rivals: dict[int, list[Track]]) -> bool:
         if tr.n_detections < self.cfg.n_min or tr.max_fresh_std_m > self.cfg.settle_sigma_m:
             return False
-        if self._outvoted(tr, read, rivals):
+        if self._outvoted(tr, read, rivals) or self._read_before(tr):
             return False
         if tr.type == "landolt-c" and not self._landolt_rings_read(tr):
             return False
@@ -509,6 +517,31 @@ class Tracker:
             and not self._on_read_target(other, read)  # a guess on a read target has no vote
             and self._votes(other, tr) > self._votes(tr, other)
             for other in rivals.get(tr.track_id, ())
+        )
+
+    @staticmethod
+    def _beside(o: Observation, observations: list[Observation], k: int | None) -> bool:
+        """Whether QR observation ``o`` and observation ``k`` of the same frame (the one that took
+        a track) are boxes that do not meet: two codes side by side, not one code boxed twice."""
+        if k is None or o.detection.type != "qr":
+            return False
+        a, b = o.detection.box_xyxy, observations[k].detection.box_xyxy
+        return a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
+
+    def _read_before(self, tr: Track) -> bool:
+        """Whether a QR track confirmed before ``tr`` has ``tr``'s text and lies within
+        ``same_text_radius_m`` of it (module docstring, step 7)."""
+        radius = self.cfg.same_text_radius_m
+        if radius <= 0 or tr.type != "qr" or not tr.text:
+            return False
+        return any(
+            other.confirmed
+            and other is not tr
+            and other.type == "qr"
+            and other.text == tr.text
+            and (not tr.confirmed or other.report_id < tr.report_id)
+            and float(np.linalg.norm(other.mu - tr.mu)) < radius
+            for other in self.tracks.values()
         )
 
     def _rivals(self) -> dict[int, list[Track]]:
@@ -595,15 +628,17 @@ class Tracker:
 
         new_tracks: list[tuple[int, int]] = []
         duplicates: list[tuple[int, int]] = []
+        taker = {tid: i for i, tid in pairs}  # the observation that took each track this frame
         for i, o in enumerate(observations):
             if i in paired_obs:
                 continue
-            live = list(self.tracks.values())
+            live = [tr for tr in self.tracks.values() if not self._beside(o, observations, taker.get(tr.track_id))]
             d = self.distances([o], live)[0] if live else np.zeros(0)
             if d.size and np.isfinite(d).any():
                 duplicates.append((i, live[int(np.argmin(d))].track_id))
             else:
                 new_tracks.append((i, self._new_track(o, timestamp_s).track_id))
+                taker[new_tracks[-1][1]] = i
 
         # no confirmation below changes a track's text or mean
         read, rivals = self._read_places(), self._rivals()
@@ -615,12 +650,13 @@ class Tracker:
                 self._next_report_id += 1
                 newly.append(tr.snapshot())
         # the place's vote taken again: a confirmed track at a read target's place, or that a
-        # confirmed one of another type now outvotes, is withdrawn (the losers found first, so
-        # that the order does not matter; one just confirmed is outvoted by no track)
+        # confirmed one of another type now outvotes, is withdrawn, as is a QR track whose text
+        # one confirmed before it near by now reads (the losers found first, so that the order
+        # does not matter; one just confirmed is outvoted by no track)
         losers = [
             tr
             for tr in self.tracks.values()
-            if tr.confirmed and self._outvoted(tr, read, rivals, by_confirmed=True)
+            if tr.confirmed and (self._outvoted(tr, read, rivals, by_confirmed=True) or self._read_before(tr))
         ]
         withdrawn: list[int] = []
         for tr in losers:

@@ -315,6 +315,45 @@ def test_the_one_place_radius_is_a_setting_refused_out_of_range():
         apply_overrides(load_config(None), ["tracker.cross_type_radius_m=-1"])
 
 
+@pytest.mark.parametrize("radius", [1.0, 0.0])
+def test_a_second_track_of_a_read_code_is_not_reported_near_the_first(radius):
+    """One code, one report: views of Chart B biased alike start a second QR track 0.19 m from the
+    first (1 cm covariances: neither gates the other); with its text read it is not confirmed
+    while the first is, as rrl-hard's hard-02 reported the code twice. A code of another text
+    beside it, and one of the same text 1.5 m away, are confirmed. Radius 0 turns the rule off."""
+    R = 1e-4 * np.eye(3)
+
+    def qr(xyz, text):
+        return obs(xyz, "qr", R=R, text=text)
+
+    first, second = qr([0, 0, 0.66], "Chart B"), qr([0.17, -0.09, 0.68], "Chart B")
+    beside, far = qr([0.1, 0.0, 0.66], "Chart C"), qr([1.5, 0.0, 0.66], "Chart B")
+    tr = Tracker(cfg(n_min=2, same_text_radius_m=radius))
+    steps = [
+        tr.step(f, 0.1 * k) for k, f in enumerate([[first], [first], [second, beside, far], [second, beside, far]])
+    ]
+    assert [s.track_id for s in steps[1].newly_confirmed] == [0]
+    confirmed = sorted((s.text, round(float(s.position_map[0]), 2)) for s in steps[3].newly_confirmed)
+    expected = [("Chart B", 1.5), ("Chart C", 0.1)] + ([("Chart B", 0.17)] if radius == 0 else [])
+    assert confirmed == sorted(expected)
+    assert len(tr.tracks) == 4 and tr.tracks[1].n_detections == 2  # the second track kept, not reported
+
+
+@pytest.mark.parametrize(("box", "tracks"), [((40, 0, 60, 20), 2), ((5, 0, 25, 20), 1)])
+def test_two_qr_boxes_that_do_not_meet_are_two_codes_not_one_boxed_twice(box, tracks):
+    """rmrc's Chart E: codes of 5 and 3 mm modules 13 cm apart, seen unread in one frame, inside
+    each other's gate. Boxes apart in the image are two codes, and start two tracks; boxes that
+    meet are one code boxed twice (two detectors), the second a duplicate."""
+    first = obs([0, 0, 0.75], "qr", text="")
+    second = dataclasses.replace(
+        obs([0, 0, 0.62], "qr", text=""), detection=dataclasses.replace(first.detection, box_xyxy=box)
+    )
+    tr = Tracker(cfg())
+    step = tr.step([first, second], 0.0)
+    assert np.isfinite(tr.distances([second], list(tr.tracks.values()))).all()  # inside the gate
+    assert len(tr.tracks) == tracks and len(step.duplicates) == 2 - tracks
+
+
 def test_tentative_tracks_pruned_after_t_max_confirmed_kept():
     tr = Tracker(cfg(n_min=2, t_max=5.0))
     tr.step([obs([0, 0, 0]), obs([5, 0, 0], "valve")], 0.0)
