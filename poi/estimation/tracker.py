@@ -534,12 +534,14 @@ class Tracker:
         radius = self.cfg.same_text_radius_m
         if radius <= 0 or tr.type != "qr" or not tr.text:
             return False
+        mine = tr.report_id if tr.confirmed else None  # confirmed ones are numbered in order
         return any(
             other.confirmed
+            and other.report_id is not None
             and other is not tr
             and other.type == "qr"
             and other.text == tr.text
-            and (not tr.confirmed or other.report_id < tr.report_id)
+            and (mine is None or other.report_id < mine)
             and float(np.linalg.norm(other.mu - tr.mu)) < radius
             for other in self.tracks.values()
         )
