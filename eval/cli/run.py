@@ -170,7 +170,7 @@ def cmd_run(args) -> int:
     from eval.scoring.funnel import format_funnel
     from eval.scoring.map_error import MapErrorResult
     from eval.scoring.report import format_tables
-    from eval.scoring.rules import DEFAULT_RULES, load_rules
+    from eval.scoring.rules import load_rules, trial_rules
     from eval.trial.interrupt import DeferredInterrupt
     from eval.trial.run import run_trial
     from eval.trial.trial_config import load_trial_config
@@ -196,7 +196,7 @@ def cmd_run(args) -> int:
             check_run_scenario(args.scenario)
         sc = resolve_scenario(args.scenario, args.seed, args.set, args.noise)
     if rules_name is None:
-        rules_name = sc.rules or DEFAULT_RULES
+        rules_name = trial_rules(None, sc.rules)
         if sc.rules is not None:
             rules_note = f"scoring with the '{sc.rules}' rules, the scenario's own (--rules to choose others)"
     check_detector(detector)

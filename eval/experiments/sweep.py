@@ -161,7 +161,7 @@ class SweepSpec:
     suite: str
     grid: list[tuple[str, list[str]]] = field(default_factory=list)
     detector: str = "default"
-    rules: str | None = None  # None: each scenario's own (``rules:``), else eval.scoring.rules.DEFAULT_RULES
+    rules: str | None = None  # None: each scenario's own, else ex3 (eval.scoring.rules.trial_rules)
     workers: int = 1
     backend: str = "local"
     address: str | None = None
@@ -188,7 +188,7 @@ def trial_id(scenario: str, settings: dict[str, str]) -> str:
 
 def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     """Grid x scenarios, settings outer, scenarios inner; scenario settings applied to the scenario."""
-    from eval.scoring.rules import DEFAULT_RULES, RulesError, load_rules
+    from eval.scoring.rules import RulesError, load_rules, trial_rules
     from eval.trial.pipeline_config import refuse_detector_model
     from eval.trial.scenarios import SettingError, apply_scenario_settings, split_settings
     from poi.config import ConfigError, apply_overrides, load_config
@@ -211,7 +211,7 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
                 sc = apply_scenario_settings(sc, sim_sets) if sim_sets else sc
             except (ScenarioError, SettingError) as e:
                 raise SweepError(f"--set: {e}") from None
-            rules = spec.rules or sc.rules or DEFAULT_RULES
+            rules = trial_rules(spec.rules, sc.rules)
             if rules not in scoring:
                 try:
                     scoring[rules] = load_rules(rules).scoring

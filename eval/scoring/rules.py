@@ -306,6 +306,12 @@ class MapErrorRules:
 AnyRules = Rules | MapErrorRules
 
 
+def trial_rules(given: str | None, scenario_rules: str | None) -> str:
+    """The rules a trial is scored by: ``--rules`` where given, else its scenario's own
+    (``rules:``), else :data:`DEFAULT_RULES` (``poibench run`` and every suite command alike)."""
+    return given or scenario_rules or DEFAULT_RULES
+
+
 def load_rules(name_or_path: str | Path) -> AnyRules:
     """Load a preset by name (one of ``PRESETS``) or a rules YAML file by path.
 

@@ -117,6 +117,7 @@ from filterpy.kalman import update as filterpy_update
 
 from poi.config import TrackerConfig
 from poi.core.assignment import optimal_assignment
+from poi.core.geometry import iou_matrix
 from poi.core.landolt import merge_orientation_votes, parse_orientation_text
 from poi.core.names import CLASS_INDEX, CLASS_TYPES, CLASSES, HAZMAT_LABELS
 from poi.core.types import Observation, TrackSnapshot
@@ -525,8 +526,8 @@ class Tracker:
         a track) are boxes that do not meet: two codes side by side, not one code boxed twice."""
         if k is None or o.detection.type != "qr":
             return False
-        a, b = o.detection.box_xyxy, observations[k].detection.box_xyxy
-        return a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
+        boxes = np.array([o.detection.box_xyxy, observations[k].detection.box_xyxy], dtype=float)
+        return float(iou_matrix(boxes[:1], boxes[1:])[0, 0]) == 0.0
 
     def _read_before(self, tr: Track) -> bool:
         """Whether a QR track confirmed before ``tr`` has ``tr``'s text and lies within
