@@ -531,10 +531,18 @@ def label_boxes(
 def yolo_labels(
     truth, objects_by_id, spec: DatasetSpec, width: int, height: int, ignored: bool = False
 ) -> list[tuple[int, float, float, float, float]]:
-    """:func:`label_boxes` as YOLO labels: (class, cx, cy, w, h), normalised by the image size."""
+    """:func:`label_boxes` as YOLO labels (:func:`yolo_rows`)."""
+    return yolo_rows(label_boxes(truth, objects_by_id, spec, ignored), width, height)
+
+
+def yolo_rows(
+    boxes: list[tuple[int, tuple[float, float, float, float]]], width: int, height: int
+) -> list[tuple[int, float, float, float, float]]:
+    """(class, (x1, y1, x2, y2) pixels) boxes as YOLO labels: (class, cx, cy, w, h), normalised by
+    the image size."""
     return [
         (cls, (x1 + x2) / 2 / width, (y1 + y2) / 2 / height, (x2 - x1) / width, (y2 - y1) / height)
-        for cls, (x1, y1, x2, y2) in label_boxes(truth, objects_by_id, spec, ignored)
+        for cls, (x1, y1, x2, y2) in boxes
     ]
 
 

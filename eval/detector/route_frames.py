@@ -52,7 +52,7 @@ from eval.detector.dataset import (
     write_data_yaml,
     write_labelled_image,
     write_rows,
-    yolo_labels,
+    yolo_rows,
 )
 from poi.core.loader import safe_load_file
 from poi.core.names import RESCUE_CLASSES
@@ -156,15 +156,16 @@ def _mining_detector(spec: RouteFramesSpec):
     return build_detector({"name": "onnx", "model": model, "label_model": labels, "conf": DetectorConfig().conf})
 
 
-def _mistakes(detector, frame, truth, by_id, label_spec: DatasetSpec) -> list[str]:
-    """``detector``'s mistakes on ``frame`` against its truth labels (eval.detector.mining)."""
+def _mistakes(detector, frame, labelled: list, ignored: list) -> list[str]:
+    """``detector``'s mistakes on ``frame`` against its truth boxes, ``labelled`` and ``ignored``
+    (:func:`eval.detector.dataset.label_boxes`; eval.detector.mining)."""
     from eval.detector.mining import frame_mistakes
 
     def boxes(labels):
         return np.array([b for _, b in labels], float).reshape(-1, 4), [c for c, _ in labels]
 
-    gt, gt_c = boxes(label_boxes(truth, by_id, label_spec))
-    ign, ign_c = boxes(label_boxes(truth, by_id, label_spec, ignored=True))
+    gt, gt_c = boxes(labelled)
+    ign, ign_c = boxes(ignored)
     dets = [d for d in detector.detect(frame) if d.class_name in RESCUE_CLASSES]
     det_boxes = np.array([d.box_xyxy for d in dets], float).reshape(-1, 4)
     det_c = [RESCUE_CLASSES.index(d.class_name) for d in dets]
@@ -216,14 +217,16 @@ def write_route_frames(
                 frame, truth = sim.frame(k)
                 if progress:
                     progress(1)
-                mistakes = [] if detector is None else _mistakes(detector, frame, truth, by_id, label_spec)
+                labelled = label_boxes(truth, by_id, label_spec)
+                ignored = label_boxes(truth, by_id, label_spec, ignored=True)
+                mistakes = [] if detector is None else _mistakes(detector, frame, labelled, ignored)
                 if detector is not None and not mistakes:
                     easy += 1
                     if (easy - 1) % spec.keep_easy:
                         continue
                 height, width = frame.rgb.shape[:2]
-                labels = yolo_labels(truth, by_id, label_spec, width, height)
-                ignore = yolo_labels(truth, by_id, label_spec, width, height, ignored=True)
+                labels = yolo_rows(labelled, width, height)
+                ignore = yolo_rows(ignored, width, height)
                 name = f"r{j:04d}_{k:05d}"
                 write_labelled_image(out, "train", name, frame.rgb, labels, spec.jpeg_quality, ignore)
                 rows.append(
