@@ -217,37 +217,48 @@ def load_scenario(path: str | Path) -> Scenario:
         if shipped.exists():
             p = shipped
     data, src = load_yaml_file(p, error=ScenarioError)
+    if data is None or data == {}:  # an empty or truncated file would run as the built-in defaults
+        raise ScenarioError(
+            f"{p}: an empty scenario file; a scenario file starts with poibench_scenario: {SCENARIO_VERSION} "
+            "(poibench scenario new -o FILE writes one)"
+        )
     return scenario_from_data(data, src, source_dir=str(p.resolve().parent))
 
 
-def apply_settings(sc: Scenario, assignments: list[str]) -> Scenario:
-    """Apply dotted ``key=value`` settings (values parsed as YAML) to a copy of a scenario.
+def apply_settings(sc: Scenario, assignments: list[str], what: str = "--set") -> Scenario:
+    """Apply dotted ``key=value`` settings (values parsed as YAML) to a copy of a scenario;
+    ``what`` names where they came from in an error (``--set``, a suite file's ``settings:``).
 
     >>> sc = apply_settings(Scenario(), ["sensors.t265.drift_fraction=0.03", "lighting=dim"])
     >>> sc.sensors.t265.drift_fraction, sc.lighting
     (0.03, 'dim')
     """
+
+    def unknown(key: str, part: str, node) -> ScenarioError:
+        known = f"; expected one of {', '.join(sorted(node))}" if isinstance(node, dict) and node else ""
+        return ScenarioError(f"{what} {key}: unknown setting {part!r}{known}")
+
     data = sc.to_dict()
     for item in assignments:
         key, sep, raw = item.partition("=")
         if not sep or not key:
-            raise ScenarioError(f"--set {item!r}: expected key=value")
+            raise ScenarioError(f"{what} {item!r}: expected key=value")
         try:
-            value = safe_load(raw, f"--set {key}")
+            value = safe_load(raw, f"{what} {key}")
         except LoadError:
             value = raw
         node = data
         parts = key.split(".")
         for part in parts[:-1]:
             if not isinstance(node, dict) or part not in node:
-                raise ScenarioError(f"--set {key}: unknown setting {part!r}")
+                raise unknown(key, part, node)
             if node[part] is None:
                 node[part] = {}
             node = node[part]
         if not isinstance(node, dict) or parts[-1] not in node:
-            raise ScenarioError(f"--set {key}: unknown setting")
+            raise unknown(key, parts[-1], node)
         node[parts[-1]] = value
-    return scenario_from_data(data, Source("--set"), source_dir=sc.source_dir)
+    return scenario_from_data(data, Source(what), source_dir=sc.source_dir)
 
 
 def with_noise(sc: Scenario, on: bool) -> Scenario:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from eval.cli.args import non_negative_int, positive_int
 from eval.detector.dataset import DISTANCE_DRAWS, HAZMAT_PER_SCENARIO, DatasetSpec
 from eval.detector.route_frames import RouteFramesSpec
 
@@ -13,11 +14,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--out", required=True, help="output folder (a rerun with the same settings resumes)")
     d.add_argument("--images", type=int, required=True, help="number of images")
     d.add_argument("--seed", type=int, default=0, help="seed of every scenario and view (default 0)")
-    d.add_argument("--per-scenario", type=int, default=40, help="images per scenario (default 40)")
-    d.add_argument("--val-every", type=int, default=5, help="every Nth scenario is validation (default 5)")
+    d.add_argument("--per-scenario", type=positive_int, default=40, help="images per scenario (default 40)")
+    d.add_argument(
+        "--val-every", type=positive_int, default=5, help="every Nth scenario is validation (default 5)"
+    )
     d.add_argument(
         "--hazmat",
-        type=int,
+        type=non_negative_int,
         default=HAZMAT_PER_SCENARIO,
         help=f"hazmat placards per scenario (default {HAZMAT_PER_SCENARIO}; 16: every label in every scenario)",
     )
@@ -30,26 +33,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     d.add_argument(
         "--hazmat-on-doors",
-        type=int,
+        type=non_negative_int,
         default=DatasetSpec.hazmat_on_doors,
         help=f"placards per scenario stuck on door faces, "
         f"two a door at most (default {DatasetSpec.hazmat_on_doors})",
     )
     d.add_argument(
         "--hazmat-in-crates",
-        type=int,
+        type=non_negative_int,
         default=DatasetSpec.hazmat_in_crates,
         help=f"placards per scenario moved into open crates on the floor (default {DatasetSpec.hazmat_in_crates})",
     )
     d.add_argument(
         "--hazmat-on-ramps",
-        type=int,
+        type=non_negative_int,
         default=DatasetSpec.hazmat_on_ramps,
         help=f"placards per scenario laid on ramps against their walls (default {DatasetSpec.hazmat_on_ramps})",
     )
     d.add_argument(
         "--hazmat-on-boards",
-        type=int,
+        type=non_negative_int,
         default=DatasetSpec.hazmat_on_boards,
         help="boards per scenario holding a placard with a QR code beside it "
         f"(default {DatasetSpec.hazmat_on_boards})",

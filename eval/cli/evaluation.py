@@ -6,8 +6,9 @@ import argparse
 import tempfile
 from pathlib import Path
 
+from eval.cli.args import positive_int, unit_interval
 from eval.cli.detector_args import OPERATING_CONF, _detect, _options, _refuse_training_seed
-from eval.detector.quality import EVAL_SEED
+from eval.detector.quality import EVAL_IMAGES, EVAL_SEED, DetectorQualityError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,13 +33,13 @@ def register(sub: argparse._SubParsersAction) -> None:
             "--label-model", help="a hazmat label classifier (poibench train-labels) to name the placards"
         )
         e.add_argument("--data", help="a 'poibench dataset' folder to use (its val split) instead of fresh scenes")
-        e.add_argument("--images", type=int, default=400, help="fresh evaluation images (default 400)")
         e.add_argument(
-            "--seed", type=int, default=EVAL_SEED, help=f"seed of the fresh scenes (default {EVAL_SEED})"
+            "--images", type=positive_int, help=f"fresh evaluation images (default {EVAL_IMAGES}; not with --data)"
         )
+        e.add_argument("--seed", type=int, help=f"seed of the fresh scenes (default {EVAL_SEED}; not with --data)")
         e.add_argument(
             "--conf",
-            type=float,
+            type=unit_interval,
             default=OPERATING_CONF,
             help=f"operating confidence (default {OPERATING_CONF}, the pipeline's detector.conf)",
         )
@@ -60,7 +61,14 @@ def _labelled_images(args, work: Path):
     from eval.progress import progress_bar
 
     if args.data:
+        given = [flag for flag, value in (("--images", args.images), ("--seed", args.seed)) if value is not None]
+        if given:
+            raise DetectorQualityError(
+                f"{' and '.join(given)}: for fresh scenes; --data {args.data} evaluates on that folder's val split"
+            )
         return load_split(args.data, "val")
+    args.images = EVAL_IMAGES if args.images is None else args.images
+    args.seed = EVAL_SEED if args.seed is None else args.seed
     _refuse_training_seed(args)
     spec = DatasetSpec.trial_looks(images=args.images, seed=args.seed, val_every=1)
     with progress_bar(total=spec.images, desc="scenes", unit="img", quiet=args.quiet) as bar:

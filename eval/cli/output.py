@@ -33,6 +33,8 @@ def check_output_folder(path: str | Path, option: str = "--out") -> None:
     folder still to be made, in its nearest existing parent), so permissions, ACLs and
     read-only file systems all count, as they do for the command itself.
     """
+    if not str(path).strip():
+        raise OutputPathError(f"{option}: an empty path (an unset shell variable?); give a folder")
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise OutputPathError(f"{option} {p}: is a file, not a folder")
@@ -52,6 +54,8 @@ def check_output_folder(path: str | Path, option: str = "--out") -> None:
 def check_output_file(path: str | Path, option: str = "--out") -> None:
     """:func:`check_output_folder` for an output file: it must not be a folder, and its folder
     must be writable or makeable."""
+    if not str(path).strip():
+        raise OutputPathError(f"{option}: an empty path (an unset shell variable?); give a file name")
     p = Path(path)
     if p.is_dir():
         raise OutputPathError(f"{option} {p}: is a folder; give a file name")

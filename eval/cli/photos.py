@@ -7,6 +7,7 @@ from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 
+from eval.cli.args import non_negative_int, unit_interval
 from eval.cli.detector_args import OPERATING_CONF, _detect, _options, _refuse_training_seed
 from eval.detector.quality import EVAL_SEED
 
@@ -66,7 +67,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     _add_photo_detector_args(ph)
     ph.add_argument(
         "--conf",
-        type=float,
+        type=unit_interval,
         default=OPERATING_CONF,
         help=f"operating confidence (default {OPERATING_CONF}, the pipeline's detector.conf)",
     )
@@ -86,7 +87,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "held-back images only",
     )
     ph.add_argument("--seed", type=int, default=0, help="seed of --limit's and the overlay's draws (default 0)")
-    ph.add_argument("--overlay", type=int, default=12, help="images a folder on overlay.png (default 12; 0: none)")
+    ph.add_argument(
+        "--overlay", type=non_negative_int, default=12, help="images a folder on overlay.png (default 12; 0: none)"
+    )
     ph.add_argument("--quiet", action="store_true", help="no progress bars")
     ph.set_defaults(func=cmd_evaluate_photos)
 
@@ -127,7 +130,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     sr.add_argument(
         "--conf",
-        type=float,
+        type=unit_interval,
         default=OPERATING_CONF,
         help=f"operating confidence (default {OPERATING_CONF}, the pipeline's detector.conf)",
     )
@@ -138,7 +141,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="map: fold labels a coarser photo set lacks into its class on both sides, truth and detections "
         "(as evaluate-photos); default keep",
     )
-    sr.add_argument("--overlay", type=int, default=12, help="images a side on misses.jpg (default 12; 0: none)")
+    sr.add_argument(
+        "--overlay", type=non_negative_int, default=12, help="images a side on misses.jpg (default 12; 0: none)"
+    )
     sr.add_argument("--quiet", action="store_true", help="no progress bars")
     sr.set_defaults(func=cmd_sim2real)
 
@@ -278,8 +283,6 @@ def cmd_evaluate_photos(args) -> int:
 
     if args.limit is not None and args.limit < 1:
         raise DetectorQualityError(f"--limit must be at least 1, got {args.limit}")
-    if not 0.0 <= args.conf <= 1.0:
-        raise DetectorQualityError(f"--conf must be in [0, 1], got {args.conf}")
     _photo_detector(args)
     if args.holdout_of is not None:
         if args.limit is not None:
@@ -327,7 +330,8 @@ def cmd_evaluate_photos(args) -> int:
     for f in summary["folders"]:
         if f["without_labels"]:
             print(f"{f['name']}: {f['without_labels']} images have no labels file; taken as showing no object")
-    print(f"summary.json, per_class.csv, report.md, recall_by_size.png and overlay.png in {out}")
+    overlay = " and overlay.png" if args.overlay else ""
+    print(f"summary.json, per_class.csv, report.md, recall_by_size.png{overlay} in {out}")
     return 0
 
 
@@ -349,8 +353,6 @@ def cmd_sim2real(args) -> int:
     )
     from eval.progress import progress_bar
 
-    if not 0.0 <= args.conf <= 1.0:
-        raise DetectorQualityError(f"--conf must be in [0, 1], got {args.conf}")
     for flag, v in (("--scenes", args.scenes), ("--views", args.views)):
         if v < 1:
             raise DetectorQualityError(f"{flag} must be at least 1, got {v}")
@@ -429,5 +431,6 @@ def cmd_sim2real(args) -> int:
     print(write_card(out, card, sides, args.overlay, args.seed))
     if card["error"]:
         raise DetectorQualityError(card["error"])
-    print(f"card.md, card.json and misses.jpg in {out}; the renders in {out / 'renders'}")
+    misses = " and misses.jpg" if args.overlay else ""
+    print(f"card.md, card.json{misses} in {out}; the renders in {out / 'renders'}")
     return 0

@@ -53,12 +53,18 @@ def cmd_replay(args) -> int:
     require_rosbags("poibench replay")
     from eval.ros.reader import open_recording
     from eval.ros.replay import ReplayError, replay
-    from eval.ros.topics import parse_overrides
+    from eval.ros.topics import TopicError, parse_overrides
     from eval.scoring.report import format_tables
     from eval.scoring.rules import load_rules
 
     topics = parse_overrides(args.topic)
     given = {item.partition("=")[0] for item in args.topic}
+    written = sorted(given & {"truth", "detections", "confirmed"})
+    if written:
+        raise TopicError(
+            f"--topic {', '.join(written)}: streams poibench run --log writes, which replay does not read "
+            "(it reads color, depth, their camera infos, odom, thermal and tf)"
+        )
     scenario_sets, pipe_sets = split_settings(args.set)
     if scenario_sets:
         raise ReplayError(f"--set {scenario_sets[0]}: a scenario setting; a recording has no scenario")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import sys
 from datetime import timezone
 from pathlib import Path
@@ -13,6 +14,7 @@ from eval.trial.scenarios import (
     SettingError,
     UnknownScenarioError,
     check_scenario_name,
+    resolve_config_scenario,
     resolve_scenario,
     split_settings,
 )
@@ -34,9 +36,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, help="generate the scenario from seed N instead of the default")
     p.add_argument(
         "--detector",
-        default="default",
         help="default | oracle | FILE.onnx | python:MODULE:CLASS (its keyword arguments: --set "
-        "detector.options.KEY=VALUE) | a name installed in the poibench.detectors entry point group",
+        "detector.options.KEY=VALUE) | a name installed in the poibench.detectors entry point group "
+        "(default: default, or --config's)",
     )
     p.add_argument(
         "--rules",
@@ -56,7 +58,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=["1.2", "1.3"],
         help="POI file version to write (default 1.2; the same as --set report.poi_version='V')",
     )
-    p.add_argument("--config", help="rerun a trial from its config.yaml")
+    p.add_argument(
+        "--config",
+        help="rerun a trial from its config.yaml; --detector, --max-frames, --rules, --noise and --set "
+        "given beside it apply on top (SCENARIO and --seed cannot: the config holds its scenario)",
+    )
     p.add_argument("--max-frames", type=positive_int, help="stop after this many frames (at least 1)")
     p.add_argument("--no-video", action="store_true", help="do not write trial.mp4")
     p.add_argument(
@@ -164,6 +170,46 @@ def cmd_view(args) -> int:
     return 0
 
 
+def refuse_unused_flags(args, sim_sets: list[str], pipe_sets: list[str]) -> None:
+    """Refuse flags of ``poibench run`` that could not take effect or that ``--set`` contradicts:
+    ``--port`` without ``--live``, ``--poi-version`` beside ``--set report.poi_version``,
+    ``--noise`` beside ``--set sensors.noise``."""
+    if args.port and not args.live:
+        raise SettingError(f"--port {args.port}: the live view's port; it needs --live")
+
+    def keyed(sets: list[str], key: str) -> str | None:
+        return next((s for s in sets if s.split("=", 1)[0].strip() == key), None)
+
+    for flag, value, sets, key in (
+        ("--poi-version", args.poi_version, pipe_sets, "report.poi_version"),
+        ("--noise", args.noise, sim_sets, "sensors.noise"),
+    ):
+        if value is not None and keyed(sets, key):
+            raise SettingError(f"{flag} {value} and --set {keyed(sets, key)} set one thing; choose one")
+
+
+def clear_stale_outputs(out: Path, args) -> list[str]:
+    """In an earlier trial's folder (``config.yaml``), remove the video and live record this run
+    will not write (``--no-video``, ``--no-live-record``): beside the new results they would show
+    the earlier trial, and ``poibench view`` would replay it. An earlier ROS log is kept (it may
+    be large and costly to make again) and named. The lines to print, one per stale output."""
+    if not (out / "config.yaml").is_file():
+        return []
+    notes = []
+    for name, stale in (("trial.mp4", args.no_video), ("live", args.no_live_record)):
+        path = out / name
+        if stale and path.exists():
+            if path.is_dir():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+            notes.append(f"removed {path}, the earlier trial's (this run writes none)")
+    for name, fmt in (("trial_mcap", "mcap"), ("trial.bag", "bag")):
+        if (out / name).exists() and args.log != fmt:
+            notes.append(f"{out / name} is the earlier trial's log (this run writes none); kept")
+    return notes
+
+
 def cmd_run(args) -> int:
     import yaml
 
@@ -176,21 +222,34 @@ def cmd_run(args) -> int:
     from eval.trial.trial_config import load_trial_config
     from poi.config import flatten_config
 
-    _, pipe_sets = split_settings(args.set)
+    sim_sets, pipe_sets = split_settings(args.set)
+    refuse_unused_flags(args, sim_sets, pipe_sets)
     if args.poi_version is not None:
         pipe_sets = [*pipe_sets, f"report.poi_version='{args.poi_version}'"]  # quoted: YAML reads 1.3 as a number
-    detector, rules_name, max_frames = args.detector, args.rules, args.max_frames
+    detector, rules_name, max_frames = args.detector or "default", args.rules, args.max_frames
     rules_note = None
     if args.config:
+        if args.scenario is not None or args.seed is not None:
+            given_here = f"SCENARIO {args.scenario}" if args.scenario is not None else f"--seed {args.seed}"
+            raise SettingError(
+                f"{given_here} cannot be combined with --config {args.config}: the config holds its scenario "
+                "(edit its scenario, or use --set for a scenario setting)"
+            )
         doc, given = load_trial_config(args.config)
-        sc = doc.scenario
+        sc = resolve_config_scenario(doc.scenario, args.set, args.noise)
         pipe_sets = [
             f"{k}={yaml.safe_dump(v, default_flow_style=True).strip()}"
             for k, v in flatten_config(given.get("pipeline") or {})
         ] + pipe_sets
-        detector = doc.detector if "detector" in given else detector
+        if args.detector is None and "detector" in given:
+            detector = doc.detector
+            try:
+                check_detector(detector)
+            except ValueError as e:  # the config's own detector: say where it was named
+                raise SettingError(f"{args.config}: detector: {e}") from None
         rules_name = rules_name or doc.rules
-        max_frames = doc.max_frames if "max_frames" in given else max_frames
+        if max_frames is None and "max_frames" in given:
+            max_frames = doc.max_frames
     else:
         if args.scenario is not None:
             check_run_scenario(args.scenario)
@@ -219,6 +278,8 @@ def cmd_run(args) -> int:
         raise SettingError("--log-topic needs --log mcap|bag")
     elif args.log_images:
         raise SettingError(f"--log-images {args.log_images} needs --log mcap|bag")
+    for note in clear_stale_outputs(Path(args.out), args):
+        print(f"note: {note}", file=sys.stderr)
     server = None
     if args.live:
         from eval.live.server import LiveServer

@@ -53,6 +53,8 @@ def run(args: argparse.Namespace) -> int:
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"poibench score: error: {message}", file=sys.stderr)
         return EXIT_INPUT_ERROR
+    for note in mode_notes(reports, truth, args.report, args.truth):
+        print(f"note: {note}", file=sys.stderr)
     result = score(reports, truth, rules)
     if args.json:
         json.dump(to_json_dict(result), sys.stdout, indent=2)
@@ -60,3 +62,18 @@ def run(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(format_tables(result))
     return EXIT_OK
+
+
+def mode_notes(reports, truth, report_path: str, truth_path: str) -> list[str]:
+    """Lines that say a report and a truth look swapped: a report's rows of mode GT (the
+    ground truth's mode) or a truth's rows of another mode; scored all the same."""
+    notes = []
+    gt = sum(r.mode == "GT" for r in reports.rows)
+    if gt:
+        notes.append(f"{report_path}: {gt} of {len(reports.rows)} report rows are of mode GT, the ground truth's")
+    other = sum(r.mode != "GT" for r in truth.rows)
+    if other:
+        notes.append(
+            f"{truth_path}: {other} of {len(truth.rows)} truth rows are not of mode GT (swapped with the report?)"
+        )
+    return notes

@@ -9,7 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
-from eval.trial.scenarios import generated_arena_scenario, generated_scenario, resolve_scenario
+from eval.cli.args import positive_int
+from eval.trial.scenarios import (
+    SettingError,
+    generated_arena_scenario,
+    generated_scenario,
+    resolve_scenario,
+    split_settings,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,7 +37,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     r = sub.add_parser("render", help="render frames, depth, ground-truth overlays and truth.csv")
     r.add_argument("scenario", nargs="?", help="scenario file or shipped name (default: the built-in default)")
-    r.add_argument("--frames", type=int, default=20, help="frames to write, spread evenly over the route")
+    r.add_argument(
+        "--frames",
+        type=positive_int,
+        default=20,
+        help="frames to write, spread evenly over the route (at least 1)",
+    )
     r.add_argument("--out", required=True, help="output folder")
     r.add_argument("--seed", type=int, help="generate the scenario from this seed instead")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario setting")
@@ -63,6 +75,12 @@ def truth_overlay(rgb: np.ndarray, truth) -> np.ndarray:
 
 
 def cmd_scenario_new(args) -> int:
+    if args.output:  # before the build: a path that cannot be written, or a file already there
+        from eval.cli.output import OutputPathError, check_output_file
+
+        check_output_file(args.output, "-o")
+        if Path(args.output).exists():
+            raise OutputPathError(f"-o {args.output}: exists; choose another name or remove it first")
     if args.arena:
         sc = generated_arena_scenario(args.seed)
     else:
@@ -88,6 +106,12 @@ def cmd_render(args) -> int:
     from poi.core.depth_units import to_z16
     from sim.simulator import Simulation
 
+    _, pipeline_sets = split_settings(args.set)
+    if pipeline_sets:
+        raise SettingError(
+            f"--set {pipeline_sets[0]}: a pipeline setting; render writes the simulator's frames, which take "
+            "scenario settings only"
+        )
     sc = resolve_scenario(args.scenario, args.seed, args.set, args.noise)
     out = Path(args.out)
     for sub in ("color", "depth", "overlay", "thermal"):

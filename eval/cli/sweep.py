@@ -51,15 +51,22 @@ def check_shard(args) -> None:
 
 
 def cache_dir(args) -> str | None:
-    """The perception cache folder ``--cache`` and ``--no-cache`` choose (None: no cache)."""
+    """The perception cache folder ``--cache`` and ``--no-cache`` choose (None: no cache),
+    checked before any trial: a folder this process can make and write in, and a valid
+    ``$POIBENCH_CACHE_MAX_GB`` (a trial that cannot use the cache runs without it, so either
+    mistake would otherwise go unsaid)."""
+    from eval.cli.output import check_output_folder
     from eval.experiments.sweep import SweepError
-    from eval.trial.perception_cache import default_cache_dir
+    from eval.trial.perception_cache import default_cache_dir, max_cache_bytes
 
     if args.no_cache and args.cache:
         raise SweepError("--cache and --no-cache: choose one")
     if args.no_cache:
         return None
-    return str(Path(args.cache) if args.cache else default_cache_dir())
+    folder = Path(args.cache) if args.cache else default_cache_dir()
+    check_output_folder(folder, "--cache" if args.cache else "the perception cache")
+    max_cache_bytes()
+    return str(folder)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -157,11 +164,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.set_defaults(func=cmd_tune)
 
 
+def check_backend(args) -> None:
+    """Refuse ``--address`` without ``--backend ray``: only Ray connects to a cluster."""
+    from eval.experiments.sweep import SweepError
+
+    if args.address is not None and args.backend != "ray":
+        raise SweepError(f"--address {args.address}: a Ray cluster's address; it needs --backend ray")
+
+
 def _spec(args, suite: str, grid):
     from eval.cli.run import check_detector
     from eval.experiments.sweep import SweepSpec
 
     check_detector(args.detector)
+    check_backend(args)
     return SweepSpec(
         suite=suite,
         grid=grid,
@@ -336,7 +352,7 @@ def cmd_sweep(args) -> int:
     )
     if args.shard is not None:
         print(shard_note(args, out, len(df)))
-    return 0
+    return 0 if failed == 0 else 1  # as suite run: a failed trial fails the command
 
 
 def merged_rows(folder: Path, spec):
@@ -367,7 +383,14 @@ def merged_rows(folder: Path, spec):
 
 
 def cmd_regress(args) -> int:
-    from eval.experiments.regress import RegressError, baseline_doc, compare, load_baseline, write_junit
+    from eval.experiments.regress import (
+        RegressError,
+        baseline_doc,
+        check_baseline_run,
+        compare,
+        load_baseline,
+        write_junit,
+    )
     from eval.experiments.suites import load_suite
     from eval.experiments.sweep import parse_settings, summed_funnel
 
@@ -385,7 +408,25 @@ def cmd_regress(args) -> int:
         df, _ = _run(_spec(args, args.suite, grid), Path(args.out), args.quiet)
         print(shard_note(args, Path(args.out), len(df)))
         return 0 if (df["error"] == "").all() else 1
+    if args.merged:  # nothing runs: the settings of how trials run cannot take effect
+        running = [
+            f for f, on in (("--workers", args.workers != 1), ("--backend ray", args.backend == "ray")) if on
+        ]
+        running += [
+            f for f, on in (("--address", args.address), ("--cache", args.cache), ("--out", args.out)) if on
+        ]
+        if running:
+            raise RegressError(
+                f"{', '.join(running)} with --merged {args.merged}: it judges a finished run, none runs"
+            )
     baseline = None if args.update else load_baseline(base_path)
+    change = (
+        None if baseline is None else check_baseline_run(baseline, base_path, args.detector, args.rules, args.set)
+    )
+    if args.junit:
+        from eval.cli.output import check_output_file
+
+        check_output_file(args.junit, "--junit")
     if args.merged:
         df, out = merged_rows(Path(args.merged), _spec(args, args.suite, grid)), Path(args.merged)
         funnel = summed_funnel(df[df["error"] == ""], out)
@@ -410,7 +451,7 @@ def cmd_regress(args) -> int:
             write_junit(Path(args.junit), df, None, args.tolerance, suite.name)
         return 0
     verdict = compare(df, baseline, args.tolerance, suite)
-    print("\n".join(verdict.lines))
+    print("\n".join(verdict.lines if change is None else [change, *verdict.lines]))
     print_funnel(df[df["error"] == ""], funnel)
     if args.junit:
         write_junit(Path(args.junit), df, baseline, args.tolerance, suite.name)
@@ -424,6 +465,7 @@ def cmd_tune(args) -> int:
 
     params = [parse_param(p) for p in args.param]
     check_detector(args.detector)
+    check_backend(args)
     with progress_bar(total=args.trials, desc="tune", unit="study trial", quiet=args.quiet) as bar:
         res = run_tune(
             args.suite,

@@ -93,7 +93,7 @@ def load_folder(root: str | Path, limit: int | None = None, seed: int = 0, name:
     root = Path(root)
     img_root = root / "images"
     if not root.is_dir():
-        raise DetectorQualityError(f"{root}: no such folder")
+        raise DetectorQualityError(f"{root}: {'a file, not a folder' if root.is_file() else 'no such folder'}")
     if not img_root.is_dir():
         raise DetectorQualityError(f"{root}: no images/ folder; expected a YOLO folder (images/, labels/)")
     splits = [""] if _images_in(img_root) else sorted(p.name for p in img_root.iterdir() if p.is_dir())

@@ -193,6 +193,15 @@ def _label_rows(f: Path, one: bool) -> list[str]:
             raise TrainError(f"{f}:{lineno}: class index {k} is not in 0..{len(RESCUE_CLASSES) - 1}")
         if len(parts) != 5:
             raise TrainError(f"{f}:{lineno}: expected 'class cx cy w h', got {len(parts)} fields")
+        from eval.detector.quality import yolo_box_problem
+
+        try:
+            problem = yolo_box_problem(*map(float, parts[1:]))
+        except ValueError:
+            got = line.strip()
+            raise TrainError(f"{f}:{lineno}: expected 'class cx cy w h' with numbers, got {got!r}") from None
+        if problem:
+            raise TrainError(f"{f}:{lineno}: {problem}")
         if one:
             k = 0 if k < n else k - n + 1
         rows.append(" ".join([str(k), *parts[1:]]))

@@ -59,6 +59,26 @@ def load_baseline(path: Path) -> dict:
     return doc
 
 
+def check_baseline_run(
+    baseline: dict, path: Path, detector: str, rules: str | None, settings: list[str]
+) -> str | None:
+    """Before a run is judged against ``baseline`` (read from ``path``): refuse other scoring
+    rules (score fractions under two rule sets measure different things), and say, in one line
+    for the verdict, where the run's detector or ``--set`` differ from the baseline's (the
+    change a regression test is there to judge), None where they do not."""
+    if "rules" in baseline and baseline["rules"] != rules:
+        raise RegressError(
+            f"{path}: the baseline was scored with rules {baseline['rules'] or 'each scenario its own'}, this run "
+            f"with {rules or 'each scenario its own'}; give the same --rules or write a new baseline with --update"
+        )
+    changed = []
+    if "detector" in baseline and baseline["detector"] != detector:
+        changed.append(f"detector {baseline['detector']} -> {detector}")
+    if "settings" in baseline and list(baseline["settings"]) != list(settings):
+        changed.append(f"--set {' '.join(baseline['settings']) or '(none)'} -> {' '.join(settings) or '(none)'}")
+    return f"note: against a baseline of another pipeline: {'; '.join(changed)}" if changed else None
+
+
 def compare(df, baseline: dict, tolerance: float, suite) -> Verdict:
     """Verdict of a run's rows against a baseline."""
     if baseline["suite"] != suite.name or baseline["suite_version"] != suite.version:

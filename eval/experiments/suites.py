@@ -108,7 +108,9 @@ class Suite:
                 sc = generated_scenario(entry.seed, g.rows, g.cols, g.preset)
             else:
                 sc = apply_settings(load_scenario(entry.scenario), [f"seed={entry.seed}"])
-            sc = apply_settings(sc, [f"name={entry.name}", *self.settings, *entry.settings])
+            sc = apply_settings(sc, [f"name={entry.name}"])
+            sc = apply_settings(sc, self.settings, what="the suite's settings")
+            sc = apply_settings(sc, entry.settings, what="its settings")
         except ScenarioError as e:
             raise SuiteError(f"{self.source}: scenario {entry.name}: {e}") from None
         return sc

@@ -124,7 +124,10 @@ def _parse_set(items: list[str], values_of, expected: str) -> list[tuple[str, li
         key = key.strip()
         if any(k == key for k, _ in grid):
             raise SweepError(f"--set {key}: given twice")
-        grid.append((key, values_of(values)))
+        try:
+            grid.append((key, values_of(values)))
+        except SweepError as e:
+            raise SweepError(f"--set {key}: {e}") from None
     return grid
 
 
@@ -186,6 +189,12 @@ def trial_id(scenario: str, settings: dict[str, str]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
+def _set_error(e: Exception) -> str:
+    """A setting's error as one ``--set`` line (its message once, whether or not it names --set)."""
+    msg = str(e)
+    return msg if msg.startswith("--set") else f"--set: {msg}"
+
+
 def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     """Grid x scenarios, settings outer, scenarios inner; scenario settings applied to the scenario."""
     from eval.scoring.rules import RulesError, load_rules, trial_rules
@@ -204,13 +213,13 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
             # a setting that cannot take effect in a trial is refused here, not recorded in every row
             refuse_detector_model(apply_overrides(load_config(), pipe_sets))
         except (ConfigError, DetectorConfigError) as e:
-            raise SweepError(f"--set: {e}") from None
+            raise SweepError(_set_error(e)) from None
         for entry in suite.scenarios:
             sc = suite.build(entry)
             try:
                 sc = apply_scenario_settings(sc, sim_sets) if sim_sets else sc
             except (ScenarioError, SettingError) as e:
-                raise SweepError(f"--set: {e}") from None
+                raise SweepError(_set_error(e)) from None
             rules = trial_rules(spec.rules, sc.rules)
             if rules not in scoring:
                 try:
@@ -371,9 +380,11 @@ class RowWriter:
             with open(path, encoding="utf-8", newline="") as f:
                 header = next(csv.reader(f), [])
             if header != fields:
+                there = [h for h in header if h not in fields] or ["(none)"]
+                here = [f for f in fields if f not in header] or ["(none)"]
                 raise SweepError(
-                    f"{path}: its columns ({', '.join(header)}) are not this version's ({', '.join(fields)}); "
-                    "choose another --out"
+                    f"{path}: holds the rows of another run (its columns {', '.join(there)}, this run's "
+                    f"{', '.join(here)}; other settings, parameters or poibench version); choose another --out"
                 )
         self._fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
         if new:
@@ -504,10 +515,17 @@ def run_ray(tasks: list[TrialTask], workers: int, address: str | None) -> Iterat
 
 def _check_out(out: Path, spec: SweepSpec) -> None:
     meta = out / "sweep.yaml"
+    # hidden files (a command's lock on its --out) do not make a folder another run's
+    if not meta.exists() and out.is_dir() and any(not p.name.startswith(".") for p in out.iterdir()):
+        what = "a trial (poibench run)" if (out / "config.yaml").exists() else "other files"
+        raise SweepError(f"{out} holds {what}, not a suite run or sweep; choose an empty or new --out")
     if meta.exists():
         old = safe_load_file(meta, error=SweepError)
         if not spec.resume:
-            raise SweepError(f"{out} already holds a sweep; add --resume to continue it or choose another --out")
+            raise SweepError(
+                f"{out} already holds a suite run or sweep; choose another --out (suite run and sweep: "
+                "or add --resume to continue it)"
+            )
         if not isinstance(old, dict) or old.get("sweep") != spec.identity():
             raise SweepError(
                 f"{meta}: that sweep had other settings; --resume needs the same suite, --set and rules"

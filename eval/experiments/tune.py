@@ -75,7 +75,40 @@ def parse_param(item: str) -> Param:
         raise SweepError(f"--param {key}: expected {kind}:LOW:HIGH with numbers") from None
     if not low < high or (kind == "log" and low <= 0):
         raise SweepError(f"--param {key}: need LOW < HIGH (and LOW > 0 for log), got {low}, {high}")
+    if kind == "int" and not (low.is_integer() and high.is_integer()):
+        raise SweepError(f"--param {key}: int:LOW:HIGH needs whole numbers, got {rest}")
     return Param(key=key.strip(), kind=kind, low=low, high=high)
+
+
+def _bounds(p: Param) -> list[str]:
+    """The values of ``p`` that stand for all it can draw: each choice, or the range's two ends."""
+    if p.kind == "choice":
+        return list(p.choices)
+    if p.kind == "int":
+        return [str(int(p.low)), str(int(p.high))]
+    return [repr(p.low), repr(p.high)]
+
+
+def check_params(params: list[Param], suite, detector: str, rules: str | None) -> None:
+    """Refuse, before any study trial, a parameter given twice or one whose key, range end or
+    choice a trial would refuse (:func:`eval.experiments.sweep.make_tasks` on each end and
+    choice: an unknown key, a value out of the setting's range, a setting that cannot take
+    effect): otherwise Optuna finds out only when it draws such a value, trials later."""
+    seen: set[str] = set()
+    for p in params:
+        if p.key in seen:
+            raise SweepError(f"--param {p.key}: given twice")
+        seen.add(p.key)
+        for v in _bounds(p):
+            try:
+                make_tasks(
+                    suite, SweepSpec(suite=suite.name, grid=[(p.key, [v])], detector=detector, rules=rules), Path()
+                )
+            except SweepError as e:
+                what = "choice" if p.kind == "choice" else "range end"
+                raise SweepError(
+                    f"--param {p.key}: {what} {v} is refused ({str(e).removeprefix('--set: ')})"
+                ) from None
 
 
 def _suggest(trial, p: Param) -> str:
@@ -111,9 +144,10 @@ def run_tune(
         raise SweepError(f"--trials must be at least 1, got {n_trials}")
     if workers < 1:
         raise SweepError(f"--workers must be at least 1, got {workers}")
+    suite = load_suite(suite_name)
+    check_params(params, suite, detector, rules)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    suite = load_suite(suite_name)
     keys = [p.key for p in params]
     writer = RowWriter(out / "trials.csv", row_fields(keys))
     optuna.logging.set_verbosity(optuna.logging.WARNING)

@@ -186,6 +186,13 @@ class ReplaySource:
     def __init__(self, trial_dir: str | Path) -> None:
         d = Path(trial_dir)
         init_path, frames_path = d / "live" / "init.json", d / "live" / "frames.jsonl"
+        if not d.is_dir():
+            raise LiveError(f"{d}: no such folder; give a folder written by poibench run")
+        if frames_path.exists() and not init_path.exists():
+            raise LiveError(
+                f"{d}: the live record was never finished (live/frames.jsonl without live/init.json: the trial "
+                "was stopped before its end?); rerun the trial"
+            )
         if not frames_path.exists() or not init_path.exists():
             raise LiveError(
                 f"{d}: no live record (live/init.json, live/frames.jsonl); "

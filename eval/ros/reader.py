@@ -216,9 +216,36 @@ class Recording:
         )
 
 
+ROS1_MAGIC = b"#ROSBAG V2.0"  # the first bytes of a ROS 1 bag
+
+
+def _not_a_recording(path: Path) -> str | None:
+    """Why ``path`` cannot be a recording rosbags reads, said plainly, or None: a folder without
+    rosbag2's metadata.yaml (with its storage files: a recording never closed), or a file that
+    does not start as a ROS 1 bag does."""
+    if path.is_dir():
+        if (path / "metadata.yaml").is_file():
+            return None
+        stored = sorted(p.name for p in path.iterdir() if p.suffix in (".mcap", ".db3"))
+        if stored:
+            return (
+                f"{path}: a rosbag2 folder without metadata.yaml beside {stored[0]} (the recording was never "
+                "closed: a run stopped before its end?); ros2 bag reindex rebuilds it"
+            )
+        return f"{path}: not a recording (no rosbag2 metadata.yaml, no .mcap or .db3 in the folder)"
+    with open(path, "rb") as f:
+        head = f.read(len(ROS1_MAGIC))
+    if path.suffix == ".bag" and head != ROS1_MAGIC:
+        return f"{path}: not a ROS 1 bag (it does not start with {ROS1_MAGIC.decode()})"
+    return None
+
+
 def _open(path: Path):
     from rosbags.highlevel import AnyReader
 
+    problem = _not_a_recording(path)
+    if problem:
+        raise RecordingError(problem)
     try:
         reader = AnyReader([path])
         reader.open()
@@ -331,6 +358,12 @@ def open_recording(
             if by_topic[topic].msgtype not in kinds:
                 raise RecordingError(
                     f"{path}: {topic} holds {by_topic[topic].msgtype}, not the {role} ({' or '.join(kinds)})"
+                )
+        for role in ("odom", "thermal", "thermal_info", "tf", "tf_static"):  # named by --topic: must be there
+            if role in given and getattr(topics, role) not in by_topic:
+                raise RecordingError(
+                    f"{path}: --topic {role}={getattr(topics, role)}: no such topic in the recording (topics: "
+                    f"{_topic_list(available)})"
                 )
         odom = topics.odom if topics.odom in by_topic else None
         if odom is not None and by_topic[odom].msgtype != ODOMETRY:

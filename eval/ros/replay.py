@@ -219,6 +219,9 @@ def replay(
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0  # all threads of the process (the encoder's ffmpeg is a child: not counted)
     skipped = skips.skipped
+    skip_note = skips.note(k)
+    if skip_note:
+        notes.append(f"{rec.path.name}: {skip_note}")
     final = pipe.confirmed()
     outputs.write("pois.csv", lambda _: writer.finalize(final), atomic=False)
     result = funnel = None

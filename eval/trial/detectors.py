@@ -7,10 +7,9 @@ perception record (:mod:`eval.trial.sources`) and a replay of a recording
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
-from eval.trial.pipeline_config import refuse_detector_model
+from eval.trial.pipeline_config import onnx_settings_set, refuse_detector_model
 from poi import models as shipped
 
 DETECTOR_CHOICES = "default | oracle | FILE.onnx | python:MODULE:CLASS | an installed detector's name"
@@ -26,23 +25,15 @@ def check_detector_choice(choice: str) -> None:
         return
     if is_team_detector(choice):
         resolve_factory(choice)
-    elif not choice.endswith(".onnx") and not Path(choice).exists():
+    elif choice.endswith(".onnx") or Path(choice).is_dir():
+        from poi.detectors.base import check_model_file
+
+        check_model_file(choice, DetectorConfigError)
+    elif not Path(choice).exists():
         installed = ", ".join(entry_point_names()) or "none installed"
         raise DetectorConfigError(
             f"unknown detector {choice!r}; expected {DETECTOR_CHOICES} (installed: {installed})"
         )
-
-
-def onnx_settings_set(det_cfg) -> list[str]:
-    """The ``detector.*`` settings other than ``options`` that differ from the default config's, dotted."""
-    from poi.config import DetectorConfig, load_config
-
-    default = load_config().detector
-    return [
-        f"detector.{f.name}"
-        for f in dataclasses.fields(DetectorConfig)
-        if f.name not in ("name", "options") and getattr(det_cfg, f.name) != getattr(default, f.name)
-    ]
 
 
 def _team_detector(choice: str, cfg, notes: list[str]):

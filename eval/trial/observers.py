@@ -141,14 +141,26 @@ class PoseError(Observer):
 
 
 class SkipCounter(Observer):
-    """The frames the pipeline skipped (``res.skipped_reason``: no pose, no depth)."""
+    """The frames the pipeline skipped (``res.skipped_reason``: no pose, no depth, pose not
+    finite), in all and by reason."""
 
     def __init__(self) -> None:
         self.skipped = 0
+        self.by_reason: dict[str, int] = {}
 
     def on_frame(self, tick: Tick) -> None:
-        if tick.res.skipped_reason:
+        reason = tick.res.skipped_reason
+        if reason:
             self.skipped += 1
+            self.by_reason[reason] = self.by_reason.get(reason, 0) + 1
+
+    def note(self, n_frames: int) -> str | None:
+        """One line for a run's notes when frames were skipped, e.g. "5 of 5 frames skipped
+        (nothing localised or tracked on them): pose not finite 5"; None when none were."""
+        if not self.skipped:
+            return None
+        reasons = ", ".join(f"{r} {c}" for r, c in sorted(self.by_reason.items()))
+        return f"{self.skipped} of {n_frames} frames skipped (nothing localised or tracked on them): {reasons}"
 
 
 class RobotPath(Observer):

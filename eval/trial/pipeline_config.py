@@ -44,7 +44,7 @@ def trial_pipeline_config(
        (:func:`poi.models.shipped_settings`; ``runs_oracle``: the oracle runs in the shipped
        detector's place).
 
-    Where the oracle runs, a ``detector.type_conf`` is refused (:func:`refuse_oracle_thresholds`).
+    Where the oracle runs, the ONNX detector's settings are refused (:func:`refuse_oracle_thresholds`).
 
     None of 1 and 4's calibration reaches detection, so the perception cache keys a record by
     this configuration resolved without the sensors (they are read off the simulation, or the
@@ -63,15 +63,33 @@ def trial_pipeline_config(
     return apply_overrides(cfg, shipped_settings(detector, cfg, runs_oracle=runs_oracle))
 
 
+def onnx_settings_set(det_cfg) -> list[str]:
+    """The ``detector.*`` settings other than ``options`` that differ from the default config's, dotted."""
+    import dataclasses
+
+    from poi.config import DetectorConfig, load_config
+
+    default = load_config().detector
+    return [
+        f"detector.{f.name}"
+        for f in dataclasses.fields(DetectorConfig)
+        if f.name not in ("name", "options") and getattr(det_cfg, f.name) != getattr(default, f.name)
+    ]
+
+
 def refuse_oracle_thresholds(cfg) -> None:
-    """Refuse a ``detector.type_conf`` where the oracle detects: its boxes have no detector
-    scores to threshold, so the setting could never take effect."""
+    """Refuse the ONNX detector's settings (``detector.conf``, ``type_conf``, ``label_model``, ...:
+    :func:`onnx_settings_set`) where the oracle detects: its boxes come from
+    the truth with their own noise model, with no network, scores or classifier for them to
+    reach, so they could never take effect."""
     from poi.detectors import DetectorConfigError
 
-    if cfg.detector.type_conf:
+    unused = onnx_settings_set(cfg.detector)
+    if unused:
         raise DetectorConfigError(
-            f"detector.type_conf={dict(cfg.detector.type_conf)}: the oracle's boxes have no detector "
-            "scores to threshold; it takes effect with an ONNX detector (--detector default or FILE.onnx)"
+            f"{', '.join(unused)}: the oracle detector takes none of these (its boxes come from the truth, "
+            "with no detector scores or label classifier); they take effect with an ONNX detector "
+            "(--detector default or FILE.onnx)"
         )
 
 
@@ -92,7 +110,7 @@ def refuse_detector_model(cfg) -> None:
 def check_trial_settings(pipeline_sets, detector: str = "default") -> None:
     """Refuse, before a trial starts, pipeline ``--set`` items that cannot take effect in a
     trial of detector choice ``detector`` (``detector.model``: :func:`refuse_detector_model`;
-    ``detector.type_conf`` with the oracle: :func:`refuse_oracle_thresholds`)."""
+    the ONNX detector's settings with the oracle: :func:`refuse_oracle_thresholds`)."""
     from poi.config import apply_overrides, load_config
 
     cfg = apply_overrides(load_config(), list(pipeline_sets))

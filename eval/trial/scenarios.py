@@ -116,6 +116,11 @@ def resolve_scenario(arg: str | None, seed: int | None, sets: list[str], noise: 
         sc = load_scenario(arg or "default")
         if seed is not None:
             sc = apply_settings(sc, [f"seed={seed}"])
+    return resolve_config_scenario(sc, sets, noise)
+
+
+def resolve_config_scenario(sc: Scenario, sets: list[str], noise: str | None) -> Scenario:
+    """``sc`` (a scenario as built, or a trial config's) with the scenario items of --set, then --noise."""
     sim_sets, _ = split_settings(sets)
     if sim_sets:
         sc = apply_scenario_settings(sc, sim_sets)

@@ -51,4 +51,8 @@ class TrialConfig:
 def load_trial_config(path: str | Path) -> tuple[TrialConfig, dict[str, Any]]:
     """The checked config and the mapping as given (its keys say which settings the file sets)."""
     data, src = load_yaml_file(path, what="trial config", error=TrialConfigError)
+    if isinstance(data, dict) and "poibench_scenario" in data:
+        raise TrialConfigError(
+            f"{path}: a scenario file, not a trial's config.yaml; run it with poibench run {path}"
+        )
     return build(TrialConfig, data, src, error=TrialConfigError), data if isinstance(data, dict) else {}

@@ -110,6 +110,15 @@ def choose_providers(requested: Sequence[str] | None, error: type[Exception]) ->
     return ProviderChoice(chosen, note)
 
 
+def check_model_file(path: str | Path, error: type[Exception], what: str = "model") -> None:
+    """Raise ``error`` with one line unless ``path`` is a file: not there, or a folder."""
+    p = Path(path)
+    if p.is_dir():
+        raise error(f"{what} {p}: is a folder, not an ONNX file")
+    if not p.is_file():
+        raise error(f"{what} file not found: {p}")
+
+
 def open_onnx_session(
     path: Path,
     threads: int,
@@ -122,8 +131,7 @@ def open_onnx_session(
     a missing or unloadable file raises ``error`` with one line naming it."""
     import onnxruntime as ort
 
-    if not path.is_file():
-        raise error(f"{what} file not found: {path}")
+    check_model_file(path, error, what)
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = int(threads)
     opts.inter_op_num_threads = 1

@@ -379,7 +379,10 @@ class OnnxYoloDetector:
             )
         metadata = dict(session.get_modelmeta().custom_metadata_map)
         self.model_names = self._read_names(path, metadata)
-        self._class_to_ours = self._map_classes(self.model_names)
+        try:
+            self._class_to_ours = self._map_classes(self.model_names)
+        except OnnxModelError as e:
+            raise OnnxModelError(f"{path}: {e}") from None
         # (len(CLASSES),) the classes of the model's domain(s), where no-information mass goes
         self._domain = np.zeros(len(CLASSES), dtype=bool)
         for m in self._class_to_ours[self._class_to_ours >= 0]:
@@ -387,7 +390,10 @@ class OnnxYoloDetector:
         self._merged = self._merged_groups()
         self.input_hw = self._read_input(session, path, metadata)
         outputs = session.get_outputs()
-        self._layout = resolve_layout(outputs[0].shape, len(self.model_names), self.layout, metadata)
+        try:
+            self._layout = resolve_layout(outputs[0].shape, len(self.model_names), self.layout, metadata)
+        except OnnxModelError as e:
+            raise OnnxModelError(f"{path}: {e}") from None
         if self.label_model is not None:
             if not np.any(IS_HAZMAT[self._class_to_ours[self._class_to_ours >= 0]]):
                 raise DetectorConfigError(

@@ -205,6 +205,10 @@ class ObjectsGenerate:
                 f"counts.fiducial: fiducials are mounted in pairs facing each other; expected an even number, "
                 f"got {self.counts['fiducial']}"
             )
+        unknown = sorted(set(self.labels or ()) - set(HAZMAT_LABELS))
+        if unknown:  # checked here, where the loader names the file and line, not when the world is built
+            named, known = ", ".join(map(repr, unknown)), ", ".join(HAZMAT_LABELS)
+            raise ValueError(f"labels: unknown hazmat label {named}; expected one of {known}")
         lo, hi = self.wall_height_m
         if not 0.0 <= lo <= hi:
             raise ValueError(f"wall_height_m: expected [low, high] with 0 <= low <= high, got {lo}, {hi}")

@@ -30,6 +30,10 @@ def test_shipped_default_scenario_loads():
         ),
         ("seed: [1\n", "x.yaml:2:1: not valid YAML"),
         ("poibench_scenario: 7\n", "unsupported version 7"),
+        (
+            "objects:\n  generate:\n    labels: [poison, not-a-label]\n",
+            "x.yaml:2: objects.generate: labels: unknown hazmat label 'not-a-label'; expected one of explosive,",
+        ),
     ],
 )
 def test_malformed_scenarios_give_one_line_errors_with_line_numbers(text, message):

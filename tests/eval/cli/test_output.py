@@ -45,6 +45,16 @@ def test_every_command_refuses_a_file_as_its_output_folder_before_it_starts(argv
     assert err == f"poibench {argv[0]}: error: --out {afile}: is a file, not a folder"
 
 
+@pytest.mark.parametrize("argv", [["run"], ["calibrate", "--model", "m.onnx"]], ids=["folder", "file"])
+def test_an_empty_output_path_is_refused_not_taken_for_the_current_folder(argv, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main([*argv, "--out", ""]) == 2
+    want = "give a folder" if argv[0] == "run" else "give a file name"
+    err = capsys.readouterr().err.strip()
+    assert err == f"poibench {argv[0]}: error: --out: an empty path (an unset shell variable?); {want}"
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_folder_under_a_file_and_the_calibration_file(tmp_path, capsys):
     afile = tmp_path / "taken"
     afile.write_text("x")

@@ -79,6 +79,18 @@ def test_json_output(files, capsys) -> None:
     assert [(p["line"], p["severity"]) for p in data["problems"]] == [(12, "error")]
 
 
+def test_a_report_and_truth_swapped_are_named_and_still_scored(files, capsys) -> None:
+    report, truth = files
+    assert _main(["score", str(report), "--truth", str(truth)]) == 0
+    assert "note:" not in capsys.readouterr().err
+    assert _main(["score", str(truth), "--truth", str(report)]) == 0
+    notes = capsys.readouterr().err.splitlines()
+    assert notes == [
+        f"note: {truth}: 3 of 3 report rows are of mode GT, the ground truth's",
+        f"note: {report}: 3 of 3 truth rows are not of mode GT (swapped with the report?)",
+    ]
+
+
 def test_tables_output(files, capsys) -> None:
     report, truth = files
     assert _main(["score", str(report), "--truth", str(truth)]) == 0

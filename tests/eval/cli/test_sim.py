@@ -22,6 +22,12 @@ def test_scenario_new_prints_a_loadable_scenario(tmp_path, capsys):
     out = tmp_path / "s.yaml"
     assert main(["scenario", "new", "--seed", "5", "-o", str(out)]) == 0
     assert out.read_text() == text
+    # an existing file is not overwritten, a path under a file is one line
+    assert main(["scenario", "new", "--seed", "6", "-o", str(out)]) == 2
+    assert f"error: -o {out}: exists; choose another name or remove it first" in capsys.readouterr().err
+    assert out.read_text() == text
+    assert main(["scenario", "new", "--seed", "6", "-o", str(out / "x.yaml")]) == 2
+    assert f"-o {out / 'x.yaml'}: its folder {out}: is a file, not a folder" in capsys.readouterr().err
 
 
 def test_render_writes_frames_depth_overlays_and_truth(tmp_path):

@@ -186,6 +186,11 @@ def test_dataset_cli_errors_are_one_line(tmp_path, capsys):
     assert main(["dataset", "--out", str(tmp_path / "d"), "--images", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--images must be at least 1" in err[0]
+    # each count is checked as the flag it is, not as the field it fills
+    for flag, value, said in (("--per-scenario", "0", "at least 1"), ("--hazmat", "-1", "at least 0")):
+        with pytest.raises(SystemExit):
+            main(["dataset", "--out", str(tmp_path / "d"), "--images", "4", flag, value])
+        assert f"argument {flag}: expected a whole number of {said}, got {value}" in capsys.readouterr().err
 
 
 @pytest.mark.slow

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 import cv2
@@ -179,13 +180,16 @@ def test_load_folder_limit_is_seeded(folders):
         ("16 0.5 0.5 0.1\n", "{lab}:2: expected 'class cx cy w h'"),
         ("x 0.5 0.5 0.1 0.1\n", "{lab}:2: expected 'class cx cy w h'"),
         ("40 0.5 0.5 0.1 0.1\n", "{lab}:2: class 40 is not in 0..23"),
+        ("0 nan 0.5 0.1 0.1\n", "{lab}:2: cx nan: expected a number in [0, 1]"),
+        ("0 1.5 0.5 0.1 0.1\n", "{lab}:2: cx 1.5: expected a number in [0, 1]"),
+        ("0 0.5 0.5 0 0.1\n", "{lab}:2: w 0, h 0.1: expected a box larger than 0"),
     ],
 )
 def test_malformed_label_lines_name_file_and_line(folders, tmp_path, capsys, line, expected):
     real, _, _ = folders
     lab = real / "labels" / "a.txt"
     lab.write_text(lab.read_text().splitlines()[0] + "\n" + line)
-    with pytest.raises(DetectorQualityError, match="^" + expected.format(lab=lab).replace(".", r"\.") + "$"):
+    with pytest.raises(DetectorQualityError, match="^" + re.escape(expected.format(lab=lab)) + "$"):
         load_folder(real)
     argv = ["evaluate-photos", "--images", str(real), "--out", str(tmp_path / "o"), "--quiet"]
     assert main(argv) == 2
@@ -195,6 +199,9 @@ def test_malformed_label_lines_name_file_and_line(folders, tmp_path, capsys, lin
 def test_missing_folder_and_empty_folder_are_one_line_errors(tmp_path):
     with pytest.raises(DetectorQualityError, match=r"nope: no such folder$"):
         load_folder(tmp_path / "nope")
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(DetectorQualityError, match=r"afile: a file, not a folder$"):
+        load_folder(tmp_path / "afile")
     (tmp_path / "e" / "images").mkdir(parents=True)
     with pytest.raises(DetectorQualityError, match=r"images: no \.jpg or \.png images \(nor in a split folder\)$"):
         load_folder(tmp_path / "e")

@@ -247,6 +247,29 @@ def test_evaluate_refuses_a_missing_dataset(tmp_path, capsys):
     assert "no such folder" in capsys.readouterr().err
 
 
+def test_evaluate_refuses_fresh_scene_flags_with_data_and_a_confidence_outside_0_1(hand_dataset, tmp_path, capsys):
+    root, model = hand_dataset
+    argv = [
+        "evaluate-detector",
+        "--model",
+        str(model),
+        "--data",
+        str(root),
+        "--out",
+        str(tmp_path / "o"),
+        "--quiet",
+    ]
+    assert main([*argv, "--images", "5", "--seed", "3"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        f"error: --images and --seed: for fresh scenes; --data {root} evaluates on that folder's val split" in err
+    )
+    with pytest.raises(SystemExit):
+        main([*argv, "--conf", "1.5"])
+    assert "argument --conf: expected a number from 0 to 1, got 1.5" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
 def test_detections_of_ignored_objects_are_neither_hits_nor_false(hand_dataset, tmp_path):
     root, model = hand_dataset
     # mark the oxidizer of image a as too hidden to label: its detection drops out, so the

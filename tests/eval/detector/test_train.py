@@ -56,6 +56,14 @@ def test_a_bad_label_line_names_its_file_and_line(tmp_path):
     data = _dataset(tmp_path / "e", {"a": ["24 0.5 0.5 0.1 0.1"]})
     with pytest.raises(TrainError, match=r"a\.txt:1: class index 24 is not in 0\.\.23"):
         placard_dataset(data, tmp_path / "out2")
+    data = _dataset(tmp_path / "f", {"a": ["3 0.5 0.5 0.1 0.1", "3 0.5 nan 0.1 0.1"]})
+    with pytest.raises(TrainError, match=r"a\.txt:2: cy nan: expected a number in \[0, 1\]"):
+        placard_dataset(data, tmp_path / "out3")
+    data = _dataset(tmp_path / "g", {"a": ["3 0.5 0.5 0.1 wide"]})
+    with pytest.raises(
+        TrainError, match=r"a\.txt:1: expected 'class cx cy w h' with numbers, got '3 0.5 0.5 0.1 wide'"
+    ):
+        placard_dataset(data, tmp_path / "out4")
 
 
 def test_hours_must_be_positive():

@@ -58,6 +58,18 @@ def test_suite_files_are_checked(tmp_path):
         load_suite(bad)
     with pytest.raises(SuiteError, match="no such suite"):
         load_suite("nope")
+    # a setting of the file is named as the file's, not as a --set, with the keys it could be
+    bad.write_text(
+        "poibench_suite: 1\nname: x\nversion: 1\nsettings: [robot.max_duration_ss=3]\nscenarios:\n"
+        "  - {name: a, scenario: default, seed: 1}\n"
+    )
+    suite = load_suite(bad)
+    with pytest.raises(
+        SuiteError, match=r"scenario a: the suite's settings robot.max_duration_ss: unknown setting "
+    ):
+        suite.build(suite.scenarios[0])
+    with pytest.raises(SuiteError, match=r"expected one of kind, mast_height_m, max_duration_s, "):
+        suite.build(suite.scenarios[0])
 
 
 def test_cross_product_of_settings_and_scenarios(tmp_path):
@@ -71,6 +83,8 @@ def test_cross_product_of_settings_and_scenarios(tmp_path):
     assert "lighting: dim" in dim.scenario_yaml
     with pytest.raises(SweepError, match="given twice"):
         parse_grid(["a=1", "a=2"])
+    with pytest.raises(SweepError, match=r"^--set tracker.gate: empty value in '4,,9'$"):
+        parse_grid(["tracker.gate=4,,9"])
     with pytest.raises(SweepError, match="--set"):
         make_tasks(load_suite(TINY), SweepSpec(suite=TINY, grid=parse_grid(["tracker.nope=1"])), tmp_path)
 
@@ -116,6 +130,9 @@ def test_a_failing_trial_is_a_row_and_the_sweep_goes_on(tmp_path, monkeypatch):
     assert row["error"] == "RuntimeError: simulated crash"
     assert df.set_index("scenario").loc["tiny-1", "error"] == ""
     assert agg.loc[0, "trials"] == 2 and agg.loc[0, "failed"] == 1
+    # the command fails with it, as suite run does (a CI job sees it)
+    argv = ["sweep", "--suite", TINY, "--set", "tracker.gate=9", "--no-cache", "--quiet"]
+    assert main([*argv, "--out", str(tmp_path / "m")]) == 1
     # --resume runs the failed one again (now working) and keeps the finished row
     monkeypatch.setattr(eval.trial.run, "run_trial", real)
     df2, _ = run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=9"]), resume=True), tmp_path / "s")
@@ -156,6 +173,18 @@ def test_an_existing_sweep_needs_resume_with_the_same_settings(tmp_path):
         run_sweep(SweepSpec(suite=TINY), tmp_path)
     with pytest.raises(SweepError, match="other settings"):
         run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=4"]), resume=True), tmp_path)
+
+
+def test_a_trial_folder_or_other_files_are_no_place_for_a_sweep(tmp_path):
+    trial = tmp_path / "trial"
+    trial.mkdir()
+    (trial / "config.yaml").write_text("detector: oracle\n")
+    with pytest.raises(SweepError, match=r"trial holds a trial \(poibench run\), not a suite run or sweep"):
+        run_sweep(SweepSpec(suite=TINY, resume=True), trial)
+    (trial / "config.yaml").rename(trial / "notes.txt")
+    with pytest.raises(SweepError, match="holds other files"):
+        run_sweep(SweepSpec(suite=TINY), trial)
+    assert sorted(p.name for p in trial.iterdir()) == ["notes.txt"]
 
 
 @pytest.mark.slow
@@ -232,7 +261,7 @@ def test_rows_and_aggregate_give_each_trials_cpu_seconds(tmp_path):
     # a trials.csv of other columns (an older poibench) is refused, not appended to
     header = (tmp_path / "trials.csv").read_text().splitlines()[0]
     (tmp_path / "trials.csv").write_text(header.replace(",cpu_s,cpu_s_per_sim_s", "") + "\n")
-    with pytest.raises(SweepError, match="not this version's"):
+    with pytest.raises(SweepError, match=r"holds the rows of another run \(its columns \(none\), this run's cpu_s, "):
         run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=9"]), resume=True), tmp_path)
 
 
@@ -350,6 +379,76 @@ def test_regress_passes_then_fails_against_a_raised_baseline(tmp_path, capsys):
     assert "DROP tiny-1" in out and "FAIL mean score fraction" in out
     failures = [c.get("name") for c in ET.parse(junit).getroot().iter("testcase") if c.find("failure") is not None]
     assert failures == ["tiny-1", "mean"]
+
+
+def _tiny_baseline(path: Path, **fields) -> Path:
+    from eval.experiments.regress import BASELINE_VERSION
+
+    suite = load_suite(TINY)
+    doc = {"poibench_baseline": BASELINE_VERSION, "suite": suite.name, "suite_version": suite.version}
+    doc |= {"detector": "default", "rules": None, "settings": [], "mean_fraction": 0.5, "scenarios": {}}
+    path.write_text(json.dumps(doc | fields))
+    return path
+
+
+def test_regress_refuses_other_rules_and_an_unwritable_junit_before_any_trial(tmp_path, capsys, monkeypatch):
+    import eval.cli.sweep as cli_sweep
+
+    monkeypatch.setattr(cli_sweep, "_run", lambda *a: pytest.fail("a trial ran"))
+    base = _tiny_baseline(tmp_path / "b.json", rules="rmrc2026")
+    assert main(["regress", "--suite", TINY, "--baseline", str(base), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{base}: the baseline was scored with rules rmrc2026, this run with each scenario its own" in err
+    base = _tiny_baseline(tmp_path / "b.json")
+    assert main(["regress", "--suite", TINY, "--baseline", str(base), "--junit", "/proc/x.xml", "--quiet"]) == 2
+    assert "error: --junit /proc/x.xml: its folder" in capsys.readouterr().err
+
+
+def test_flags_that_cannot_take_effect_are_refused_before_any_trial(tmp_path, capsys):
+    out = ["--out", str(tmp_path / "w"), "--quiet"]
+    assert main(["sweep", "--suite", TINY, "--set", "tracker.gate=4,9", "--address", "1.2.3.4:10001", *out]) == 2
+    assert (
+        "error: --address 1.2.3.4:10001: a Ray cluster's address; it needs --backend ray"
+        in capsys.readouterr().err
+    )
+    base = _tiny_baseline(tmp_path / "b.json")
+    argv = ["regress", "--suite", TINY, "--baseline", str(base), "--merged", str(tmp_path), "--workers", "2"]
+    assert main(argv) == 2
+    assert "error: --workers with --merged" in capsys.readouterr().err
+    assert not (tmp_path / "w").exists()
+
+
+def test_a_baseline_of_another_detector_or_settings_is_named_in_the_verdict(tmp_path):
+    from eval.experiments.regress import check_baseline_run
+
+    base = {"detector": "default", "rules": None, "settings": ["tracker.gate=4"]}
+    path = tmp_path / "b.json"
+    assert check_baseline_run(base, path, "default", None, ["tracker.gate=4"]) is None
+    assert check_baseline_run(base, path, "oracle", None, []) == (
+        "note: against a baseline of another pipeline: detector default -> oracle; --set tracker.gate=4 -> (none)"
+    )
+
+
+@pytest.mark.parametrize(
+    "params, said",
+    [
+        (["tracker.gate=float:-5:2"], "--param tracker.gate: range end -5.0 is refused (tracker.gate: "),
+        (["tracker.gatee=float:2:25"], "--param tracker.gatee: range end 2.0 is refused ("),
+        (["localize.mode=choice:slam,foo"], "--param localize.mode: choice foo is refused ("),
+        (["tracker.gate=float:2:25", "tracker.gate=float:3:4"], "--param tracker.gate: given twice"),
+        (["tracker.n_min=int:1.5:6"], "--param tracker.n_min: int:LOW:HIGH needs whole numbers, got 1.5:6"),
+    ],
+)
+def test_tune_refuses_a_parameter_trials_would_refuse_up_front(tmp_path, capsys, monkeypatch, params, said):
+    import eval.experiments.tune as tune
+
+    monkeypatch.setattr(tune, "run_local", lambda *a: pytest.fail("a trial ran"))
+    out = tmp_path / "u"
+    argv = ["tune", "--suite", TINY, *(a for p in params for a in ("--param", p)), "--trials", "1", "--quiet"]
+    assert main([*argv, "--no-cache", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert said in err and "Traceback" not in err and err.count("\n") == 1
+    assert not out.exists()  # nothing written: the same --out takes the corrected command
 
 
 def test_regress_without_a_baseline_says_so(tmp_path, capsys):

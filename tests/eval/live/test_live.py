@@ -172,6 +172,13 @@ def test_view_of_a_folder_without_a_record_is_one_line(tmp_path, capsys):
     assert "no live record" in capsys.readouterr().err
     with pytest.raises(LiveError):
         ReplaySource(tmp_path)
+    assert main(["view", str(tmp_path / "nosuch")]) == 2
+    assert f"error: {tmp_path / 'nosuch'}: no such folder" in capsys.readouterr().err
+    # a trial stopped before its end has frames but no init.json: said so, not "run without --no-live-record"
+    (tmp_path / "live").mkdir()
+    (tmp_path / "live" / "frames.jsonl").write_text('{"frame": 0}\n')
+    assert main(["view", str(tmp_path)]) == 2
+    assert "the live record was never finished" in capsys.readouterr().err
 
 
 def test_server_serves_the_page_and_static_files():

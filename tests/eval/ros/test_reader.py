@@ -165,6 +165,10 @@ def test_a_good_tiny_bag_replays(tmp_path, capsys):
     # odometry on frame 0 only (identity pose); frames 1 and 2 have none within half a period
     assert frames[0].pose is not None and np.allclose(frames[0].pose, np.eye(4))
     assert frames[1].pose is None and frames[2].pose is None
+    # a replay says so: the frames without a pose are skipped, in one note
+    assert main(["replay", str(bag), "--out", str(tmp_path / "o"), "--quiet", "--no-video"]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "skipped" in line]
+    assert notes == ["note: ok.bag: 2 of 3 frames skipped (nothing localised or tracked on them): no pose 2"]
 
 
 def test_rosbag2_sqlite3_with_the_pose_from_tf(tmp_path):
@@ -262,6 +266,15 @@ def test_a_topic_named_by_flag_that_is_not_there(tmp_path, capsys):
     argv = ["replay", str(bag), "--topic", "color=/front/rgb", "--out", str(tmp_path / "o"), "--quiet"]
     assert main(argv) == 2
     assert "missing topic: no colour image on /front/rgb" in capsys.readouterr().err
+    # any stream named by --topic must be there, not quietly replaced (odometry by tf, thermal by none)
+    for item in ("odom=/nonexistent", "thermal=/nonexistent"):
+        assert main([*argv[:2], "--topic", item, *argv[4:]]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"poibench replay: error: {bag}: --topic {item}: no such topic in the recording")
+    # the streams a log carries for others, which replay never reads, are refused by name
+    assert main([*argv[:2], "--topic", "truth=/x", *argv[4:]]) == 2
+    err = capsys.readouterr().err
+    assert "--topic truth: streams poibench run --log writes, which replay does not read" in err
 
 
 def test_unknown_encoding(tmp_path, capsys):
@@ -288,6 +301,24 @@ def test_truncated_file(tmp_path, capsys):
     line = _replay_error(bag, tmp_path, capsys)
     assert line.startswith(f"poibench replay: error: {bag}: ")
     assert "truncated" in line
+
+
+def test_what_is_not_a_recording_is_said_plainly(tmp_path, capsys):
+    rand = tmp_path / "rand.bag"
+    rand.write_bytes(bytes(range(256)) * 4)
+    assert _replay_error(rand, tmp_path, capsys).endswith(
+        f"{rand}: not a ROS 1 bag (it does not start with #ROSBAG V2.0)"
+    )
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    line = _replay_error(empty, tmp_path, capsys)
+    assert line.endswith(f"{empty}: not a recording (no rosbag2 metadata.yaml, no .mcap or .db3 in the folder)")
+    (empty / "empty_0.mcap").write_bytes(b"\x89MCAP0\r\n")  # a run stopped before it closed its log
+    line = _replay_error(empty, tmp_path, capsys)
+    assert (
+        f"{empty}: a rosbag2 folder without metadata.yaml beside empty_0.mcap (the recording was never closed"
+        in line
+    )
 
 
 def test_no_such_recording(tmp_path, capsys):

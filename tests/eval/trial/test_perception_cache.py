@@ -204,10 +204,19 @@ def test_a_replayed_trial_writes_the_full_trials_files_byte_for_byte(tmp_path, m
     assert replay.cpu_s < full.cpu_s / 4
 
 
-def test_cache_flags_are_checked(tmp_path, capsys):
+def test_cache_flags_are_checked(tmp_path, capsys, monkeypatch):
     args = ["sweep", "--suite", TINY, "--out", str(tmp_path / "s"), "--quiet"]
     assert main([*args, "--cache", str(tmp_path / "c"), "--no-cache"]) == 2
     assert "--cache and --no-cache" in capsys.readouterr().err
+    # a file as the cache, or a bad size limit: refused before any trial, not left unused in each
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    assert main([*args, "--cache", str(afile)]) == 2
+    assert f"error: --cache {afile}: is a file, not a folder" in capsys.readouterr().err
+    monkeypatch.setenv("POIBENCH_CACHE_MAX_GB", "abc")
+    assert main([*args, "--cache", str(tmp_path / "c")]) == 2
+    assert "error: POIBENCH_CACHE_MAX_GB='abc': expected a number of gigabytes > 0" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
 
 
 @pytest.mark.slow

@@ -52,6 +52,87 @@ def test_run_writes_every_file_and_reruns_from_its_config(tmp_path, capsys):
         assert run["real_time_factor"] == pytest.approx(sim_s / run["wall_s"], rel=1e-2)
     assert run1["cpu_children_s"] > 0  # the ffmpeg of trial.mp4 and of the live record count
     assert 0 < run1["cpu_children_s"] < run1["cpu_s"]
+    # options beside --config apply on top of it: the rerun's own config says so
+    short = tmp_path / "short"
+    argv = ["run", "--config", str(out / "config.yaml"), "--out", str(short), "--quiet", "--no-video"]
+    assert main([*argv, "--max-frames", "3", "--set", "lighting=dim", "--detector", "default"]) == 0
+    rerun = yaml.safe_load((short / "config.yaml").read_text())
+    assert (rerun["max_frames"], rerun["scenario"]["lighting"], rerun["detector"]) == (3, "dim", "default")
+
+
+@pytest.mark.parametrize(
+    "flags, said",
+    [
+        (["--port", "8080"], "--port 8080: the live view's port; it needs --live"),
+        (
+            ["--poi-version", "1.3", "--set", "report.poi_version=1.2"],
+            "--poi-version 1.3 and --set report.poi_version=1.2 set one thing; choose one",
+        ),
+        (
+            ["--noise", "off", "--set", "sensors.noise=true"],
+            "--noise off and --set sensors.noise=true set one thing",
+        ),
+    ],
+)
+def test_run_refuses_flags_that_cannot_take_effect_or_contradict_a_setting(tmp_path, capsys, flags, said):
+    assert main(["run", *flags, "--out", str(tmp_path / "t"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"poibench run: error: {said}") and "\n" not in err
+    assert not (tmp_path / "t" / "pois.csv").exists()
+
+
+def test_render_refuses_a_pipeline_setting_and_no_frames(tmp_path, capsys):
+    assert main(["render", "--set", "tracker.gate=4", "--out", str(tmp_path / "r")]) == 2
+    assert "error: --set tracker.gate=4: a pipeline setting; render writes the simulator's frames" in (
+        capsys.readouterr().err
+    )
+    with pytest.raises(SystemExit):
+        main(["render", "--frames", "0", "--out", str(tmp_path / "r")])
+    assert "argument --frames: expected a whole number of at least 1, got 0" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+def test_an_earlier_trials_video_and_live_record_do_not_stay_beside_a_new_trial(tmp_path):
+    import argparse
+
+    from eval.cli.run import clear_stale_outputs
+
+    for name in ("trial.mp4", "live/frames.jsonl", "trial_mcap/metadata.yaml", "config.yaml"):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text("earlier")
+    args = argparse.Namespace(no_video=True, no_live_record=False, log=None)
+    assert clear_stale_outputs(tmp_path, args) == [
+        f"removed {tmp_path / 'trial.mp4'}, the earlier trial's (this run writes none)",
+        f"{tmp_path / 'trial_mcap'} is the earlier trial's log (this run writes none); kept",
+    ]
+    assert (tmp_path / "live" / "frames.jsonl").exists() and (tmp_path / "trial_mcap").exists()
+    args = argparse.Namespace(no_video=True, no_live_record=True, log="mcap")
+    assert clear_stale_outputs(tmp_path, args) == [
+        f"removed {tmp_path / 'live'}, the earlier trial's (this run writes none)"
+    ]
+    assert not (tmp_path / "live").exists()
+    (tmp_path / "config.yaml").unlink()  # not a trial's folder: nothing of it is touched
+    (tmp_path / "trial.mp4").write_text("mine")
+    assert clear_stale_outputs(tmp_path, args) == [] and (tmp_path / "trial.mp4").exists()
+
+
+def test_run_config_refuses_a_scenario_or_seed_beside_it(tmp_path, capsys):
+    cfg = tmp_path / "config.yaml"
+    cfg.write_text("poibench_trial: 1\ndetector: nosuch.onnx\nscenario: {poibench_scenario: 1}\n")
+    assert main(["run", "--config", str(cfg), "--out", str(tmp_path / "t"), "--quiet"]) == 2
+    assert f"error: {cfg}: detector: model file not found: nosuch.onnx" in capsys.readouterr().err
+    cfg.write_text("detector: oracle\n")
+    for extra in (["--seed", "9"], ["rmrc"]):
+        assert main(["run", "--config", str(cfg), *extra, "--out", str(tmp_path / "t"), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "cannot be combined with --config" in err and str(cfg) in err and "\n" not in err
+    assert not (tmp_path / "t").exists()
+    scenario = tmp_path / "mine.yaml"
+    scenario.write_text("poibench_scenario: 1\nseed: 3\n")
+    assert main(["run", "--config", str(scenario), "--out", str(tmp_path / "t"), "--quiet"]) == 2
+    assert f"{scenario}: a scenario file, not a trial's config.yaml; run it with poibench run {scenario}" in (
+        capsys.readouterr().err
+    )
 
 
 @pytest.mark.slow
@@ -90,6 +171,13 @@ def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
     assert main(["run", str(bad), "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert f"{bad}:3: robot.speed_mps" in err
+    # a folder given as the detector is said to be one
+    assert main(["run", "--detector", str(tmp_path), "--out", str(tmp_path / "t2")]) == 2
+    assert f"error: model {tmp_path}: is a folder, not an ONNX file" in capsys.readouterr().err
+    # an empty (or truncated to nothing) scenario file is not the built-in default maze
+    bad.write_text("# nothing here\n")
+    assert main(["run", str(bad), "--out", str(tmp_path)]) == 2
+    assert f"error: {bad}: an empty scenario file" in capsys.readouterr().err
 
 
 @pytest.mark.slow
@@ -111,12 +199,20 @@ def test_detector_model_is_refused_with_one_line_naming_detector(tmp_path, capsy
         make_detectors("default", cfg, None, [])
 
 
-def test_type_conf_for_the_oracle_is_refused_with_one_line(tmp_path, capsys):
+@pytest.mark.parametrize(
+    "sets, named",
+    [
+        (["detector.type_conf.valve=0.6"], "detector.type_conf"),
+        (["detector.conf=0.9", "detector.imgsz=320"], "detector.conf, detector.imgsz"),
+        (["detector.label_model=poi/models/default_labels.onnx"], "detector.label_model"),
+    ],
+)
+def test_onnx_settings_for_the_oracle_are_refused_with_one_line(tmp_path, capsys, sets, named):
     out = tmp_path / "t"
-    argv = ["run", "--detector", "oracle", "--set", "detector.type_conf.valve=0.6", "--quiet", "--no-video"]
+    argv = ["run", "--detector", "oracle", *(a for s in sets for a in ("--set", s)), "--quiet", "--no-video"]
     assert main([*argv, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("poibench run: error: detector.type_conf={'valve': 0.6}: the oracle's boxes")
+    assert err.startswith(f"poibench run: error: {named}: the oracle detector takes none of these")
     assert "\n" not in err
     assert not (out / "pois.csv").exists()
 
