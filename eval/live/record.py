@@ -138,6 +138,9 @@ class LiveRecorder:
         if record:
             live = self.out / "live"
             live.mkdir(parents=True, exist_ok=True)
+            # written now and again at the end (with the path): a run stopped before its end leaves a
+            # record poibench view replays (eval.live.server.ReplaySource rebuilds the path)
+            (live / "init.json").write_text(json.dumps(self.init), encoding="utf-8")
             self._frames = open(live / "frames.jsonl", "w", encoding="utf-8")  # noqa: SIM115 (closed in close())
             from eval.live.video import H264Writer
 

@@ -158,6 +158,17 @@ def read_frames(path: Path) -> tuple[list[dict], str | None]:
     return frames, None
 
 
+def stopped_record_path(init: dict, frames: list[dict]) -> list | None:
+    """The robot's path of a record whose run stopped before its end, rebuilt from its frame
+    messages (each frame with a pose added that pose's (x, y) to the path, and says how long the
+    path was then, ``path_len``), or None when ``init``'s path is whole. A run's ``init.json`` is
+    written as it starts (an empty path) and again at its end."""
+    need = max((int(m.get("path_len") or 0) for m in frames), default=0)
+    if len(init.get("path") or []) >= need:
+        return None
+    return [m["pose"][:2] for m in frames if m.get("pose") is not None][:need]
+
+
 def seek_index(data: str | bytes, n_frames: int) -> int | None:
     """The frame a replay page asks for (``{"seek": K}``), within ``0 .. n_frames - 1``; None
     for a message that is not a seek to a finite number.
@@ -207,6 +218,12 @@ class ReplaySource:
         self.frames, self.warning = read_frames(frames_path)
         if not self.frames:
             raise LiveError(f"{frames_path}: no whole frame message to replay; rerun the trial")
+        stopped = stopped_record_path(self.init, self.frames)
+        if stopped is not None:
+            self.init["path"] = stopped
+            last = self.frames[-1].get("k")
+            note = f"{d}: the trial stopped at frame {last} before its end: replaying what it recorded"
+            self.warning = note if self.warning is None else f"{self.warning}; {note}"
         self.init["n_frames"] = len(self.frames)
         self.init["replay"] = True
         self.init["funnel"] = read_funnel(d)

@@ -261,7 +261,9 @@ def test_rows_and_aggregate_give_each_trials_cpu_seconds(tmp_path):
     # a trials.csv of other columns (an older poibench) is refused, not appended to
     header = (tmp_path / "trials.csv").read_text().splitlines()[0]
     (tmp_path / "trials.csv").write_text(header.replace(",cpu_s,cpu_s_per_sim_s", "") + "\n")
-    with pytest.raises(SweepError, match=r"holds the rows of another run \(its columns \(none\), this run's cpu_s, "):
+    with pytest.raises(
+        SweepError, match=r"holds the rows of another run \(its columns \(none\), this run's cpu_s, "
+    ):
         run_sweep(SweepSpec(suite=TINY, grid=parse_grid(["tracker.gate=9"]), resume=True), tmp_path)
 
 

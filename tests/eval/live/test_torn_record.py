@@ -35,6 +35,27 @@ def test_a_torn_line_ends_the_replay_there_with_one_warning(tmp_path):
     assert whole.warning is None and len(whole.frames) == 2
 
 
+def test_a_record_stopped_before_its_end_replays_with_its_path_rebuilt(tmp_path):
+    # what a run leaves when stopped at frame 2: init.json as written at its start (no path yet)
+    poses = [[0.0, 0.0, 0.1], None, [0.5, 0.2, 0.3]]
+    lines = []
+    for k, pose in enumerate(poses):
+        path_len = sum(p is not None for p in poses[: k + 1])
+        lines.append(json.dumps({"type": "frame", "k": k, "t": k / 10, "pose": pose, "path_len": path_len}))
+    src = ReplaySource(_record(tmp_path / "a", lines))
+    assert src.init["path"] == [[0.0, 0.0], [0.5, 0.2]]
+    assert (
+        src.warning == f"{tmp_path / 'a'}: the trial stopped at frame 2 before its end: replaying what it recorded"
+    )
+    src.close()
+    # a finished record's path is its own, and no warning
+    init = json.loads((tmp_path / "a" / "live" / "init.json").read_text()) | {"path": [[0.0, 0.0], [0.5, 0.2]]}
+    (tmp_path / "a" / "live" / "init.json").write_text(json.dumps(init))
+    whole = ReplaySource(tmp_path / "a")
+    assert whole.warning is None and whole.init["path"] == [[0.0, 0.0], [0.5, 0.2]]
+    whole.close()
+
+
 def test_view_prints_the_warning_and_a_record_with_no_whole_frame_is_one_line(tmp_path, capsys, monkeypatch):
     from eval.cli.main import main
 

@@ -312,6 +312,13 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
 
     result = score(parsed, read_poi_file(out / "truth.csv"), load_rules("ex3"))
     assert result.identified >= 3 and result.total > 0
+    # and poibench view replays what it recorded, its path rebuilt from the frames
+    from eval.live.server import ReplaySource
+
+    src = ReplaySource(out)
+    assert len(src.frames) > 0 and len(src.init["path"]) > 0
+    assert "the trial stopped at frame" in src.warning
+    src.close()
 
 
 @pytest.mark.slow
