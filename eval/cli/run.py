@@ -189,12 +189,11 @@ def refuse_unused_flags(args, sim_sets: list[str], pipe_sets: list[str]) -> None
 
 
 def clear_stale_outputs(out: Path, args) -> list[str]:
-    """In an earlier trial's folder (``config.yaml``), remove the video and live record this run
-    will not write (``--no-video``, ``--no-live-record``): beside the new results they would show
-    the earlier trial, and ``poibench view`` would replay it. An earlier ROS log is kept (it may
-    be large and costly to make again) and named. The lines to print, one per stale output."""
-    if not (out / "config.yaml").is_file():
-        return []
+    """After a trial into an earlier trial's folder, remove the earlier video and live record
+    this run did not write (``--no-video``, ``--no-live-record``): beside the new results they
+    would show the earlier trial, and ``poibench view`` would replay it. An earlier ROS log is
+    kept (it may be large and costly to make again) and named. The lines to print, one per
+    stale output."""
     notes = []
     for name, stale in (("trial.mp4", args.no_video), ("live", args.no_live_record)):
         path = out / name
@@ -278,8 +277,7 @@ def cmd_run(args) -> int:
         raise SettingError("--log-topic needs --log mcap|bag")
     elif args.log_images:
         raise SettingError(f"--log-images {args.log_images} needs --log mcap|bag")
-    for note in clear_stale_outputs(Path(args.out), args):
-        print(f"note: {note}", file=sys.stderr)
+    earlier_trial = (Path(args.out) / "config.yaml").is_file()  # its outputs go once this trial has run
     server = None
     if args.live:
         from eval.live.server import LiveServer
@@ -307,7 +305,7 @@ def cmd_run(args) -> int:
         if server is not None:
             server.stop()
         log = logger.close() if logger is not None else None
-    for note in res.notes:
+    for note in [*res.notes, *(clear_stale_outputs(Path(args.out), args) if earlier_trial else [])]:
         print(f"note: {note}", file=sys.stderr)
     print(format_tables(res.score))
     if res.funnel is not None:

@@ -97,7 +97,7 @@ def test_an_earlier_trials_video_and_live_record_do_not_stay_beside_a_new_trial(
 
     from eval.cli.run import clear_stale_outputs
 
-    for name in ("trial.mp4", "live/frames.jsonl", "trial_mcap/metadata.yaml", "config.yaml"):
+    for name in ("trial.mp4", "live/frames.jsonl", "trial_mcap/metadata.yaml"):
         (tmp_path / name).parent.mkdir(exist_ok=True)
         (tmp_path / name).write_text("earlier")
     args = argparse.Namespace(no_video=True, no_live_record=False, log=None)
@@ -111,9 +111,6 @@ def test_an_earlier_trials_video_and_live_record_do_not_stay_beside_a_new_trial(
         f"removed {tmp_path / 'live'}, the earlier trial's (this run writes none)"
     ]
     assert not (tmp_path / "live").exists()
-    (tmp_path / "config.yaml").unlink()  # not a trial's folder: nothing of it is touched
-    (tmp_path / "trial.mp4").write_text("mine")
-    assert clear_stale_outputs(tmp_path, args) == [] and (tmp_path / "trial.mp4").exists()
 
 
 def test_run_config_refuses_a_scenario_or_seed_beside_it(tmp_path, capsys):
@@ -146,6 +143,11 @@ def test_no_live_record_writes_no_live_folder_and_scores_the_same(tmp_path, caps
     assert (with_live / "live" / "frames.jsonl").exists() and not (without / "live").exists()
     for name in ("pois.csv", "score.json"):
         assert (without / name).read_bytes() == (with_live / name).read_bytes(), name
+    # run again into the first folder without the record: its earlier record goes, said in a note
+    capsys.readouterr()
+    assert main([*base, "--out", str(with_live), "--no-live-record"]) == 0
+    assert f"note: removed {with_live / 'live'}, the earlier trial's" in capsys.readouterr().err
+    assert not (with_live / "live").exists()
 
 
 @pytest.mark.slow
