@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from eval.cli.args import non_negative_int, positive_int
 from eval.detector.dataset import DISTANCE_DRAWS, HAZMAT_PER_SCENARIO, DatasetSpec
@@ -171,8 +172,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     rf.add_argument("--mine-labels", metavar="LABELS", help="the label model of --mine MODEL (ONNX)")
     rf.add_argument(
         "--keep-easy",
-        type=int,
-        default=RouteFramesSpec.keep_easy,
+        type=positive_int,
         help="with --mine: keep one in this many of the frames it gets right "
         f"(default {RouteFramesSpec.keep_easy})",
     )
@@ -230,7 +230,7 @@ def cmd_route_frames(args) -> int:
         every=args.every,
         settings=tuple(args.settings),
         mine=_mining_pair(args),
-        keep_easy=args.keep_easy,
+        **({} if args.keep_easy is None else {"keep_easy": args.keep_easy}),
     )
     with progress_bar(desc="frames", unit="frame", quiet=args.quiet) as bar:
         summary = write_route_frames(spec, args.out, progress=bar.update)
@@ -250,13 +250,19 @@ def _mining_pair(args) -> tuple[str, str] | str | None:
     from poi.models import SHIPPED
 
     if args.mine is None:
-        if args.mine_labels is not None:
-            raise DatasetError("--mine-labels goes with --mine MODEL")
+        for flag, value in (("--mine-labels", args.mine_labels), ("--keep-easy", args.keep_easy)):
+            if value is not None:
+                raise DatasetError(f"{flag} goes with --mine MODEL")
         return None
     if args.mine == SHIPPED:
         if args.mine_labels is not None:
-            raise DatasetError("--mine default brings the shipped label model; give --mine-labels with a file")
+            raise DatasetError("--mine-labels goes only with --mine FILE.onnx (--mine default brings its own)")
         return SHIPPED
+    if not args.mine.endswith(".onnx") or not Path(args.mine).is_file():
+        what = "no such file" if args.mine.endswith(".onnx") else "expected 'default' or a detector ONNX file"
+        raise DatasetError(f"--mine {args.mine}: {what}")
     if args.mine_labels is None:
         raise DatasetError(f"--mine {args.mine}: give its label model with --mine-labels")
+    if not Path(args.mine_labels).is_file():
+        raise DatasetError(f"--mine-labels {args.mine_labels}: no such file")
     return args.mine, args.mine_labels

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 # Imported for its side effect: choose a headless GL backend before mujoco loads.
 import sim.gl  # noqa: F401
@@ -81,6 +82,26 @@ def _check_out(args: argparse.Namespace) -> None:
     out = getattr(args, "out", None)
     if out is not None:
         (check_output_file if getattr(args, "out_is_file", False) else check_output_folder)(out)
+        _refuse_out_over_an_input(args, out)
+
+
+def _refuse_out_over_an_input(args: argparse.Namespace, out: str) -> None:
+    """Refuse an ``--out`` that is one of the command's own input files (``--model``,
+    ``--label-model``, ``--data``, ``--baseline``) or lies in a folder it reads (a compared
+    run): writing it would destroy the input."""
+    from eval.cli.output import OutputPathError
+
+    target = Path(out).resolve()
+    for option in ("model", "label_model", "data", "baseline", "runs", "images"):
+        values = getattr(args, option, None)
+        for value in values if isinstance(values, list) else [values]:
+            if not isinstance(value, str) or not value or not Path(value).exists():
+                continue
+            given = Path(value).resolve()
+            inside_a_run = option == "runs" and target.parent == given and target.exists()  # its trials.csv...
+            if target == given or inside_a_run:
+                flag = "--" + option.replace("_", "-") if option != "runs" else "a compared run"
+                raise OutputPathError(f"--out {out}: it is (or is in) {flag} {value}; give another name")
 
 
 def _hold_out(args: argparse.Namespace):

@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("recording", help="a .bag file or a rosbag2 folder (with metadata.yaml)")
     p.add_argument("--out", default="replay", help="output folder (default: ./replay)")
     p.add_argument("--truth", metavar="TRUTH.csv", help="ground truth (POI file, mode GT) to score against")
-    p.add_argument("--rules", default="ex3", help=f"{RULES_HELP} (default: ex3)")
+    p.add_argument("--rules", help=f"{RULES_HELP}, to score against --truth (default: ex3)")
     p.add_argument(
         "--config",
         metavar="CONFIG.yaml",
@@ -72,7 +72,11 @@ def cmd_replay(args) -> int:
         from eval.cli.run import check_detector
 
         check_detector(args.detector)
-    rules = load_rules(args.rules) if args.truth else None
+    if args.rules and not args.truth:
+        raise ReplayError(f"--rules {args.rules}: scores against ground truth; it needs --truth TRUTH.csv")
+    rules = load_rules(args.rules or "ex3") if args.truth else None
+    if args.truth:
+        check_truth_file(args.truth)
     rec = open_recording(args.recording, topics, given)
     res = replay(
         rec,
@@ -102,3 +106,19 @@ def cmd_replay(args) -> int:
     )
     print(f"wrote {res.out_dir}/: {' '.join(res.written)}")
     return 0
+
+
+def check_truth_file(path: str) -> None:
+    """Refuse a ``--truth`` that is not ground truth: rows of another mode than GT (a report,
+    such as a trial's pois.csv) or no object at all, which would score anything as nothing."""
+    from eval.ros.replay import ReplayError
+    from poi.core.poi_file import read_poi_file
+
+    truth = read_poi_file(path)
+    other = next((r for r in truth.rows if r.mode != "GT"), None)
+    if other is not None:
+        raise ReplayError(
+            f"{path}: line {other.line}: mode {other.mode!r}; expected GT (a truth.csv, not a report)"
+        )
+    if not truth.rows:
+        raise ReplayError(f"{path}: no objects; expected the ground truth (a truth.csv)")

@@ -74,7 +74,7 @@ def calibration_images(data: str | Path, limit: int) -> list[Path]:
     if not files:
         raise QuantizeError(f"{root}: no .jpg or .png images to calibrate with")
     if limit < 1:
-        raise QuantizeError(f"images must be at least 1, got {limit}")
+        raise QuantizeError(f"--images must be at least 1, got {limit}")
     return files[:limit]
 
 
@@ -135,11 +135,16 @@ def quantize_detector(
         quantize_static,
     )
 
+    from poi.detectors.base import check_model_file
+
     model, out = Path(model), Path(out)
-    if not model.is_file():
-        raise QuantizeError(f"model file not found: {model}")
+    check_model_file(model, QuantizeError)
     files = calibration_images(data, images)
-    src = onnx.load(str(model))
+    try:
+        src = onnx.load(str(model))
+    except Exception as e:  # protobuf's DecodeError, and others, for a file that is not a model
+        reason = (str(e).splitlines() or [type(e).__name__])[0]
+        raise QuantizeError(f"{model}: not an ONNX model ({reason[:150]})") from None
     inputs = [i for i in src.graph.input if i.name not in {t.name for t in src.graph.initializer}]
     if len(inputs) != 1:
         raise QuantizeError(f"{model}: expected one input image, found {len(inputs)} inputs")

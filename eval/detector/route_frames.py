@@ -82,6 +82,15 @@ class RouteFramesSpec:
         if self.keep_easy < 1:
             raise DatasetError(f"--keep-easy must be at least 1, got {self.keep_easy}")
         self.settings = tuple(self.settings)
+        refused = {
+            "seed": "each maze takes its own seed, drawn from --seed; give --seed",
+            "name": "each maze is named by its index",
+            "rules": "route-frames scores nothing",
+        }
+        for item in self.settings:
+            key = item.split("=", 1)[0].strip()
+            if key in refused:
+                raise DatasetError(f"--set {item}: {refused[key]}")
         if self.mine is not None and self.mine != SHIPPED:
             if isinstance(self.mine, str):
                 raise DatasetError(

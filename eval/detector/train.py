@@ -38,6 +38,7 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -90,6 +91,13 @@ class TrainSpec:
             raise TrainError(f"--lr0 must be in (0, 1), got {self.lr0}")
         if self.fine_tune and not Path(self.model).exists():
             raise TrainError(f"--model {self.model}: no such file")
+        if Path(self.model).suffix not in (".pt", ".onnx", ".yaml", ".yml"):
+            raise TrainError(
+                f"--model {self.model}: expected a YOLO checkpoint (.pt), an exported detector (.onnx) or a model "
+                "definition (.yaml)"
+            )
+        if not re.fullmatch(r"cpu|\d+(,\d+)*", str(self.device)):
+            raise TrainError(f"--device {self.device}: expected cpu or a CUDA device index (0, or 0,1)")
         if self.holdout is not None and not 0 < self.holdout < 1:
             raise TrainError(f"--holdout must be between 0 and 1, got {self.holdout}")
         if self.imgsz % 32:
@@ -348,7 +356,11 @@ def train(spec: TrainSpec) -> Path:
         model.train(resume=True)
     else:
         start = start_model(spec, data, out)
-        model = ul.YOLO(start)
+        try:
+            model = ul.YOLO(start)
+        except Exception as e:  # Ultralytics' own errors for a file that is not a checkpoint
+            reason = (str(e).splitlines() or [type(e).__name__])[0]
+            raise TrainError(f"--model {spec.model}: not a loadable YOLO model ({reason[:150]})") from None
         _use_threads(model, spec.threads)
         schedule = {}
         if spec.fine_tune or spec.lr0 is not None:

@@ -179,6 +179,11 @@ def compare_runs(folders: list[str | Path]):
     type (``lost.TYPE``)."""
     import pandas as pd
 
+    seen: set[Path] = set()
+    for f in folders:
+        if Path(f).resolve() in seen:
+            raise CompareError(f"{f}: given twice; compare different runs")
+        seen.add(Path(f).resolve())
     entrants = [e for f in folders for e in load_run(f)]
     labels = [e.label for e in entrants]
     if len(set(labels)) < len(labels):  # two folders of one name: tell them apart by their paths

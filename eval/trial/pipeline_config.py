@@ -84,7 +84,7 @@ def refuse_oracle_thresholds(cfg) -> None:
     reach, so they could never take effect."""
     from poi.detectors import DetectorConfigError
 
-    unused = onnx_settings_set(cfg.detector)
+    unused = onnx_settings_set(cfg.detector) + [f"detector.options.{k}" for k in sorted(cfg.detector.options)]
     if unused:
         raise DetectorConfigError(
             f"{', '.join(unused)}: the oracle detector takes none of these (its boxes come from the truth, "

@@ -191,10 +191,14 @@ def _bad_class(name: Any) -> str:
     return f"class_name {name!r} is not in poi.core.names.CLASSES{hint}"
 
 
-def check_detection(det: Any) -> str | None:
-    """Why ``det`` is not a usable :class:`Detection`, or None."""
+def check_detection(det: Any, image_wh: tuple[int, int] | None = None) -> str | None:
+    """Why ``det`` is not a usable :class:`Detection`, or None; with ``image_wh`` (width,
+    height) its box must also cover some of the image."""
     if not isinstance(det, Detection):
         return f"a {type(det).__name__}, not a poi.core.types.Detection"
+    for name in ("text", "source"):
+        if not isinstance(getattr(det, name), str):
+            return f"{name} {getattr(det, name)!r} is not a str"
     identity = class_to_identity(det.class_name) if isinstance(det.class_name, str) else None
     if identity is None or det.class_name not in CLASSES:
         return _bad_class(det.class_name)
@@ -212,6 +216,14 @@ def check_detection(det: Any) -> str | None:
         return f"box_xyxy {box!r} is not 4 finite numbers"
     if values[2] < values[0] or values[3] < values[1]:
         return f"box_xyxy {box!r} is not (x1, y1, x2, y2) with x1 <= x2 and y1 <= y2"
+    if values[2] == values[0] or values[3] == values[1]:
+        return f"box_xyxy {box!r} has no area"
+    if image_wh is not None:
+        w, h = image_wh
+        if values[2] <= 0 or values[3] <= 0 or values[0] >= w or values[1] >= h:
+            return f"box_xyxy {box!r} lies outside the {w}x{h} image"
+    if isinstance(det.confidence, bool):
+        return f"confidence {det.confidence!r} is a bool, not a score"
     try:
         conf = float(det.confidence)
     except (TypeError, ValueError):
@@ -248,8 +260,9 @@ class CheckedDetector:
             raise DetectorOutputError(f"{where}: {type(exc).__name__}: {exc}") from exc
         if not isinstance(out, list | tuple):
             raise DetectorOutputError(f"{where}: returned a {type(out).__name__}, expected a list of Detection")
+        image_wh = None if frame.rgb is None else (int(frame.rgb.shape[1]), int(frame.rgb.shape[0]))
         for k, det in enumerate(out):
-            why = check_detection(det)
+            why = check_detection(det, image_wh)
             if why is not None:
                 raise DetectorOutputError(f"{where}: detection {k}: {why}")
         return list(out)

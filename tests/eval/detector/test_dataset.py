@@ -193,6 +193,24 @@ def test_dataset_cli_errors_are_one_line(tmp_path, capsys):
         assert f"argument {flag}: expected a whole number of {said}, got {value}" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "flags, said",
+    [
+        (["--keep-easy", "3"], "--keep-easy goes with --mine MODEL"),
+        (["--set", "seed=5"], "--set seed=5: each maze takes its own seed, drawn from --seed; give --seed"),
+        (["--set", "rules=ex3"], "--set rules=ex3: route-frames scores nothing"),
+        (["--mine", "missing.onnx", "--mine-labels", "x.onnx"], "--mine missing.onnx: no such file"),
+        (["--mine", "oracle"], "--mine oracle: expected 'default' or a detector ONNX file"),
+        (["--mine", "default", "--mine-labels", "x.onnx"], "--mine-labels goes only with --mine FILE.onnx"),
+    ],
+)
+def test_route_frames_refuses_settings_that_cannot_take_effect(tmp_path, capsys, flags, said):
+    assert main(["route-frames", "--out", str(tmp_path / "rf"), "--mazes", "1", *flags]) == 2
+    err = capsys.readouterr().err
+    assert f"poibench route-frames: error: {said}" in err and err.count("\n") == 1
+    assert not (tmp_path / "rf").exists()
+
+
 @pytest.mark.slow
 def test_train_checks_its_inputs_before_needing_ultralytics(tiny, tmp_path):
     _, out, _ = tiny

@@ -43,7 +43,7 @@ def test_a_box_on_an_object_too_hidden_to_label_is_not_false():
 
 
 def _args(**kw):
-    return argparse.Namespace(**({"mine": None, "mine_labels": None} | kw))
+    return argparse.Namespace(**({"mine": None, "mine_labels": None, "keep_easy": None} | kw))
 
 
 def test_the_mining_pair_is_checked_before_any_frame():
@@ -53,7 +53,7 @@ def test_the_mining_pair_is_checked_before_any_frame():
     with pytest.raises(DatasetError, match="--mine-labels goes with --mine MODEL"):
         _mining_pair(_args(mine_labels="x.onnx"))
     with pytest.raises(DatasetError, match="give its label model with --mine-labels"):
-        _mining_pair(_args(mine="team.onnx"))
+        _mining_pair(_args(mine=labels))  # an ONNX file that exists, without its label model
     with pytest.raises(DatasetError, match="--mine: no such model file team.onnx"):
         RouteFramesSpec(mazes=1, mine=("team.onnx", labels))
     with pytest.raises(DatasetError, match="--keep-easy must be at least 1, got 0"):

@@ -106,6 +106,20 @@ def test_quantize_detector_writes_a_model_the_detector_runs_and_the_same_twice(t
     det.detect(Frame(index=0, timestamp_s=0.0, rgb=rgb, intrinsics=intr))  # runs on onnxruntime's CPU provider
 
 
+def test_a_file_that_is_not_a_model_and_an_out_over_the_model_are_refused(tmp_path, capsys):
+    data = _dataset(tmp_path / "d", 1)
+    fake = tmp_path / "fake.onnx"
+    fake.write_bytes(b"not a protobuf \xff\x00" * 20)
+    argv = ["quantize-detector", "--data", str(data)]
+    assert main([*argv, "--model", str(fake), "--out", str(tmp_path / "q.onnx")]) == 2
+    assert f"error: {fake}: not an ONNX model (" in capsys.readouterr().err
+    copy = tmp_path / "float.onnx"
+    copy.write_bytes(FLOAT_MODEL.read_bytes())
+    assert main([*argv, "--model", str(copy), "--out", str(copy)]) == 2
+    assert f"error: --out {copy}: it is (or is in) --model {copy}; give another name" in capsys.readouterr().err
+    assert copy.read_bytes() == FLOAT_MODEL.read_bytes()
+
+
 def test_an_already_quantised_model_is_refused(tmp_path, capsys):
     data = _dataset(tmp_path / "d", 1)
     code = main(

@@ -71,6 +71,18 @@ def test_hours_must_be_positive():
         TrainSpec(data="d", out="o", hours=0)
 
 
+def test_a_model_of_another_kind_and_a_device_that_is_not_one_are_refused(tmp_path):
+    script = tmp_path / "detector.py"
+    script.write_text("x = 1\n")
+    with pytest.raises(
+        TrainError, match=r"detector\.py: expected a YOLO checkpoint \(\.pt\), an exported detector"
+    ):
+        TrainSpec(data="d", out="o", model=str(script))
+    with pytest.raises(TrainError, match="--device gpu: expected cpu or a CUDA device index"):
+        TrainSpec(data="d", out="o", device="gpu")
+    assert TrainSpec(data="d", out="o", device="0,1").device == "0,1"
+
+
 def test_the_export_size_is_the_square_training_size_unless_given_and_strides_whole(capsys):
     assert TrainSpec(data="d", out="o", imgsz=416).export_size_hw == (416, 416)
     assert TrainSpec(data="d", out="o", imgsz=416, export_imgsz=(320, 416)).export_size_hw == (320, 416)

@@ -258,6 +258,17 @@ def test_compare_refuses_a_folder_that_is_not_a_run(tmp_path):
         compare_runs([a, tmp_path / "empty"])
     with pytest.raises(CompareError, match="two runs or more"):
         compare_runs([a])
+    with pytest.raises(CompareError, match="yolo-a: given twice; compare different runs"):
+        compare_runs([a, a])
+
+
+def test_compare_refuses_to_write_its_table_over_a_runs_own_file(tmp_path, capsys):
+    runs = _three_runs(tmp_path)
+    before = (runs[0] / "trials.csv").read_bytes()
+    assert main(["suite", "compare", *map(str, runs), "--out", str(runs[0] / "trials.csv")]) == 2
+    err = capsys.readouterr().err
+    assert f"--out {runs[0] / 'trials.csv'}: it is (or is in) a compared run {runs[0]}; give another name" in err
+    assert (runs[0] / "trials.csv").read_bytes() == before
 
 
 @pytest.mark.slow

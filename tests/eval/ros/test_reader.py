@@ -277,6 +277,22 @@ def test_a_topic_named_by_flag_that_is_not_there(tmp_path, capsys):
     assert "--topic truth: streams poibench run --log writes, which replay does not read" in err
 
 
+def test_rules_need_a_truth_and_a_truth_must_be_ground_truth(tmp_path, capsys):
+    bag = _write_bag(tmp_path / "ok.bag")
+    argv = ["replay", str(bag), "--out", str(tmp_path / "o"), "--quiet", "--no-video"]
+    assert main([*argv, "--rules", "rmrc2026"]) == 2
+    assert "--rules rmrc2026: scores against ground truth; it needs --truth TRUTH.csv" in capsys.readouterr().err
+    from poi.core.poi_file import PoiHeader, PoiRow, write_poi_file
+
+    report = tmp_path / "pois.csv"
+    header = PoiHeader(team="t", country="c", date="2026-12-05", start_time="10:00:00", mission="m")
+    row = PoiRow(line=0, id=1, time="10:00:01", text="", x=1.0, y=2.0, z=0.5, robot="r", mode="A", type="door")
+    write_poi_file(report, header, [row])
+    assert main([*argv, "--truth", str(report)]) == 2
+    line = read_poi_file(report).rows[0].line
+    assert f"{report}: line {line}: mode 'A'; expected GT (a truth.csv, not a report)" in capsys.readouterr().err
+
+
 def test_unknown_encoding(tmp_path, capsys):
     bag = _write_bag(tmp_path / "yuv.bag", colour_encoding="yuv422")
     line = _replay_error(bag, tmp_path, capsys)

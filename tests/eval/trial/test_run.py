@@ -207,6 +207,7 @@ def test_detector_model_is_refused_with_one_line_naming_detector(tmp_path, capsy
         (["detector.type_conf.valve=0.6"], "detector.type_conf"),
         (["detector.conf=0.9", "detector.imgsz=320"], "detector.conf, detector.imgsz"),
         (["detector.label_model=poi/models/default_labels.onnx"], "detector.label_model"),
+        (["detector.options.conf=0.3"], "detector.options.conf"),
     ],
 )
 def test_onnx_settings_for_the_oracle_are_refused_with_one_line(tmp_path, capsys, sets, named):

@@ -136,6 +136,17 @@ def test_bad_boxes_confidences_and_types_are_refused():
     assert "class_probs of shape (3,)" in check_detection(det(class_probs=np.ones(3) / 3))
     assert "positive sum" in check_detection(det(class_probs=np.zeros(len(CLASSES))))
     assert check_detection(det(class_probs=np.full(len(CLASSES), 1 / len(CLASSES)))) is None
+    assert check_detection(det(text=5)) == "text 5 is not a str"
+    assert check_detection(det(confidence=True)) == "confidence True is a bool, not a score"
+    assert check_detection(det(box_xyxy=(100, 100, 100, 100))) == "box_xyxy (100, 100, 100, 100) has no area"
+    outside = det(box_xyxy=(5000, 5000, 6000, 6000))
+    assert check_detection(outside) is None  # without the image's size, nothing to say
+    assert (
+        check_detection(outside, (640, 480)) == "box_xyxy (5000, 5000, 6000, 6000) lies outside the 640x480 image"
+    )
+    assert (
+        check_detection(det(box_xyxy=(-10, -10, 5, 5)), (640, 480)) is None
+    )  # partly inside: a box cut by the border
 
 
 def _install_dist(site: Path, entries: dict[str, str]) -> None:
