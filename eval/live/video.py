@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -34,9 +35,24 @@ class H264Writer:
             ffmpeg_log_level="error",
         )
         self._gen.send(None)
+        self.path = Path(path)
+        self.frames = 0
 
     def write(self, rgb: np.ndarray) -> None:
         self._gen.send(np.ascontiguousarray(rgb))
+        self.frames += 1
 
     def close(self) -> None:
-        self._gen.close()
+        """Finish the file; one with no frame (a run that stopped before its first) is no video:
+        it is removed, without imageio-ffmpeg's warning about it."""
+        if self.frames:
+            self._gen.close()
+            return
+        quiet = logging.getLogger("imageio_ffmpeg")
+        level = quiet.level
+        quiet.setLevel(logging.ERROR)
+        try:
+            self._gen.close()
+        finally:
+            quiet.setLevel(level)
+        self.path.unlink(missing_ok=True)

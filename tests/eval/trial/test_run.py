@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -425,6 +426,17 @@ def test_ctrl_c_leaves_a_complete_poi_file_and_one_line(tmp_path):
     parsed = read_poi_file(pois)
     assert parsed.problems == [] and len(parsed.rows) >= 1
     assert pois.read_text().endswith("\n")
+
+
+def test_a_video_closed_before_its_first_frame_leaves_no_file_and_no_warning(tmp_path, caplog):
+    empty = H264Writer(tmp_path / "empty.mp4", 64, 48, 10.0)
+    empty.close()
+    assert not (tmp_path / "empty.mp4").exists()
+    assert not [r for r in caplog.records if "No frames have been written" in r.getMessage()]
+    one = H264Writer(tmp_path / "one.mp4", 64, 48, 10.0)
+    one.write(np.zeros((48, 64, 3), np.uint8))
+    one.close()
+    assert (tmp_path / "one.mp4").stat().st_size > 0
 
 
 class _FullDiskVideo(H264Writer):
