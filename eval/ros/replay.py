@@ -89,29 +89,32 @@ def mount_sets(T: np.ndarray) -> list[str]:
 
 def replay_config(rec: Recording, config_path: str | None, detector: str | None, sets: list[str]):
     """(pipeline config, detector choice, mission name) for the replay of ``rec``: a trial's
-    ``config.yaml`` as it is (it names its own label model and calibration), else the defaults
-    with the shipped detector's (:func:`poi.models.shipped_settings`); the recording's mount and
-    ``sets`` on top."""
+    ``config.yaml`` as it is (it names its own label model and calibration) when its detector
+    runs, else the config (or the defaults) with the chosen detector's shipped files
+    (:func:`poi.models.shipped_settings`); the recording's mount and ``sets`` on top."""
     from poi.config import apply_overrides, load_config
 
     mission = rec.path.stem if rec.path.is_file() else rec.path.name
+    asked, config_detector = detector, None
     if config_path:
         from eval.trial.trial_config import load_trial_config
 
         doc, given = load_trial_config(config_path)
         cfg = doc.pipeline
-        detector = detector or (doc.detector if "detector" in given else "default")
+        config_detector = doc.detector if "detector" in given else "default"
+        detector = detector or config_detector
         mission = doc.scenario.name
     else:
         cfg = load_config()
         detector = detector or "default"
     if detector == "oracle":
-        raise ReplayError("--detector oracle needs the simulator's ground truth; a recording has none")
+        where = "--detector oracle" if asked else f"{config_path}: detector oracle"
+        raise ReplayError(f"{where} needs the simulator's ground truth; a recording has none (give --detector)")
     extra = list(sets)
     if rec.T_tracker_camera is not None:
         extra = mount_sets(rec.T_tracker_camera) + extra
     cfg = apply_overrides(cfg, extra)
-    if not config_path:
+    if not config_path or detector != config_detector:  # a detector the config did not run: its own files
         cfg = apply_overrides(cfg, shipped_settings(detector, cfg))
     return cfg, detector, mission
 

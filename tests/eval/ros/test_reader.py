@@ -293,6 +293,21 @@ def test_rules_need_a_truth_and_a_truth_must_be_ground_truth(tmp_path, capsys):
     assert f"{report}: line {line}: mode 'A'; expected GT (a truth.csv, not a report)" in capsys.readouterr().err
 
 
+def test_an_oracle_trials_config_needs_another_detector_which_brings_its_own_files(tmp_path, capsys):
+    bag = _write_bag(tmp_path / "ok.bag")
+    cfg = tmp_path / "config.yaml"
+    cfg.write_text("poibench_trial: 1\ndetector: oracle\nscenario: {poibench_scenario: 1}\n")
+    argv = ["replay", str(bag), "--config", str(cfg), "--out", str(tmp_path / "o"), "--quiet", "--no-video"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert (
+        f"error: {cfg}: detector oracle needs the simulator's ground truth; a recording has none (give --detector)"
+        in err
+    )
+    # the shipped detector named instead runs with its label model (the oracle's config names none)
+    assert main([*argv, "--detector", "default"]) == 0
+
+
 def test_unknown_encoding(tmp_path, capsys):
     bag = _write_bag(tmp_path / "yuv.bag", colour_encoding="yuv422")
     line = _replay_error(bag, tmp_path, capsys)
