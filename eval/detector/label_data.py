@@ -213,7 +213,7 @@ def holdout_split(
     the names, the fraction and the seed, and every box of an image and every shot of a scene
     is on one side."""
     if not 0.0 < fraction < 1.0:
-        raise DetectorQualityError(f"--holdout must be between 0 and 1, got {fraction}")
+        raise DetectorQualityError(f"--holdout must be between 0 and 1 (both excluded), got {fraction}")
     ordered = sorted(images, key=lambda im: image_key(root, im))
     runs = photo_runs([image_key(root, im) for im in ordered])
     target = round(fraction * len(ordered))
@@ -274,6 +274,12 @@ def training_images(data: Sequence[str | Path], holdout: float | None, seed: int
         raise DetectorQualityError(
             f"no validation images in {', '.join(str(d) for d in data)}: "
             "'poibench route-frames' folders have none; add a 'poibench dataset' folder"
+        )
+    if holdout is not None and not folders:
+        given = ", ".join(map(str, data))
+        raise DetectorQualityError(
+            f"--holdout {holdout}: holds back part of a folder of photos; none of {given} is one "
+            "(a rendered dataset brings its own val split)"
         )
     doc = {"fraction": holdout, "seed": seed, "folders": folders} if folders else {}
     return TrainingImages(train=train, val=val, holdout=doc)

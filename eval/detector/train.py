@@ -99,7 +99,7 @@ class TrainSpec:
         if not re.fullmatch(r"cpu|\d+(,\d+)*", str(self.device)):
             raise TrainError(f"--device {self.device}: expected cpu or a CUDA device index (0, or 0,1)")
         if self.holdout is not None and not 0 < self.holdout < 1:
-            raise TrainError(f"--holdout must be between 0 and 1, got {self.holdout}")
+            raise TrainError(f"--holdout must be between 0 and 1 (both excluded), got {self.holdout}")
         if self.imgsz % 32:
             raise TrainError(f"--imgsz must be a multiple of 32 (the model's stride), got {self.imgsz}")
         if self.export_imgsz is not None and (

@@ -114,7 +114,7 @@ class LabelTrainSpec:
         if self.lr is not None and not self.lr > 0:
             raise TrainError(f"--lr must be positive, got {self.lr}")
         if self.holdout is not None and not 0.0 < self.holdout < 1.0:
-            raise TrainError(f"--holdout must be between 0 and 1, got {self.holdout}")
+            raise TrainError(f"--holdout must be between 0 and 1 (both excluded), got {self.holdout}")
         photos = [d for d in self.data if is_photo_folder(d)]
         if photos and self.holdout is None:
             raise TrainError(

@@ -361,6 +361,8 @@ def _split_folder(root: Path, train: int, val: int, route_frames: bool = False) 
 def test_training_images_take_route_frames_folders_for_training_only(tmp_path):
     data = _split_folder(tmp_path / "data", 3, 2)
     mined = _split_folder(tmp_path / "mined", 4, 0, route_frames=True)
+    with pytest.raises(DetectorQualityError, match="--holdout 0.2: holds back part of a folder of photos"):
+        training_images([data, mined], 0.2, 0)
     got = training_images([data, mined], None, 0)
     assert (len(got.train), len(got.val)) == (7, 2)
     assert {Path(im.path).parent.parent.parent.name for im in got.val} == {"data"}
