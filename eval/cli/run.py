@@ -284,6 +284,8 @@ def cmd_run(args) -> int:
 
         server = LiveServer(args.port)
         print(f"live view: {server.start()}", flush=True)
+    from sim.world.placement import PlacementError
+
     try:
         with DeferredInterrupt() as stop:  # Ctrl-C ends the trial between two frames
             res = run_trial(
@@ -301,6 +303,8 @@ def cmd_run(args) -> int:
                 on_frame=logger,
                 interrupt=stop,
             )
+    except PlacementError as e:  # the scenario's objects do not fit its maze: name the scenario
+        raise SettingError(f"{args.config or args.scenario or 'the default scenario'}: {e}") from None
     finally:
         if server is not None:
             server.stop()

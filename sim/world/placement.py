@@ -1022,8 +1022,8 @@ def place_objects(spec: ObjectsSpec, maze, rng: np.random.Generator) -> list[Pla
                 break
         else:
             raise PlacementError(
-                f"could not place a {t} with min_spacing_m={gen.min_spacing_m}: the maze is too small "
-                "for the requested counts"
+                f"objects.generate: could not place a {t} with min_spacing_m={gen.min_spacing_m}: the maze is "
+                "too small for the requested counts (lower counts or min_spacing_m, or give a bigger maze)"
             )
     if gen.qr_sheets is not None and gen.qr_sheets.count:
         place_qr_sheets(gen.qr_sheets, len(qrs), maze, rng, objects, gen.min_spacing_m * s)

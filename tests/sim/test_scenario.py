@@ -86,5 +86,6 @@ def test_explicit_placement_on_a_wall_face():
 
 def test_too_many_objects_is_a_clear_error():
     sc = parse_scenario("maze: {file: rrl_small}\nobjects:\n  generate: {counts: {hazmat: 60}}\n")
-    with pytest.raises(PlacementError, match="too small"):
+    said = r"^objects.generate: could not place a .* \(lower counts or min_spacing_m"
+    with pytest.raises(PlacementError, match=said):
         place_objects(sc.objects, load_maze(find_maze("rrl_small")), np.random.default_rng(0))

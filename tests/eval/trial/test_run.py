@@ -184,6 +184,14 @@ def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
 
 
 @pytest.mark.slow
+def test_objects_that_do_not_fit_the_maze_name_the_scenario_file(tmp_path, capsys):
+    bad = tmp_path / "crowded.yaml"
+    bad.write_text("poibench_scenario: 1\nmaze: {file: rrl_small}\nobjects:\n  generate: {counts: {hazmat: 60}}\n")
+    assert main(["run", str(bad), "--out", str(tmp_path / "t"), "--max-frames", "1", "--quiet"]) == 2
+    assert f"error: {bad}: objects.generate: could not place a hazmat" in capsys.readouterr().err
+
+
+@pytest.mark.slow
 def test_detector_model_is_refused_with_one_line_naming_detector(tmp_path, capsys):
     # issue 60 edge 1: the trial ran the shipped detector while config.yaml recorded the team's model
     out = tmp_path / "t"
