@@ -194,6 +194,7 @@ def detect_all(
     confidence threshold (``conf`` is the ONNX detector's)."""
     from poi.core.types import Frame, Intrinsics
     from poi.detectors import build_detector, build_python_detector, is_team_detector
+    from poi.detectors.plugins import DetectorOutputError
 
     if is_team_detector(str(model)):
         if label_model is not None:
@@ -212,7 +213,10 @@ def detect_all(
         rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
         h, w = rgb.shape[:2]
         K = Intrinsics(width=w, height=h, fx=1.0, fy=1.0, ppx=w / 2, ppy=h / 2)
-        dets = det.detect(Frame(index=k, timestamp_s=0.0, rgb=rgb, intrinsics=K))
+        try:
+            dets = det.detect(Frame(index=k, timestamp_s=0.0, rgb=rgb, intrinsics=K))
+        except DetectorOutputError as e:  # a team detector's bad output: name the image, not "frame k"
+            raise DetectorOutputError(f"{im.path}: {str(e).replace(f' on frame {k}', '')}") from None
         # the datasets are rescue mazes labelled with RESCUE_CLASSES; a model that also knows
         # the arena's classes has nothing to find of them here
         dets = [d for d in dets if d.class_name in RESCUE_CLASSES]

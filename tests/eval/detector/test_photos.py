@@ -166,6 +166,24 @@ def test_evaluate_photos_side_by_side(folders, tmp_path, capsys):
     assert "real: 1 images have no labels file; taken as showing no object" in printed
 
 
+def test_a_team_detectors_bad_output_names_the_photo(folders, tmp_path, monkeypatch, capsys):
+    real, _, _ = folders
+    (tmp_path / "bad_det.py").write_text("class Dicts:\n    def detect(self, frame):\n        return {}\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    argv = [
+        "evaluate-photos",
+        "--images",
+        str(real),
+        "--model",
+        "python:bad_det:Dicts",
+        "--out",
+        str(tmp_path / "o"),
+    ]
+    assert main([*argv, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"error: {real / 'images' / 'a.png'}: detector 'python:bad_det:Dicts': returned a dict" in err
+
+
 def test_load_folder_limit_is_seeded(folders):
     real, _, _ = folders
     picks = {load_folder(real, limit=1, seed=s).images[0].path.name for s in range(8)}
