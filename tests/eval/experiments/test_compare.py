@@ -279,13 +279,18 @@ def test_suite_run_then_compare_end_to_end(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "error" not in printed.splitlines()[1]  # no trial failed: no error column
     assert "mean score fraction" in printed and "95% interval [" in printed
-    oracle = ["--detector", "oracle", "--set", "detector.conf=0.55"]  # a setting every trial takes
+    # an ONNX detector's setting cannot take effect on the oracle: refused before any trial
+    bad = ["--detector", "oracle", "--set", "detector.conf=0.55"]
+    assert main(["suite", "run", TINY, "--out", str(tmp_path / "bad"), "--quiet", "--no-cache", *bad]) == 2
+    assert "detector.conf: the oracle detector takes none of these" in capsys.readouterr().err
+    assert not (tmp_path / "bad" / "trials.csv").exists()
+    oracle = ["--detector", "oracle", "--set", "tracker.gate=9.0"]  # a setting every trial takes
     assert main(["suite", "run", TINY, "--out", str(b), "--quiet", "--no-cache", *oracle]) == 0
     capsys.readouterr()
-    assert (pd.read_csv(b / "trials.csv")["set.detector.conf"] == 0.55).all()
+    assert (pd.read_csv(b / "trials.csv")["set.tracker.gate"] == 9.0).all()
     assert main(["suite", "compare", str(a), str(b), "--out", str(tmp_path / "compare.csv")]) == 0
     table = pd.read_csv(tmp_path / "compare.csv")
-    folders = {"default": a, "oracle detector.conf=0.55": b}  # a run is named with its settings
+    folders = {"default": a, "oracle tracker.gate=9.0": b}  # a run is named with its settings
     assert sorted(table["run"]) == sorted(folders) and (table["mazes"] == 2).all()
     assert table["fraction_mean"].is_monotonic_decreasing
     # a percentile interval of the mean lies within the mazes' own fractions (which false
