@@ -37,7 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="AdamW learning rate (default: 2e-4 when fine-tuning a .pt or .onnx; "
         "from scratch, Ultralytics' own choice)",
     )
-    t.add_argument("--epochs", type=int, default=60)
+    t.add_argument(
+        "--epochs", type=int, default=60, help="training epochs (default 60; --hours instead fits them)"
+    )
     t.add_argument("--imgsz", type=int, default=320, help="training and export input size (default 320)")
     t.add_argument(
         "--export-imgsz",
@@ -47,10 +49,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="model.onnx's fixed input height and width, multiples of 32 (default: --imgsz square); "
         "e.g. 320 416 for 4:3 frames",
     )
-    t.add_argument("--batch", type=int, default=16)
-    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--batch", type=int, default=16, help="images a batch (default 16)")
+    t.add_argument("--seed", type=int, default=0, help="seed of the training and of --holdout's draw (default 0)")
     t.add_argument("--device", default="cpu", help="cpu or a CUDA device index (default cpu)")
-    t.add_argument("--workers", type=int, default=2)
+    t.add_argument("--workers", type=int, default=2, help="data-loading worker processes (default 2)")
     t.add_argument(
         "--threads", type=int, default=os.cpu_count() or 1, help="torch CPU threads (default: every core)"
     )
@@ -79,7 +81,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(images/, labels/; need --holdout)",
     )
     lt.add_argument("--out", required=True, help="run folder: last.pt, history, label_model.onnx (resumes)")
-    lt.add_argument("--epochs", type=int, default=16)
+    lt.add_argument("--epochs", type=int, default=16, help="training epochs (default 16)")
     lt.add_argument("--samples", type=int, default=32000, help="crops per epoch (default 32000)")
     lt.add_argument("--seed", type=int, default=0, help="seed of the training and of --holdout's draw (default 0)")
     lt.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
