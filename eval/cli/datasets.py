@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from eval.cli.args import non_negative_int, positive_int
 from eval.detector.dataset import DISTANCE_DRAWS, HAZMAT_PER_SCENARIO, DatasetSpec
@@ -258,11 +257,8 @@ def _mining_pair(args) -> tuple[str, str] | str | None:
         if args.mine_labels is not None:
             raise DatasetError("--mine-labels goes only with --mine FILE.onnx (--mine default brings its own)")
         return SHIPPED
-    if not args.mine.endswith(".onnx") or not Path(args.mine).is_file():
-        what = "no such file" if args.mine.endswith(".onnx") else "expected 'default' or a detector ONNX file"
-        raise DatasetError(f"--mine {args.mine}: {what}")
+    if not args.mine.endswith(".onnx"):
+        raise DatasetError(f"--mine {args.mine}: expected 'default' or a detector ONNX file")
     if args.mine_labels is None:
         raise DatasetError(f"--mine {args.mine}: give its label model with --mine-labels")
-    if not Path(args.mine_labels).is_file():
-        raise DatasetError(f"--mine-labels {args.mine_labels}: no such file")
-    return args.mine, args.mine_labels
+    return args.mine, args.mine_labels  # the files themselves: RouteFramesSpec checks them

@@ -226,6 +226,7 @@ def cmd_run(args) -> int:
     if args.poi_version is not None:
         pipe_sets = [*pipe_sets, f"report.poi_version='{args.poi_version}'"]  # quoted: YAML reads 1.3 as a number
     detector, rules_name, max_frames = args.detector or "default", args.rules, args.max_frames
+    detector_from = None  # the config file that named the detector, when one did
     rules_note = None
     if args.config:
         if args.scenario is not None or args.seed is not None:
@@ -241,11 +242,7 @@ def cmd_run(args) -> int:
             for k, v in flatten_config(given.get("pipeline") or {})
         ] + pipe_sets
         if args.detector is None and "detector" in given:
-            detector = doc.detector
-            try:
-                check_detector(detector)
-            except ValueError as e:  # the config's own detector: say where it was named
-                raise SettingError(f"{args.config}: detector: {e}") from None
+            detector, detector_from = doc.detector, args.config
         rules_name = rules_name or doc.rules
         if max_frames is None and "max_frames" in given:
             max_frames = doc.max_frames
@@ -257,7 +254,12 @@ def cmd_run(args) -> int:
         rules_name = trial_rules(None, sc.rules)
         if sc.rules is not None:
             rules_note = f"scoring with the '{sc.rules}' rules, the scenario's own (--rules to choose others)"
-    check_detector(detector)
+    try:
+        check_detector(detector)
+    except ValueError as e:
+        if detector_from is None:
+            raise
+        raise SettingError(f"{detector_from}: detector: {e}") from None  # the config's own: say where
     rules = load_rules(rules_name)
     if rules_note:
         print(f"note: {rules_note}", file=sys.stderr)

@@ -409,12 +409,14 @@ def cmd_regress(args) -> int:
         print(shard_note(args, Path(args.out), len(df)))
         return 0 if (df["error"] == "").all() else 1
     if args.merged:  # nothing runs: the settings of how trials run cannot take effect
-        running = [
-            f for f, on in (("--workers", args.workers != 1), ("--backend ray", args.backend == "ray")) if on
-        ]
-        running += [
-            f for f, on in (("--address", args.address), ("--cache", args.cache), ("--out", args.out)) if on
-        ]
+        flags = {
+            "--workers": args.workers != 1,
+            "--backend ray": args.backend == "ray",
+            "--address": args.address,
+            "--cache": args.cache,
+            "--out": args.out,
+        }
+        running = [flag for flag, given in flags.items() if given]
         if running:
             raise RegressError(
                 f"{', '.join(running)} with --merged {args.merged}: it judges a finished run, none runs"

@@ -216,7 +216,7 @@ def detect_all(
         try:
             dets = det.detect(Frame(index=k, timestamp_s=0.0, rgb=rgb, intrinsics=K))
         except DetectorOutputError as e:  # a team detector's bad output: name the image, not "frame k"
-            raise DetectorOutputError(f"{im.path}: {str(e).replace(f' on frame {k}', '')}") from None
+            raise DetectorOutputError(f"{im.path}: detector {e.detector!r}: {e.reason}") from None
         # the datasets are rescue mazes labelled with RESCUE_CLASSES; a model that also knows
         # the arena's classes has nothing to find of them here
         dets = [d for d in dets if d.class_name in RESCUE_CLASSES]

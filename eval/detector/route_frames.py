@@ -97,9 +97,9 @@ class RouteFramesSpec:
                     f"--mine: expected '{SHIPPED}' or a detector and its label model, got {self.mine!r}"
                 )
             self.mine = (str(self.mine[0]), str(self.mine[1]))
-            for f in self.mine:
+            for flag, f in zip(("--mine", "--mine-labels"), self.mine, strict=True):
                 if not Path(f).is_file():
-                    raise DatasetError(f"--mine: no such model file {f}")
+                    raise DatasetError(f"{flag} {f}: no such file")
 
     def mine_files(self) -> tuple[str, str] | None:
         """The mining pair's two ONNX files (the shipped pair's for ``mine`` "default")."""

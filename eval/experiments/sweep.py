@@ -198,9 +198,9 @@ def _set_error(e: Exception) -> str:
 def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     """Grid x scenarios, settings outer, scenarios inner; scenario settings applied to the scenario."""
     from eval.scoring.rules import RulesError, load_rules, trial_rules
-    from eval.trial.pipeline_config import refuse_detector_model, refuse_oracle_thresholds
+    from eval.trial.pipeline_config import check_trial_settings
     from eval.trial.scenarios import SettingError, apply_scenario_settings, split_settings
-    from poi.config import ConfigError, apply_overrides, load_config
+    from poi.config import ConfigError
     from poi.detectors import DetectorConfigError
     from sim.scenario import ScenarioError
 
@@ -211,10 +211,7 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
         sim_sets, pipe_sets = split_settings(items)
         try:
             # a setting that cannot take effect in a trial is refused here, not recorded in every row
-            cfg = apply_overrides(load_config(), pipe_sets)
-            refuse_detector_model(cfg)
-            if spec.detector == "oracle":
-                refuse_oracle_thresholds(cfg)
+            check_trial_settings(pipe_sets, spec.detector)
         except (ConfigError, DetectorConfigError) as e:
             raise SweepError(_set_error(e)) from None
         for entry in suite.scenarios:

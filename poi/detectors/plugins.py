@@ -42,7 +42,13 @@ ENTRY_POINT_GROUP = "poibench.detectors"
 
 
 class DetectorOutputError(DetectorConfigError):
-    """A Python detector failed on a frame or returned something that is not a list of Detections."""
+    """A Python detector failed on a frame or returned something that is not a list of Detections;
+    ``detector`` (its name) and ``reason`` as well as the one-line message, for a caller that
+    names the frame its own way (an image file)."""
+
+    def __init__(self, message: str, *, detector: str = "", reason: str = "") -> None:
+        super().__init__(message)
+        self.detector, self.reason = detector, reason
 
 
 def is_python_spec(choice: str) -> bool:
@@ -253,16 +259,20 @@ class CheckedDetector:
     inner: Any
 
     def detect(self, frame: Frame) -> list[Detection]:
-        where = f"detector {self.name!r} on frame {frame.index}"
         try:
             out = self.inner.detect(frame)
         except Exception as exc:
-            raise DetectorOutputError(f"{where}: {type(exc).__name__}: {exc}") from exc
+            raise self._error(frame, f"{type(exc).__name__}: {exc}") from exc
         if not isinstance(out, list | tuple):
-            raise DetectorOutputError(f"{where}: returned a {type(out).__name__}, expected a list of Detection")
+            raise self._error(frame, f"returned a {type(out).__name__}, expected a list of Detection")
         image_wh = None if frame.rgb is None else (int(frame.rgb.shape[1]), int(frame.rgb.shape[0]))
         for k, det in enumerate(out):
             why = check_detection(det, image_wh)
             if why is not None:
-                raise DetectorOutputError(f"{where}: detection {k}: {why}")
+                raise self._error(frame, f"detection {k}: {why}")
         return list(out)
+
+    def _error(self, frame: Frame, reason: str) -> DetectorOutputError:
+        return DetectorOutputError(
+            f"detector {self.name!r} on frame {frame.index}: {reason}", detector=self.name, reason=reason
+        )

@@ -53,9 +53,11 @@ def test_the_mining_pair_is_checked_before_any_frame():
     with pytest.raises(DatasetError, match="--mine-labels goes with --mine MODEL"):
         _mining_pair(_args(mine_labels="x.onnx"))
     with pytest.raises(DatasetError, match="give its label model with --mine-labels"):
-        _mining_pair(_args(mine=labels))  # an ONNX file that exists, without its label model
-    with pytest.raises(DatasetError, match="--mine: no such model file team.onnx"):
+        _mining_pair(_args(mine="team.onnx"))
+    with pytest.raises(DatasetError, match="--mine team.onnx: no such file"):
         RouteFramesSpec(mazes=1, mine=("team.onnx", labels))
+    with pytest.raises(DatasetError, match="--mine-labels team_labels.onnx: no such file"):
+        RouteFramesSpec(mazes=1, mine=(labels, "team_labels.onnx"))
     with pytest.raises(DatasetError, match="--keep-easy must be at least 1, got 0"):
         RouteFramesSpec(mazes=1, keep_easy=0)
 
