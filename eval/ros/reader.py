@@ -17,6 +17,10 @@ is one :class:`poi.core.types.Frame`:
   (or ``odom``) to the colour frame; with neither, the camera's first pose is the map frame for
   every frame, and :attr:`Recording.notes` says so.
 
+A rosbag2 MCAP folder its writer never closed (a run killed mid-trial: no ``metadata.yaml``, no
+summary in the file) is read as far as it was written (:mod:`eval.ros.unclosed`), and the notes
+say so.
+
 Every problem with the file is one line naming it and the topic: a missing topic, an unknown
 encoding, a truncated file, no camera info (:class:`RecordingError`).
 
@@ -219,18 +223,26 @@ class Recording:
 ROS1_MAGIC = b"#ROSBAG V2.0"  # the first bytes of a ROS 1 bag
 
 
+def _unclosed_mcap(path: Path) -> Path | None:
+    """The MCAP file of a rosbag2 folder its writer never closed (no metadata.yaml), or None."""
+    if not path.is_dir() or (path / "metadata.yaml").is_file():
+        return None
+    stored = sorted(path.glob("*.mcap"))
+    return stored[0] if len(stored) == 1 else None
+
+
 def _not_a_recording(path: Path) -> str | None:
-    """Why ``path`` cannot be a recording rosbags reads, said plainly, or None: a folder without
-    rosbag2's metadata.yaml (with its storage files: a recording never closed), or a file that
+    """Why ``path`` cannot be a recording poibench reads, said plainly, or None: a folder without
+    rosbag2's metadata.yaml and without the one MCAP file of an unclosed recording, or a file that
     does not start as a ROS 1 bag does."""
     if path.is_dir():
-        if (path / "metadata.yaml").is_file():
+        if (path / "metadata.yaml").is_file() or _unclosed_mcap(path):
             return None
         stored = sorted(p.name for p in path.iterdir() if p.suffix in (".mcap", ".db3"))
         if stored:
             return (
-                f"{path}: a rosbag2 folder without metadata.yaml beside {stored[0]} (the recording was never "
-                "closed: a run stopped before its end?); ros2 bag reindex rebuilds it"
+                f"{path}: a rosbag2 folder without metadata.yaml beside {', '.join(stored)} (the recording was "
+                "never closed: a run stopped before its end?); ros2 bag reindex rebuilds it"
             )
         return f"{path}: not a recording (no rosbag2 metadata.yaml, no .mcap or .db3 in the folder)"
     with open(path, "rb") as f:
@@ -241,14 +253,22 @@ def _not_a_recording(path: Path) -> str | None:
 
 
 def _open(path: Path):
+    """A reader of the recording at ``path``: rosbags' for a closed recording, the stream reader of
+    :mod:`eval.ros.unclosed` for a rosbag2 MCAP folder its writer never closed."""
     from rosbags.highlevel import AnyReader
 
     problem = _not_a_recording(path)
     if problem:
         raise RecordingError(problem)
     try:
-        reader = AnyReader([path])
-        reader.open()
+        unclosed = _unclosed_mcap(path)
+        if unclosed is not None:
+            from eval.ros.unclosed import UnclosedMcap
+
+            reader = UnclosedMcap(unclosed)
+        else:
+            reader = AnyReader([path])
+            reader.open()
     except Exception as e:  # rosbags raises its own errors, and struct/KeyError on a damaged file
         reason = (str(e).splitlines() or [type(e).__name__])[0]
         raise RecordingError(f"{path}: cannot read the recording (truncated or not a bag?): {reason}") from None
@@ -307,10 +327,23 @@ def open_recording(
     path = Path(path)
     if not path.exists():
         raise RecordingError(f"{path}: no such file or folder")
+    try:
+        return _index(path, topics or Topics(), given, names or FrameNames())
+    except RecordingError as e:
+        if _unclosed_mcap(path) is None:
+            raise
+        # what is missing may be what the writer had not flushed when it stopped
+        raise RecordingError(f"{e} (a recording never closed: read as far as its writer got)") from None
+
+
+def _index(path: Path, topics: Topics, given: set[str], names: FrameNames) -> Recording:
+    """:func:`open_recording` of an existing ``path``."""
     topics = topics or Topics()
     names = names or FrameNames()
     notes: list[str] = []
     with _open(path) as reader:
+        if hasattr(reader, "note"):
+            notes.append(reader.note())
         by_topic = {}
         for c in reader.connections:
             by_topic.setdefault(c.topic, c)

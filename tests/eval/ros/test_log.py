@@ -372,3 +372,62 @@ def test_renamed_topics_and_the_tf_chain_give_the_pose_and_mount(tmp_path):
     assert np.allclose(T, poses[0] @ mount, atol=1e-12)
     base = tree.between("map", "base_link", START_NS, 0)
     assert abs(base[2, 3]) < 1e-12 and np.allclose(base[:3, 2], [0, 0, 1])  # the base on the floor, upright
+
+
+def test_a_killed_runs_mcap_log_replays_up_to_where_it_stopped(tmp_path, capsys):
+    """A run killed mid-trial leaves its rosbag2 folder without metadata.yaml and its MCAP file without
+    summary or footer: the data section written so far, whole chunks (rosbags closes a chunk past 1 MiB)
+    and then the chunk cut short. Cut a closed log's file inside its data section: each cut reads back as
+    the closed log's first frames, up to the last stamp in the whole chunks (its frame left out as
+    possibly incomplete: the chunk indexes of the closed file say where that is), and replays with a
+    note saying so."""
+    from mcap.reader import make_reader
+
+    from eval.ros.reader import RecordingError, open_recording
+    from eval.ros.writer import LogWriter
+    from poi.core.geometry import make_transform, rot_z
+    from poi.core.types import Frame, Intrinsics
+
+    k = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=319.5, ppy=239.5)
+    w = LogWriter(tmp_path / "full", "mcap", start_ns=START_NS, T_tracker_camera=np.eye(4), truth=[])
+    n = 8
+    for i in range(n):
+        rgb = np.full((480, 640, 3), 10 * i, np.uint8)
+        depth = np.full((480, 640), 1.0 + 0.1 * i, np.float32)
+        pose = make_transform(rot_z(0.1 * i), [0.2 * i, 0.0, 0.5])
+        w.write(Frame(index=i, timestamp_s=0.1 * i, rgb=rgb, intrinsics=k, depth_m=depth, pose=pose), [], [])
+    w.close()
+    full = open_recording(tmp_path / "full")
+    want = list(full.frames())
+    assert len(want) == n and not any("never closed" in note for note in full.notes)
+    stored = next((tmp_path / "full").glob("*.mcap"))
+    with open(stored, "rb") as f:
+        chunks = make_reader(f).get_summary().chunk_indexes
+    data = stored.read_bytes()
+    assert len(chunks) >= 4
+    stamps = [START_NS + round(0.1 * i * 1e9) for i in range(n)]
+    # a chunk holds a frame and a half: cut inside each chunk from the third (the first frame whole before
+    # it) to the last but one
+    for c in chunks[2:-1]:
+        cut = c.chunk_start_offset + c.chunk_length // 2
+        folder = tmp_path / f"cut{cut}"
+        folder.mkdir()
+        (folder / "cut_0.mcap").write_bytes(data[:cut])
+        rec = open_recording(folder)
+        got = list(rec.frames())
+        assert any(note.startswith(f"{folder}: a recording never closed") for note in rec.notes), rec.notes
+        # the messages of the last stamp in the whole chunks are left out
+        last = max(x.message_end_time for x in chunks if x.chunk_start_offset + x.chunk_length <= cut)
+        assert len(got) == sum(s < last for s in stamps) > 0
+        for g, f in zip(got, want[: len(got)], strict=True):
+            assert g.timestamp_s == f.timestamp_s
+            assert np.array_equal(g.rgb, f.rgb) and np.array_equal(g.depth_m, f.depth_m)
+            assert np.allclose(g.pose, f.pose, atol=1e-12)
+    # cut inside the second chunk: the depth camera info's channel was not written yet, and the error says why
+    cut = chunks[1].chunk_start_offset + chunks[1].chunk_length // 2
+    (tmp_path / "early").mkdir()
+    (tmp_path / "early" / "early_0.mcap").write_bytes(data[:cut])
+    with pytest.raises(RecordingError, match=r"no camera info.*\(a recording never closed: read as far as"):
+        open_recording(tmp_path / "early")
+    assert main(["replay", str(folder), "--out", str(tmp_path / "r"), "--quiet", "--no-video"]) == 0
+    assert f"{folder}: a recording never closed" in capsys.readouterr().err

@@ -344,12 +344,12 @@ def test_what_is_not_a_recording_is_said_plainly(tmp_path, capsys):
     empty.mkdir()
     line = _replay_error(empty, tmp_path, capsys)
     assert line.endswith(f"{empty}: not a recording (no rosbag2 metadata.yaml, no .mcap or .db3 in the folder)")
-    (empty / "empty_0.mcap").write_bytes(b"\x89MCAP0\r\n")  # a run stopped before it closed its log
+    (empty / "empty_0.mcap").write_bytes(b"\x89MCAP0\r\n")  # a run stopped before it wrote a record
     line = _replay_error(empty, tmp_path, capsys)
-    assert (
-        f"{empty}: a rosbag2 folder without metadata.yaml beside empty_0.mcap (the recording was never closed"
-        in line
-    )
+    assert line.endswith("topics: none) (a recording never closed: read as far as its writer got)")
+    (empty / "empty_1.mcap").write_bytes(b"\x89MCAP0\r\n")  # two files: not one recording's
+    line = _replay_error(empty, tmp_path, capsys)
+    assert f"{empty}: a rosbag2 folder without metadata.yaml beside empty_0.mcap, empty_1.mcap" in line
 
 
 def test_no_such_recording(tmp_path, capsys):

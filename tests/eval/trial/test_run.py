@@ -292,7 +292,8 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
     out = tmp_path / "killed"
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "eval.cli.main", "run", "--out", str(out), "--detector", "oracle", "--quiet"],
+        [sys.executable, "-m", "eval.cli.main", "run", "--out", str(out), "--detector", "oracle", "--quiet"]
+        + ["--log", "mcap", "--log-images", "png"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
         env=env,
@@ -331,6 +332,12 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
     assert len(src.frames) > 0 and len(src.init["path"]) > 0
     assert "the trial stopped at frame" in src.warning
     src.close()
+    # and its ROS log, never closed, reads back as far as it was written
+    from eval.ros.reader import open_recording
+
+    rec = open_recording(out / "trial_mcap")
+    assert any("a recording never closed" in note for note in rec.notes)
+    assert rec.n_frames >= 0.5 * len(src.frames), (rec.n_frames, len(src.frames))
 
 
 @pytest.mark.slow
