@@ -234,11 +234,15 @@ def apply_settings(sc: Scenario, assignments: list[str], what: str = "--set") ->
     (0.03, 'dim')
     """
 
-    def unknown(key: str, part: str, node) -> ScenarioError:
-        known = f"; expected one of {', '.join(sorted(node))}" if isinstance(node, dict) and node else ""
-        return ScenarioError(f"{what} {key}: unknown setting {part!r}{known}")
+    def unknown(key: str, part: str, node, path: list[str]) -> ScenarioError:
+        where = f"under {'.'.join(path)}" if path else "at the top"
+        if not isinstance(node, dict):
+            return ScenarioError(f"{what} {key}: {'.'.join(path)} is a value, not a section with {part!r} in it")
+        known = ", ".join(node)
+        return ScenarioError(f"{what} {key}: unknown scenario key {part!r}; expected one of {known} ({where})")
 
     data = sc.to_dict()
+    opened: list[dict] = []  # sections left unset that these settings fill: any key goes, the loader checks
     for item in assignments:
         key, sep, raw = item.partition("=")
         if not sep or not key:
@@ -249,15 +253,19 @@ def apply_settings(sc: Scenario, assignments: list[str], what: str = "--set") ->
             value = raw
         node = data
         parts = key.split(".")
-        for part in parts[:-1]:
-            if not isinstance(node, dict) or part not in node:
-                raise unknown(key, part, node)
-            if node[part] is None:
+        for depth, part in enumerate(parts):
+            if not isinstance(node, dict) or (part not in node and not any(node is o for o in opened)):
+                raise unknown(key, part, node, parts[:depth])
+            if depth == len(parts) - 1:
+                node[part] = value
+            elif node.get(part) is None:
+                # a section left unset (the arena of a maze scenario, the generator of a maze file):
+                # the loader below names the keys it takes, or why it cannot be set here
                 node[part] = {}
-            node = node[part]
-        if not isinstance(node, dict) or parts[-1] not in node:
-            raise unknown(key, parts[-1], node)
-        node[parts[-1]] = value
+                node = node[part]
+                opened.append(node)
+            else:
+                node = node[part]
     return scenario_from_data(data, Source(what), source_dir=sc.source_dir)
 
 

@@ -84,7 +84,6 @@ def suite_runs(names: list[str], runs: int, seed: int | None, sim_sets: list[str
     scenarios again in turn (new mazes of the same kind)."""
     from eval.experiments.consistency import ConsistencyError
     from eval.experiments.suites import load_suite
-    from eval.trial.scenarios import apply_scenario_settings
     from sim.scenario import apply_settings, with_noise
 
     scenarios = []
@@ -97,8 +96,7 @@ def suite_runs(names: list[str], runs: int, seed: int | None, sim_sets: list[str
                 "its scenarios again with fresh seeds (new mazes of the same kind)"
             )
         picked = [
-            with_noise(apply_scenario_settings(suite.build(suite.scenarios[i % n]), sim_sets), True)
-            for i in range(runs)
+            with_noise(apply_settings(suite.build(suite.scenarios[i % n]), sim_sets), True) for i in range(runs)
         ]
         if seed is not None:
             picked = [apply_settings(sc, [f"seed={seed + i}"]) for i, sc in enumerate(picked)]

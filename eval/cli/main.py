@@ -64,14 +64,20 @@ def main(argv: list[str] | None = None) -> int:
         with _hold_out(args):
             return int(args.func(args) or 0)
     except KeyboardInterrupt:
-        print(f"poibench {args.command}: interrupted", file=sys.stderr)
+        print(f"{_command_name(args)}: interrupted", file=sys.stderr)
         return 130
     except (ValueError, OSError, RuntimeError) as e:
         if not _is_user_error(e):
             raise
         msg = str(e).splitlines()[0] if str(e) else type(e).__name__
-        print(f"poibench {args.command}: error: {msg}", file=sys.stderr)
+        print(f"{_command_name(args)}: error: {msg}", file=sys.stderr)
         return 2
+
+
+def _command_name(args: argparse.Namespace) -> str:
+    """The command as typed, with its subcommand: ``poibench suite merge``, ``poibench run``."""
+    sub = getattr(args, "suite_cmd", None) or getattr(args, "scenario_cmd", None)
+    return f"poibench {args.command}" + (f" {sub}" if sub else "")
 
 
 def _check_out(args: argparse.Namespace) -> None:

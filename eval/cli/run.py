@@ -14,6 +14,7 @@ from eval.trial.scenarios import (
     SettingError,
     UnknownScenarioError,
     check_scenario_name,
+    large_maze_note,
     resolve_config_scenario,
     resolve_scenario,
     split_settings,
@@ -263,6 +264,9 @@ def cmd_run(args) -> int:
     rules = load_rules(rules_name)
     if rules_note:
         print(f"note: {rules_note}", file=sys.stderr)
+    setup_note = large_maze_note(sc)
+    if setup_note:
+        print(f"note: {setup_note}", file=sys.stderr, flush=True)
     logger = None
     if args.log:
         from eval.ros import require_rosbags
@@ -273,7 +277,7 @@ def cmd_run(args) -> int:
         from eval.trial.run import MISSION_START
 
         start_ns = int(MISSION_START.replace(tzinfo=timezone.utc).timestamp()) * 1_000_000_000
-        topics = parse_overrides(args.log_topic)
+        topics = parse_overrides(args.log_topic, flag="--log-topic")
         logger = TrialLogger(Path(args.out), args.log, start_ns, topics=topics, images=args.log_images or "raw")
     elif args.log_topic:
         raise SettingError("--log-topic needs --log mcap|bag")

@@ -134,14 +134,13 @@ class RouteFramesSpec:
 
 
 def _scenario(spec: RouteFramesSpec, j: int, attempt: int = 0):
-    from eval.trial.scenarios import apply_scenario_settings, generated_scenario
+    from eval.trial.scenarios import generated_scenario
+    from sim.scenario import apply_settings
 
     seed, rows, cols, lighting = spec.maze(j, attempt)
     try:
-        return apply_scenario_settings(
-            generated_scenario(seed, rows, cols), [f"lighting={lighting}", *spec.settings]
-        )
-    except ValueError as exc:  # SettingError, ScenarioError: one line naming the key
+        return apply_settings(generated_scenario(seed, rows, cols), [f"lighting={lighting}", *spec.settings])
+    except ValueError as exc:  # ScenarioError: one line naming the key
         raise DatasetError(str(exc)) from exc
 
 

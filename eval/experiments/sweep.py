@@ -199,10 +199,10 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
     """Grid x scenarios, settings outer, scenarios inner; scenario settings applied to the scenario."""
     from eval.scoring.rules import RulesError, load_rules, trial_rules
     from eval.trial.pipeline_config import check_trial_settings
-    from eval.trial.scenarios import SettingError, apply_scenario_settings, split_settings
+    from eval.trial.scenarios import split_settings
     from poi.config import ConfigError
     from poi.detectors import DetectorConfigError
-    from sim.scenario import ScenarioError
+    from sim.scenario import ScenarioError, apply_settings
 
     tasks = []
     scoring: dict[str, str] = {}  # rules name -> its scoring ("points", "map_error"), each loaded once
@@ -217,8 +217,8 @@ def make_tasks(suite: Suite, spec: SweepSpec, out_dir: Path) -> list[TrialTask]:
         for entry in suite.scenarios:
             sc = suite.build(entry)
             try:
-                sc = apply_scenario_settings(sc, sim_sets) if sim_sets else sc
-            except (ScenarioError, SettingError) as e:
+                sc = apply_settings(sc, sim_sets) if sim_sets else sc
+            except ScenarioError as e:
                 raise SweepError(_set_error(e)) from None
             rules = trial_rules(spec.rules, sc.rules)
             if rules not in scoring:

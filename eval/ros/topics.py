@@ -73,8 +73,9 @@ class FrameNames:
     thermal: str = "thermal_optical_frame"
 
 
-def parse_overrides(items: list[str], base: Topics | None = None) -> Topics:
-    """``Topics`` with ``NAME=/topic`` overrides applied, e.g. ``["color=/front/rgb"]``.
+def parse_overrides(items: list[str], base: Topics | None = None, flag: str = "--topic") -> Topics:
+    """``Topics`` with ``NAME=/topic`` overrides applied, e.g. ``["color=/front/rgb"]``; errors name
+    ``flag``, the option the items came from.
 
     >>> parse_overrides(["color=/front/rgb"]).color
     '/front/rgb'
@@ -89,9 +90,9 @@ def parse_overrides(items: list[str], base: Topics | None = None) -> Topics:
     for item in items:
         name, sep, value = item.partition("=")
         if not sep or not value.startswith("/"):
-            raise TopicError(f"--topic {item}: expected NAME=/topic/name, e.g. color=/camera/color/image_raw")
+            raise TopicError(f"{flag} {item}: expected NAME=/topic/name, e.g. color=/camera/color/image_raw")
         if name not in names:
-            raise TopicError(f"--topic {item}: unknown stream {name!r}; expected one of {', '.join(names)}")
+            raise TopicError(f"{flag} {item}: unknown stream {name!r}; expected one of {', '.join(names)}")
         changes[name] = value
     return dataclasses.replace(topics, **changes)
 

@@ -503,6 +503,10 @@ class _Parser:
             indent = len(raw) - len(raw.lstrip())
             if after_drawing:
                 raise self.error(i, indent + 1, "text after the maze drawing; expected only blank or '#' lines")
+            if drawing and _SETTING_RE.match(raw):  # a drawing line starts with '+', '|' or a space
+                raise self.error(
+                    i, 1, f"setting {raw.split(':', 1)[0]!r} after the maze drawing; expected settings before it"
+                )
             if drawing or raw.startswith("+"):
                 drawing.append((i, raw.rstrip()))
                 continue

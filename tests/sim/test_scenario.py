@@ -46,7 +46,7 @@ def test_malformed_scenarios_give_one_line_errors_with_line_numbers(text, messag
 def test_apply_settings_validates():
     sc = apply_settings(load_scenario("default"), ["robot.speed_mps=0.5"])
     assert sc.robot.speed_mps == 0.5
-    with pytest.raises(ScenarioError, match="unknown setting"):
+    with pytest.raises(ScenarioError, match=r"key 'wings'; expected one of kind, .*\(under robot\)"):
         apply_settings(sc, ["robot.wings=2"])
     with pytest.raises(ScenarioError, match="expected a number"):
         apply_settings(sc, ["robot.speed_mps=fast"])

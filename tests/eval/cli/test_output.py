@@ -42,7 +42,8 @@ def test_every_command_refuses_a_file_as_its_output_folder_before_it_starts(argv
     assert main([*argv, "--out", str(afile)]) == 2
     assert started == []
     err = capsys.readouterr().err.strip()
-    assert err == f"poibench {argv[0]}: error: --out {afile}: is a file, not a folder"
+    command = " ".join(argv[:2]) if argv[0] == "suite" else argv[0]  # a subcommand is named with its command
+    assert err == f"poibench {command}: error: --out {afile}: is a file, not a folder"
 
 
 @pytest.mark.parametrize("argv", [["run"], ["calibrate", "--model", "m.onnx"]], ids=["folder", "file"])

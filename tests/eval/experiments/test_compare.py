@@ -248,7 +248,7 @@ def test_compare_refuses_runs_of_other_suites_or_mazes_with_one_line(tmp_path, c
         compare_runs([a, b])
     assert main(["suite", "compare", str(a), str(b), "--out", str(tmp_path / "c.csv")]) == 2
     err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and "poibench suite: error:" in err
+    assert len(err.strip().splitlines()) == 1 and "poibench suite compare: error:" in err
 
 
 def test_compare_refuses_a_folder_that_is_not_a_run(tmp_path):

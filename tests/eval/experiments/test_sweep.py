@@ -65,10 +65,10 @@ def test_suite_files_are_checked(tmp_path):
     )
     suite = load_suite(bad)
     with pytest.raises(
-        SuiteError, match=r"scenario a: the suite's settings robot.max_duration_ss: unknown setting "
+        SuiteError, match=r"scenario a: the suite's settings robot.max_duration_ss: unknown scenario key "
     ):
         suite.build(suite.scenarios[0])
-    with pytest.raises(SuiteError, match=r"expected one of kind, mast_height_m, max_duration_s, "):
+    with pytest.raises(SuiteError, match=r"expected one of kind, route, speed_mps, "):
         suite.build(suite.scenarios[0])
 
 

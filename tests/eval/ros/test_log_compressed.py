@@ -158,3 +158,11 @@ def test_log_images_without_a_log_is_refused(tmp_path, capsys):
     assert main(["run", "--log-images", "png", "--max-frames", "1", "--out", str(tmp_path / "t")]) == 2
     assert capsys.readouterr().err.strip().endswith("error: --log-images png needs --log mcap|bag")
     assert not (tmp_path / "t" / "pois.csv").exists()
+
+
+def test_a_bad_log_topic_is_named_by_its_flag(tmp_path, capsys):
+    argv = ["run", "--log", "mcap", "--log-topic", "nosuch=/x", "--max-frames", "1", "--out", str(tmp_path / "t")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("poibench run: error: --log-topic nosuch=/x: unknown stream 'nosuch'; expected one of")
+    assert not (tmp_path / "t" / "pois.csv").exists()

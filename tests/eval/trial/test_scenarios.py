@@ -3,8 +3,8 @@
 import pytest
 
 from eval.cli.main import main
-from eval.trial.scenarios import SettingError, apply_scenario_settings, split_settings
-from sim.scenario import load_scenario
+from eval.trial.scenarios import SettingError, split_settings
+from sim.scenario import ScenarioError, apply_settings, load_scenario
 
 
 def test_settings_are_split_by_their_first_key():
@@ -54,7 +54,36 @@ def test_an_unknown_scenario_key_lists_the_keys_valid_at_its_level(tmp_path, cap
     err = capsys.readouterr().err.strip()
     assert err.startswith("poibench run: error: --set sensors.fsp: unknown scenario key 'fsp'; expected one of ")
     assert "fps" in err and "d435" in err and "(under sensors)" in err and "\n" not in err
-    with pytest.raises(SettingError, match=r"unknown scenario key 'gamma'; .*width.*\(under sensors\.d435\)"):
-        apply_scenario_settings(load_scenario("default"), ["sensors.d435.gamma=2"])
-    assert apply_scenario_settings(load_scenario("default"), ["sensors.fps=15"]).sensors.fps == 15
+    with pytest.raises(ScenarioError, match=r"unknown scenario key 'gamma'; .*width.*\(under sensors\.d435\)"):
+        apply_settings(load_scenario("default"), ["sensors.d435.gamma=2"])
+    assert apply_settings(load_scenario("default"), ["sensors.fps=15"]).sensors.fps == 15
     assert not out.exists()
+
+
+def test_a_key_under_a_section_left_unset_is_checked_by_the_sections_own_keys():
+    """A section the scenario leaves unset (the TurtleBot arena's maze, a maze file's generator) has no
+    keys in the data to list: its settings class names them, or says why the section cannot be set."""
+    with pytest.raises(ScenarioError, match=r"generate\.foo: unknown key; expected one of rows, cols"):
+        apply_settings(load_scenario("default"), ["maze.file=null", "maze.generate.foo=1"])
+    sets = ["maze.file=null", "maze.generate.rows=3", "maze.generate.cols=5"]
+    generated = apply_settings(load_scenario("default"), sets)
+    assert (generated.maze.generate.rows, generated.maze.generate.cols, generated.maze.file) == (3, 5, None)
+    with pytest.raises(ScenarioError, match=r"maze: .*file.*generate|file or generate"):
+        apply_settings(load_scenario("default"), ["maze.generate.rows=3"])  # a file and a generator
+    with pytest.raises(ScenarioError, match=r"arena|maze") as info:
+        apply_settings(load_scenario("turtlebot-goal"), ["maze.generate.rows=3"])
+    assert "\n" not in str(info.value)
+    with pytest.raises(ScenarioError, match=r"--set lighting\.x: lighting is a value, not a section with 'x'"):
+        apply_settings(load_scenario("default"), ["lighting.x=1"])
+
+
+def test_a_large_generated_maze_says_its_set_up_takes_long():
+    from eval.trial.scenarios import large_maze_note
+
+    big = apply_settings(
+        load_scenario("default"), ["maze.file=null", "maze.generate.rows=20", "maze.generate.cols=20"]
+    )
+    assert large_maze_note(big).startswith("a 20 x 20 maze: its world and the robot's tour of all 400 cells")
+    small = apply_settings(big, ["maze.generate.cols=19"])
+    assert large_maze_note(small) is None and large_maze_note(load_scenario("default")) is None
+    assert large_maze_note(load_scenario("turtlebot-goal")) is None

@@ -297,6 +297,7 @@ ERRORS = [
     (_lines("preset: rrl"), 2, 1, "no maze drawing found"),
     (_lines("+---+", "|   |"), 3, 1, "expected an odd number"),
     (_lines(*GOOD, "", "start: 0 0 east"), 7, 1, "text after the maze drawing"),
+    (_lines(*GOOD, "preset: rrl"), 6, 1, "setting 'preset' after the maze drawing; expected settings before it"),
     (_lines("+--+", "|  |", "+--+"), 1, 5, "expected 4 * cols + 1"),
 ]
 
