@@ -47,6 +47,7 @@ from eval.detector.metrics import (
     mean_ap,
     recall_by_size,
 )
+from eval.detector.yolo_labels import read_yolo_labels
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 
 EVAL_SEED = 1000  # default seed of evaluation scenes; 'poibench dataset' defaults to seed 0
@@ -145,39 +146,10 @@ def load_split(dataset: str | Path, split: str) -> list[LabelledImage]:
     return out
 
 
-def yolo_box_problem(cx: float, cy: float, w: float, h: float) -> str | None:
-    """What is wrong with a YOLO box's normalised centre and size (each a number in [0, 1], the
-    size above 0), or None: a NaN or out-of-range box would count as a placard no detector
-    can find.
-
-    >>> yolo_box_problem(0.5, 0.5, 0.1, 0.1) is None, yolo_box_problem(float("nan"), 0.5, 0.1, 0.1)
-    (True, 'cx nan: expected a number in [0, 1]')
-    """
-    for name, v in (("cx", cx), ("cy", cy), ("w", w), ("h", h)):
-        if not 0.0 <= v <= 1.0:
-            return f"{name} {v:g}: expected a number in [0, 1]"
-    return None if w > 0 and h > 0 else f"w {w:g}, h {h:g}: expected a box larger than 0"
-
-
 def _read_label_file(lab: Path) -> np.ndarray:
     """(N, 5) rows class, x1, y1, x2, y2 (normalised) of a YOLO label file; none if it is missing."""
-    rows = []
-    if lab.exists():
-        for n, line in enumerate(lab.read_text(encoding="utf-8").splitlines(), 1):
-            parts = line.split()
-            if not parts:
-                continue
-            try:
-                c, x, y, bw, bh = int(parts[0]), *map(float, parts[1:5])
-            except (ValueError, IndexError):
-                raise DetectorQualityError(f"{lab}:{n}: expected 'class cx cy w h'") from None
-            if not 0 <= c < len(RESCUE_CLASSES):
-                raise DetectorQualityError(f"{lab}:{n}: class {c} is not in 0..{len(RESCUE_CLASSES) - 1}")
-            problem = yolo_box_problem(x, y, bw, bh)
-            if problem:
-                raise DetectorQualityError(f"{lab}:{n}: {problem}")
-            rows.append((c, x - bw / 2, y - bh / 2, x + bw / 2, y + bh / 2))
-    return np.array(rows, dtype=float).reshape(-1, 5)
+    boxes = read_yolo_labels(lab, DetectorQualityError) if lab.exists() else []
+    return np.array([(b.cls, *b.xyxy) for b in boxes], dtype=float).reshape(-1, 5)
 
 
 def detect_all(

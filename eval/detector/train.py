@@ -185,35 +185,12 @@ def _link(src: Path, target: Path) -> None:
 
 
 def _label_rows(f: Path, one: bool) -> list[str]:
-    """The YOLO rows of label file ``f``, class indices checked against RESCUE_CLASSES; with
-    ``one``, the 16 hazmat labels as class 0 and class k >= 16 as k - 15."""
-    n = len(HAZMAT_LABELS)
-    rows = []
-    for lineno, line in enumerate(f.read_text().splitlines(), 1):
-        parts = line.split()
-        if not parts:
-            continue
-        try:
-            k = int(parts[0])
-        except ValueError:
-            raise TrainError(f"{f}:{lineno}: class index {parts[0]!r} is not an integer") from None
-        if not 0 <= k < len(RESCUE_CLASSES):
-            raise TrainError(f"{f}:{lineno}: class index {k} is not in 0..{len(RESCUE_CLASSES) - 1}")
-        if len(parts) != 5:
-            raise TrainError(f"{f}:{lineno}: expected 'class cx cy w h', got {len(parts)} fields")
-        from eval.detector.quality import yolo_box_problem
+    """The YOLO lines of label file ``f`` (:func:`eval.detector.yolo_labels.read_yolo_labels`);
+    with ``one``, the 16 hazmat labels as class 0 and class k >= 16 as k - 15."""
+    from eval.detector.yolo_labels import read_yolo_labels
 
-        try:
-            problem = yolo_box_problem(*map(float, parts[1:]))
-        except ValueError:
-            got = line.strip()
-            raise TrainError(f"{f}:{lineno}: expected 'class cx cy w h' with numbers, got {got!r}") from None
-        if problem:
-            raise TrainError(f"{f}:{lineno}: {problem}")
-        if one:
-            k = 0 if k < n else k - n + 1
-        rows.append(" ".join([str(k), *parts[1:]]))
-    return rows
+    n = len(HAZMAT_LABELS)
+    return [b.line((0 if b.cls < n else b.cls - n + 1) if one else None) for b in read_yolo_labels(f, TrainError)]
 
 
 def placard_dataset(data: Path, dst: Path) -> Path:

@@ -195,9 +195,10 @@ def test_load_folder_limit_is_seeded(folders):
 @pytest.mark.parametrize(
     ("line", "expected"),
     [
-        ("16 0.5 0.5 0.1\n", "{lab}:2: expected 'class cx cy w h'"),
-        ("x 0.5 0.5 0.1 0.1\n", "{lab}:2: expected 'class cx cy w h'"),
-        ("40 0.5 0.5 0.1 0.1\n", "{lab}:2: class 40 is not in 0..23"),
+        ("16 0.5 0.5 0.1\n", "{lab}:2: expected 'class cx cy w h', got 4 fields"),
+        ("x 0.5 0.5 0.1 0.1\n", "{lab}:2: class index 'x' is not an integer"),
+        ("0 0.5 0.5 0.1 a\n", "{lab}:2: expected 'class cx cy w h' with numbers, got '0 0.5 0.5 0.1 a'"),
+        ("40 0.5 0.5 0.1 0.1\n", "{lab}:2: class index 40 is not in 0..23"),
         ("0 nan 0.5 0.1 0.1\n", "{lab}:2: cx nan: expected a number in [0, 1]"),
         ("0 1.5 0.5 0.1 0.1\n", "{lab}:2: cx 1.5: expected a number in [0, 1]"),
         ("0 0.5 0.5 0 0.1\n", "{lab}:2: w 0, h 0.1: expected a box larger than 0"),

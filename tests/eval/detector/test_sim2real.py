@@ -296,7 +296,7 @@ def test_bad_input_is_one_line(photos, tmp_path, capsys):
     lab = photos / "labels" / "b.txt"
     good = lab.read_text()
     lab.write_text(good + "24 0.5 0.5 0.1 0.1\n")
-    assert f"{lab}:2: class 24 is not in 0..23" in _error(capsys, [*base, "--photos", str(photos)])
+    assert f"{lab}:2: class index 24 is not in 0..23" in _error(capsys, [*base, "--photos", str(photos)])
     lab.write_text(good)
     # --holdout-of a run that held back other folders
     run = tmp_path / "run"
