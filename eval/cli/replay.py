@@ -56,6 +56,7 @@ def cmd_replay(args) -> int:
     from eval.ros.topics import TopicError, parse_overrides
     from eval.scoring.report import format_tables
     from eval.scoring.rules import load_rules
+    from eval.scoring.truth import read_truth_file
 
     topics = parse_overrides(args.topic)
     given = {item.partition("=")[0] for item in args.topic}
@@ -75,8 +76,7 @@ def cmd_replay(args) -> int:
     if args.rules and not args.truth:
         raise ReplayError(f"--rules {args.rules}: scores against ground truth; it needs --truth TRUTH.csv")
     rules = load_rules(args.rules or "ex3") if args.truth else None
-    if args.truth:
-        check_truth_file(args.truth)
+    truth = read_truth_file(args.truth) if args.truth else None
     rec = open_recording(args.recording, topics, given)
     res = replay(
         rec,
@@ -84,7 +84,7 @@ def cmd_replay(args) -> int:
         config_path=args.config,
         detector=args.detector,
         pipeline_sets=pipe_sets,
-        truth_path=args.truth,
+        truth=truth,
         rules=rules,
         video=not args.no_video,
         record_live=not args.no_live_record,
@@ -106,19 +106,3 @@ def cmd_replay(args) -> int:
     )
     print(f"wrote {res.out_dir}/: {' '.join(res.written)}")
     return 0
-
-
-def check_truth_file(path: str) -> None:
-    """Refuse a ``--truth`` that is not ground truth: rows of another mode than GT (a report,
-    such as a trial's pois.csv) or no object at all, which would score anything as nothing."""
-    from eval.ros.replay import ReplayError
-    from poi.core.poi_file import read_poi_file
-
-    truth = read_poi_file(path)
-    other = next((r for r in truth.rows if r.mode != "GT"), None)
-    if other is not None:
-        raise ReplayError(
-            f"{path}: line {other.line}: mode {other.mode!r}; expected GT (a truth.csv, not a report)"
-        )
-    if not truth.rows:
-        raise ReplayError(f"{path}: no objects; expected the ground truth (a truth.csv)")

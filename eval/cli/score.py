@@ -17,6 +17,7 @@ from eval.cli.args import RULES_HELP
 from eval.scoring.report import format_tables, to_json_dict
 from eval.scoring.rules import PRESETS, RulesError, load_rules
 from eval.scoring.scorer import score
+from eval.scoring.truth import TruthFileError, read_truth_file
 from poi.core.poi_file import PoiFileError, read_poi_file
 
 EXIT_OK = 0
@@ -48,12 +49,14 @@ def run(args: argparse.Namespace) -> int:
     try:
         rules = load_rules(args.rules)
         reports = read_poi_file(args.report)
-        truth = read_poi_file(args.truth)
-    except (PoiFileError, RulesError) as exc:
+        truth = read_truth_file(args.truth)
+    except (PoiFileError, RulesError, TruthFileError) as exc:
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"poibench score: error: {message}", file=sys.stderr)
         return EXIT_INPUT_ERROR
-    for note in mode_notes(reports, truth, args.report, args.truth):
+    gt = sum(r.mode == "GT" for r in reports.rows)
+    if gt:  # scorable, but a report of the truth's mode is most likely a truth file
+        note = f"{args.report}: {gt} of {len(reports.rows)} report rows are of mode GT, the truth's"
         print(f"note: {note}", file=sys.stderr)
     result = score(reports, truth, rules)
     if args.json:
@@ -62,18 +65,3 @@ def run(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(format_tables(result))
     return EXIT_OK
-
-
-def mode_notes(reports, truth, report_path: str, truth_path: str) -> list[str]:
-    """Lines that say a report and a truth look swapped: a report's rows of mode GT (the
-    ground truth's mode) or a truth's rows of another mode; scored all the same."""
-    notes = []
-    gt = sum(r.mode == "GT" for r in reports.rows)
-    if gt:
-        notes.append(f"{report_path}: {gt} of {len(reports.rows)} report rows are of mode GT, the ground truth's")
-    other = sum(r.mode != "GT" for r in truth.rows)
-    if other:
-        notes.append(
-            f"{truth_path}: {other} of {len(truth.rows)} truth rows are not of mode GT (swapped with the report?)"
-        )
-    return notes

@@ -35,7 +35,7 @@ from eval.trial.episode import Step, run_episode
 from eval.trial.observers import FunnelObserver, LiveObserver, PoiStream, RobotPath, SkipCounter, VideoObserver
 from eval.trial.outputs import TrialOutputs
 from poi.core.geometry import matrix_to_quat_wxyz
-from poi.core.poi_file import read_poi_file
+from poi.core.poi_file import PoiFile, read_poi_file
 from poi.models import detector_label, shipped_settings
 
 
@@ -165,14 +165,15 @@ def replay(
     config_path: str | None = None,
     detector: str | None = None,
     pipeline_sets: list[str] = (),
-    truth_path: str | None = None,
+    truth: PoiFile | None = None,
     rules=None,
     video: bool = True,
     record_live: bool = True,
     progress: bool = False,
     max_frames: int | None = None,
 ) -> ReplayResult:
-    """Run the pipeline over ``rec`` and write the outputs in ``out_dir``."""
+    """Run the pipeline over ``rec`` and write the outputs in ``out_dir``; with ``truth`` (a ground
+    truth file, :func:`eval.scoring.truth.read_truth_file`), the funnel and the score too."""
     from eval.live.record import LiveRecorder
     from eval.scoring.funnel import funnel_json
     from eval.trial.detectors import make_detectors
@@ -190,12 +191,11 @@ def replay(
     detectors, _ = make_detectors(detector, cfg, world, notes)
     pipe = Pipeline(cfg, detectors)
     notes.extend(pipe.notes)
-    truth_file = read_poi_file(truth_path) if truth_path else None
     observers = []
     recorder = positions = None
-    if truth_file is not None:  # the funnel, with views of the truth's positions by the recording's pose
-        recorder = FunnelRecorder(funnel_objects(truth_file.rows), cfg, rules)
-        positions = {int(r.id): np.array([r.x, r.y, r.z], dtype=float) for r in truth_file.rows}
+    if truth is not None:  # the funnel, with views of the truth's positions by the recording's pose
+        recorder = FunnelRecorder(funnel_objects(truth.rows), cfg, rules)
+        positions = {int(r.id): np.array([r.x, r.y, r.z], dtype=float) for r in truth.rows}
         observers.append(FunnelObserver(recorder))
     else:
         notes.append("funnel: no ground truth (--truth), so no stage can be checked against the objects")
@@ -211,9 +211,9 @@ def replay(
         )
 
     def running_score() -> dict | None:
-        if truth_file is None:
+        if truth is None:
             return None
-        return live_summary(score(read_poi_file(out / "pois.csv"), truth_file, rules))
+        return live_summary(score(read_poi_file(out / "pois.csv"), truth, rules))
 
     live = LiveRecorder(out, world, title=f"{mission} (replay)", score_fn=running_score, record=record_live)
     observers.append(LiveObserver(live, outputs, record=record_live))
@@ -228,8 +228,8 @@ def replay(
     final = pipe.confirmed()
     outputs.write("pois.csv", lambda _: writer.finalize(final), atomic=False)
     result = funnel = None
-    if truth_file is not None:
-        result = score(read_poi_file(out / "pois.csv"), truth_file, rules)
+    if truth is not None:
+        result = score(read_poi_file(out / "pois.csv"), truth, rules)
         funnel = recorder.funnel(final, result, detectors)
         doc = to_json_dict(result)
         if hasattr(result, "max_total"):

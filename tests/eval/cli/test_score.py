@@ -11,7 +11,7 @@ import yaml
 
 from eval.cli.score import register, run
 from eval.scoring.rules import RULES_DIR
-from poi.core.poi_file import PoiHeader, PoiRow, write_poi_file
+from poi.core.poi_file import PoiHeader, PoiRow, read_poi_file, write_poi_file
 
 HEADER = PoiHeader(team="t", country="c", date="2025-01-01", start_time="10:00:00", mission="m")
 
@@ -79,16 +79,19 @@ def test_json_output(files, capsys) -> None:
     assert [(p["line"], p["severity"]) for p in data["problems"]] == [(12, "error")]
 
 
-def test_a_report_and_truth_swapped_are_named_and_still_scored(files, capsys) -> None:
+def test_a_report_and_truth_swapped_are_refused_and_a_report_of_truth_rows_named(files, capsys) -> None:
     report, truth = files
     assert _main(["score", str(report), "--truth", str(truth)]) == 0
     assert "note:" not in capsys.readouterr().err
-    assert _main(["score", str(truth), "--truth", str(report)]) == 0
-    notes = capsys.readouterr().err.splitlines()
-    assert notes == [
-        f"note: {truth}: 3 of 3 report rows are of mode GT, the ground truth's",
-        f"note: {report}: 3 of 3 truth rows are not of mode GT (swapped with the report?)",
+    assert _main(["score", str(truth), "--truth", str(report)]) == 2
+    line = read_poi_file(report).rows[0].line
+    assert capsys.readouterr().err.splitlines() == [
+        f"poibench score: error: {report}: line {line}: mode 'T'; expected GT (a truth.csv, not a report: "
+        "swapped with the report?)"
     ]
+    assert _main(["score", str(truth), "--truth", str(truth)]) == 0  # a report of truth rows: scored, named
+    notes = capsys.readouterr().err.splitlines()
+    assert notes == [f"note: {truth}: 3 of 3 report rows are of mode GT, the truth's"]
 
 
 def test_tables_output(files, capsys) -> None:

@@ -290,7 +290,8 @@ def test_rules_need_a_truth_and_a_truth_must_be_ground_truth(tmp_path, capsys):
     write_poi_file(report, header, [row])
     assert main([*argv, "--truth", str(report)]) == 2
     line = read_poi_file(report).rows[0].line
-    assert f"{report}: line {line}: mode 'A'; expected GT (a truth.csv, not a report)" in capsys.readouterr().err
+    expected = f"{report}: line {line}: mode 'A'; expected GT (a truth.csv, not a report: swapped with"
+    assert expected in capsys.readouterr().err
 
 
 def test_an_oracle_trials_config_needs_another_detector_which_brings_its_own_files(tmp_path, capsys):
