@@ -86,7 +86,8 @@ class LabelledImage:
         return self.ignore_norm * np.array([width, height, width, height], dtype=float)
 
 
-def _model_metadata(model: str | Path) -> dict[str, str]:
+def model_metadata(model: str | Path) -> dict[str, str]:
+    """An ONNX model's custom metadata, as onnxruntime reads it (one line for a file it cannot load)."""
     import onnxruntime as ort
 
     from poi.detectors.base import check_model_file
@@ -101,20 +102,22 @@ def _model_metadata(model: str | Path) -> dict[str, str]:
     return dict(meta.custom_metadata_map)
 
 
-def model_photo_folders(model: str | Path) -> list[str]:
+def model_photo_folders(model: str | Path, meta: dict[str, str] | None = None) -> list[str]:
     """The photo folders a model was trained on part of (``poibench_photo_folders``), resolved
-    paths in the order stamped."""
-    return list(filter(None, _model_metadata(model).get(PHOTO_FOLDERS_METADATA_KEY, "").split(PATH_SEPARATOR)))
+    paths in the order stamped; from ``meta`` (:func:`model_metadata`) when it was read already."""
+    meta = model_metadata(model) if meta is None else meta
+    return list(filter(None, meta.get(PHOTO_FOLDERS_METADATA_KEY, "").split(PATH_SEPARATOR)))
 
 
 def _seed_of(value: str | None) -> int | None:
     return int(value) if value is not None and value.lstrip("-").isdigit() else None
 
 
-def model_training_seeds(model: str | Path) -> set[int]:
+def model_training_seeds(model: str | Path, meta: dict[str, str] | None = None) -> set[int]:
     """Every dataset seed a model was trained on: the comma-separated list
-    (``poibench_dataset_seeds``) and an older detector's single seed (``poibench_dataset_seed``)."""
-    meta = _model_metadata(model)
+    (``poibench_dataset_seeds``) and an older detector's single seed (``poibench_dataset_seed``);
+    from ``meta`` (:func:`model_metadata`) when it was read already."""
+    meta = model_metadata(model) if meta is None else meta
     listed = [_seed_of(v.strip()) for v in meta.get(SEEDS_METADATA_KEY, "").split(",")]
     return {s for s in [*listed, _seed_of(meta.get(SEED_METADATA_KEY))] if s is not None}
 

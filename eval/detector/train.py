@@ -418,14 +418,15 @@ def _stamp_metadata(
         PHOTO_FOLDERS_METADATA_KEY,
         SEED_METADATA_KEY,
         SEEDS_METADATA_KEY,
+        model_metadata,
         model_photo_folders,
         model_training_seeds,
     )
 
-    inherited = sorted(model_training_seeds(start)) if start is not None else []
-    trained = [*inherited, *(dataset_seed(d.parent) for d in data)]
+    meta = model_metadata(start) if start is not None else {}
+    trained = [*sorted(model_training_seeds(start, meta)), *(dataset_seed(d.parent) for d in data)]
     seeds = [str(s) for s in dict.fromkeys(trained) if s is not None]
-    photo_folders = [*(model_photo_folders(start) if start is not None else []), *photo_folders]
+    photo_folders = [*model_photo_folders(start, meta), *photo_folders]
     # a key stamped None is dropped: the single seed an earlier export of the model may carry too
     stamps = {SEED_METADATA_KEY: None, SEEDS_METADATA_KEY: ",".join(seeds) or None}
     stamps[PHOTO_FOLDERS_METADATA_KEY] = PATH_SEPARATOR.join(dict.fromkeys(photo_folders)) or None

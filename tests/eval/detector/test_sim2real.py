@@ -360,7 +360,7 @@ def test_train_stamps_the_photo_folders_it_trained_on(photos, tmp_path):
     """poibench train's export carries the photo folders and every rendered dataset's seed in its
     metadata, which evaluate-photos and sim2real read to refuse a folder without --holdout-of,
     and evaluate-detector to refuse scenes the model trained on."""
-    from eval.detector.quality import _model_metadata, model_training_seeds
+    from eval.detector.quality import model_metadata, model_training_seeds
     from eval.detector.train import _stamp_metadata
 
     src = _model(tmp_path / "m.onnx", 0.9, {"poibench_dataset_seed": "5"})
@@ -375,12 +375,12 @@ def test_train_stamps_the_photo_folders_it_trained_on(photos, tmp_path):
     # a photo folder named twice in --data (trained on twice an epoch) is stamped once
     twice = [str(photos.resolve())] * 2
     _stamp_metadata(src, tmp_path / "out.onnx", [*folders, route / "data.yaml"], twice)
-    meta = _model_metadata(tmp_path / "out.onnx")
+    meta = model_metadata(tmp_path / "out.onnx")
     assert meta["poibench_photo_folders"] == str(photos.resolve()) and meta["poibench_dataset_seeds"] == "77,78"
     assert "names" in meta and "poibench_dataset_seed" not in meta  # its own kept, the stale seed not
     assert model_training_seeds(tmp_path / "out.onnx") == {77, 78}
     _stamp_metadata(src, tmp_path / "plain.onnx", [tmp_path / "none" / "data.yaml"], [])
-    assert "poibench_photo_folders" not in _model_metadata(tmp_path / "plain.onnx")
+    assert "poibench_photo_folders" not in model_metadata(tmp_path / "plain.onnx")
 
 
 def test_a_fine_tune_keeps_what_its_start_was_trained_on(photos, tmp_path):
