@@ -4,10 +4,11 @@ replayed through the pipeline.
 One module a job: :mod:`eval.ros.topics` (topic and frame names, the realsense-ros defaults and
 the RealSense Viewer's layout), :mod:`eval.ros.messages` (messages to and from arrays),
 :mod:`eval.ros.align` (depth aligned to colour), :mod:`eval.ros.reader` (a recording as frames),
-:mod:`eval.ros.writer` (a trial as a log, on a thread of its own) and :mod:`eval.ros.replay`
-(the pipeline over a recording, with a trial's outputs). The library under all of them is
-``rosbags`` [rosbags]_ (pure Python; reads and writes ROS 1 bags and rosbag2 in sqlite3 or
-MCAP storage without ROS installed); it is the ``ros`` extra.
+:mod:`eval.ros.writer` (a trial as a log, on a thread of its own), :mod:`eval.ros.unclosed` (the
+MCAP file of a log its run never closed) and :mod:`eval.ros.replay` (the pipeline over a
+recording, with a trial's outputs). The library under all of them is ``rosbags`` [rosbags]_ (pure
+Python; reads and writes ROS 1 bags and rosbag2 in sqlite3 or MCAP storage without ROS
+installed), with Foxglove's ``mcap`` reader for the unclosed files; both are the ``ros`` extra.
 
 References
 ----------

@@ -263,12 +263,19 @@ def _open(path: Path):
     try:
         unclosed = _unclosed_mcap(path)
         if unclosed is not None:
-            from eval.ros.unclosed import UnclosedMcap
-
+            try:
+                from eval.ros.unclosed import UnclosedMcap
+            except ImportError:
+                raise RecordingError(
+                    f"{path}: a recording never closed (no metadata.yaml); reading it needs the mcap library: "
+                    "pip install 'poibench[ros]' (or pip install mcap)"
+                ) from None
             reader = UnclosedMcap(unclosed)
         else:
             reader = AnyReader([path])
             reader.open()
+    except RecordingError:
+        raise
     except Exception as e:  # rosbags raises its own errors, and struct/KeyError on a damaged file
         reason = (str(e).splitlines() or [type(e).__name__])[0]
         raise RecordingError(f"{path}: cannot read the recording (truncated or not a bag?): {reason}") from None

@@ -356,3 +356,17 @@ def test_what_is_not_a_recording_is_said_plainly(tmp_path, capsys):
 def test_no_such_recording(tmp_path, capsys):
     line = _replay_error(tmp_path / "absent.bag", tmp_path, capsys)
     assert line == f"poibench replay: error: {tmp_path / 'absent.bag'}: no such file or folder"
+
+
+def test_a_never_closed_recording_without_the_mcap_library_says_how_to_install_it(tmp_path, monkeypatch, capsys):
+    import sys
+
+    folder = tmp_path / "killed"
+    folder.mkdir()
+    (folder / "killed_0.mcap").write_bytes(b"\x89MCAP0\r\n")
+    monkeypatch.setitem(sys.modules, "eval.ros.unclosed", None)  # as if mcap were not installed
+    line = _replay_error(folder, tmp_path, capsys)
+    assert line.endswith(
+        f"{folder}: a recording never closed (no metadata.yaml); reading it needs the mcap library: "
+        "pip install 'poibench[ros]' (or pip install mcap)"
+    )
