@@ -337,7 +337,7 @@ def open_recording(
     try:
         return _index(path, topics or Topics(), given, names or FrameNames())
     except RecordingError as e:
-        if _unclosed_mcap(path) is None:
+        if _unclosed_mcap(path) is None or "never closed" in str(e):
             raise
         # what is missing may be what the writer had not flushed when it stopped
         raise RecordingError(f"{e} (a recording never closed: read as far as its writer got)") from None
