@@ -344,6 +344,7 @@ def cmd_sim2real(args) -> int:
     from eval.detector.photos import fold_classes, load_folder
     from eval.detector.quality import DetectorQualityError
     from eval.detector.sim2real import (
+        frame_scales,
         measure_photometry,
         photo_labels,
         render_labels,
@@ -386,7 +387,8 @@ def cmd_sim2real(args) -> int:
     render_results = fold_classes(_detect(args, renders.images, args.conf), args.absent)
     cpu["detect_renders"] = time.process_time() - t0
     t0 = time.process_time()
-    photos, rendered = side_outcomes(photo_results, args.conf), side_outcomes(render_results, args.conf)
+    photos = side_outcomes(photo_results, args.conf, scales=frame_scales(photo_images))
+    rendered = side_outcomes(render_results, args.conf, scales=frame_scales(renders.images))
     measure_photometry(photos, photo_images)
     measure_photometry(rendered, renders.images)
     card = {

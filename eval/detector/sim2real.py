@@ -15,7 +15,8 @@ gives, for each side:
 Renders show placards at other sizes than hand-held photos do (more far away), and recall
 depends on size, so the renders' shares are also given **at the photos' size mix**
 (post-stratification): a rendered placard of label c whose box's shorter side falls in size
-bin b (:data:`SIZE_BINS_PX`) weighs
+bin b (:data:`SIZE_BINS_PX`, at the scale of a frame whose long side is 640 px, as a detector that
+letterboxes by the long side sees it: :func:`frame_scales`) weighs
 
     w_cb = p_photo(c, b) / p_render(c, b)
 
@@ -66,7 +67,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -87,6 +88,9 @@ from eval.detector.quality import DetectorQualityError, LabelledImage
 from poi.core.names import RESCUE_CLASSES
 
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, 160.0, float("inf"))  # shorter box side
+# the sizes are those of a frame whose long side is the D435 colour frame's: a YOLO detector letterboxes
+# every image by its long side, so a box of a 520 px photo is seen 640 / 520 times as large as its pixels
+FRAME_LONG_SIDE_PX = 640.0
 SHAPE_BINS: tuple[float, ...] = (0.0, 0.75, 0.9, float("inf"))  # shorter / longer box side
 TOO_FEW = 20  # placards a side below which a label's gap is flagged
 PHOTOMETRY_MIN_PX = 40.0  # crops with a shorter side under this are left out of the photometry
@@ -294,7 +298,7 @@ class Side:
     false detections of each image."""
 
     label: np.ndarray  # (n,) class index
-    side_px: np.ndarray  # (n,) shorter side of the labelled box
+    side_px: np.ndarray  # (n,) shorter side of the labelled box, at the frame's scale (frame_scales)
     aspect: np.ndarray  # (n,) shorter over longer side of the labelled box, in (0, 1]
     right: np.ndarray  # (n,) paired with a detection of its own label
     placard: np.ndarray  # (n,) paired with a detection of any hazmat label
@@ -310,10 +314,31 @@ class Side:
         return len(self.false)
 
 
-def side_outcomes(results: Sequence[ImageBoxes], conf: float, bins: Sequence[float] = SIZE_BINS_PX) -> Side:
+def frame_scales(images: Sequence[LabelledImage]) -> np.ndarray:
+    """(n,) per image, :data:`FRAME_LONG_SIDE_PX` over its long side (read from the file's header):
+    what its box sizes are multiplied by to be compared with another image's, as a detector that
+    letterboxes by the long side sees them (1 for the 640x480 renders)."""
+    from PIL import Image
+
+    scales = []
+    for im in images:
+        with Image.open(im.path) as f:
+            scales.append(FRAME_LONG_SIDE_PX / max(f.size))
+    return np.array(scales, dtype=float)
+
+
+def side_outcomes(
+    results: Sequence[ImageBoxes],
+    conf: float,
+    bins: Sequence[float] = SIZE_BINS_PX,
+    scales: np.ndarray | None = None,
+) -> Side:
     """Every labelled hazmat placard of ``results`` with its outcome at ``conf``
     (:func:`eval.detector.photos.outcome`), each image's false detections by detected class, and
-    the placards' recall in each band of ``bins`` (:func:`eval.detector.metrics.recall_by_size`)."""
+    the placards' recall in each band of ``bins`` (:func:`eval.detector.metrics.recall_by_size`).
+    Sizes (``Side.side_px``, the bands) are the boxes' at ``scales`` (:func:`frame_scales`; 1 when
+    not given); the boxes themselves stay in the image's pixels."""
+    scales = np.ones(len(results)) if scales is None else np.asarray(scales, dtype=float)
     label, side, aspect, right, placard, image, boxes = [], [], [], [], [], [], []
     false = np.zeros((len(results), len(RESCUE_CLASSES)), dtype=np.int64)
     detections = 0
@@ -330,7 +355,7 @@ def side_outcomes(results: Sequence[ImageBoxes], conf: float, bins: Sequence[flo
             p = int(b.det_classes[paired[g]]) if g in paired else -1
             label.append(t)
             w, h = xyxy[2] - xyxy[0], xyxy[3] - xyxy[1]
-            side.append(min(w, h))
+            side.append(min(w, h) * scales[k])
             aspect.append(min(w, h) / max(w, h, 1e-9))
             right.append(p == t)
             placard.append(p in HAZMAT_IDS)
@@ -348,10 +373,22 @@ def side_outcomes(results: Sequence[ImageBoxes], conf: float, bins: Sequence[flo
         detections=detections,
         by_size=[
             r
-            for r in recall_by_size(list(results), GROUPS, conf, tuple(bins), iou_min=IOU_MIN, classes_first=True)
+            for r in recall_by_size(
+                [_scaled(im, f) for im, f in zip(results, scales, strict=True)],
+                GROUPS,
+                conf,
+                tuple(bins),
+                iou_min=IOU_MIN,
+                classes_first=True,
+            )
             if r["group"] == "hazmat label"
         ],
     )
+
+
+def _scaled(im: ImageBoxes, f: float) -> ImageBoxes:
+    """``im`` with its boxes multiplied by ``f`` (IoU and pairs unchanged)."""
+    return im if f == 1.0 else replace(im, gt_boxes=im.gt_boxes * f, det_boxes=im.det_boxes * f)
 
 
 def measure_photometry(side: Side, images: Sequence[LabelledImage], min_px: float = PHOTOMETRY_MIN_PX) -> None:
@@ -545,6 +582,7 @@ def sim2real_card(
     return {
         "labels": labels,
         "size_bins_px": [size_band_label(b, tuple(bins)) for b in range(len(bins) - 1)],
+        "frame_long_side_px": FRAME_LONG_SIDE_PX,
         "size_mix": [
             {
                 "band_px": size_band_label(b, tuple(bins)),
@@ -689,7 +727,9 @@ def format_card(card: dict) -> str:
         f"| {_points(o['gap_shape'], o['gap_shape_ci95'])} |",
         "",
         f"The renders at the photos' sizes weigh each rendered placard by p_photo(label, size bin) / "
-        f"p_render(label, size bin), size bins of the box's shorter side {', '.join(card['size_bins_px'])} px; "
+        f"p_render(label, size bin), size bins of the box's shorter side {', '.join(card['size_bins_px'])} px "
+        f"in a frame of {card['frame_long_side_px']:g} px on its long side (each image scaled so, as a detector "
+        "letterboxing by the long side sees it); "
         f"{100 * (card['covered'] or 0):.1f}% of the photo placards fall in cells the renders have. "
         f"At the photos' sizes and box shapes the cells are (label, size bin, shape bin), the shape the box's "
         f"shorter side over its longer, bins {', '.join(card['shape_bins'])} (a face-on diamond 1; "

@@ -427,3 +427,28 @@ def test_a_photo_set_moved_to_another_folder_is_known_by_its_name(photos, tmp_pa
     (run / "holdout.json").write_text(json.dumps({"folders": {elsewhere: ["b.png"]}}))
     ((folder, cut),) = load_folders([photos], run)
     assert cut and [im.path.name for im in folder.images] == ["b.png"]
+
+
+def test_box_sizes_are_compared_at_the_frames_scale(tmp_path):
+    """A photo of 320 px on its long side is letterboxed twice as large as its pixels: its 30 px placard
+    is the size of a 60 px one in a 640x480 render, and falls in the same size band as that one."""
+    from PIL import Image
+
+    from eval.detector.metrics import ImageBoxes
+    from eval.detector.quality import LabelledImage
+    from eval.detector.sim2real import frame_scales, side_outcomes
+
+    small, frame = tmp_path / "small.png", tmp_path / "frame.png"
+    Image.new("RGB", (320, 240)).save(small)
+    Image.new("RGB", (640, 480)).save(frame)
+    images = [LabelledImage(path=p, boxes_norm=np.zeros((0, 4)), classes=np.zeros(0, int)) for p in (small, frame)]
+    scales = frame_scales(images)
+    assert scales.tolist() == [2.0, 1.0]
+    box = np.array([[10.0, 10.0, 40.0, 45.0]])  # 30 x 35 px
+    two = np.array([2])
+    found = ImageBoxes(gt_boxes=box, gt_classes=two, det_boxes=box, det_classes=two, det_scores=np.array([0.9]))
+    side = side_outcomes([found, found], conf=0.4, scales=scales)
+    assert side.side_px.tolist() == [60.0, 30.0]
+    assert np.array_equal(side.box, np.vstack([box, box]))  # the boxes stay in each image's pixels
+    bands = {r["band_px"]: r["n"] for r in side.by_size}
+    assert bands["20-40"] == 1 and bands["40-80"] == 1
