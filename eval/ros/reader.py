@@ -17,9 +17,9 @@ is one :class:`poi.core.types.Frame`:
   (or ``odom``) to the colour frame; with neither, the camera's first pose is the map frame for
   every frame, and :attr:`Recording.notes` says so.
 
-A rosbag2 MCAP folder its writer never closed (a run killed mid-trial: no ``metadata.yaml``, no
-summary in the file) is read as far as it was written (:mod:`eval.ros.unclosed`), and the notes
-say so.
+A log its writer never closed (a run killed mid-trial: a rosbag2 MCAP folder without
+``metadata.yaml`` and summary, a ROS 1 bag without its index) is read as far as it was written
+(:mod:`eval.ros.unclosed`), and the notes say so.
 
 Every problem with the file is one line naming it and the topic: a missing topic, an unknown
 encoding, a truncated file, no camera info (:class:`RecordingError`).
@@ -231,6 +231,33 @@ def _unclosed_mcap(path: Path) -> Path | None:
     return stored[0] if len(stored) == 1 else None
 
 
+def _unclosed_kind(path: Path) -> str | None:
+    """ "mcap" for a rosbag2 MCAP folder its writer never closed (no metadata.yaml), "bag" for a
+    ROS 1 bag without its index, else None."""
+    from eval.ros.unclosed import bag_is_unclosed
+
+    if _unclosed_mcap(path) is not None:
+        return "mcap"
+    return "bag" if path.is_file() and bag_is_unclosed(path) else None
+
+
+def _unclosed(path: Path):
+    """A reader of :mod:`eval.ros.unclosed` for a log its writer never closed, or None."""
+    import importlib.util
+
+    from eval.ros.unclosed import UnclosedBag, UnclosedMcap
+
+    kind = _unclosed_kind(path)
+    if kind == "mcap":
+        if importlib.util.find_spec("mcap") is None:
+            raise RecordingError(
+                f"{path}: a recording never closed (no metadata.yaml); reading it needs the mcap library: "
+                "pip install 'poibench[ros]' (or pip install mcap)"
+            )
+        return UnclosedMcap(_unclosed_mcap(path))
+    return UnclosedBag(path) if kind == "bag" else None
+
+
 def _not_a_recording(path: Path) -> str | None:
     """Why ``path`` cannot be a recording poibench reads, said plainly, or None: a folder without
     rosbag2's metadata.yaml and without the one MCAP file of an unclosed recording, or a file that
@@ -253,25 +280,16 @@ def _not_a_recording(path: Path) -> str | None:
 
 
 def _open(path: Path):
-    """A reader of the recording at ``path``: rosbags' for a closed recording, the stream reader of
-    :mod:`eval.ros.unclosed` for a rosbag2 MCAP folder its writer never closed."""
+    """A reader of the recording at ``path``: rosbags' for a closed recording, :mod:`eval.ros.unclosed`'s
+    for a log its writer never closed."""
     from rosbags.highlevel import AnyReader
 
     problem = _not_a_recording(path)
     if problem:
         raise RecordingError(problem)
     try:
-        unclosed = _unclosed_mcap(path)
-        if unclosed is not None:
-            try:
-                from eval.ros.unclosed import UnclosedMcap
-            except ImportError:
-                raise RecordingError(
-                    f"{path}: a recording never closed (no metadata.yaml); reading it needs the mcap library: "
-                    "pip install 'poibench[ros]' (or pip install mcap)"
-                ) from None
-            reader = UnclosedMcap(unclosed)
-        else:
+        reader = _unclosed(path)
+        if reader is None:
             reader = AnyReader([path])
             reader.open()
     except RecordingError:
@@ -337,10 +355,10 @@ def open_recording(
     try:
         return _index(path, topics or Topics(), given, names or FrameNames())
     except RecordingError as e:
-        if _unclosed_mcap(path) is None or "never closed" in str(e):
+        if "never closed" in str(e) or _unclosed_kind(path) is None:
             raise
         # what is missing may be what the writer had not flushed when it stopped
-        raise RecordingError(f"{e} (a recording never closed: read as far as its writer got)") from None
+        raise RecordingError(f"{e} (a recording never closed or cut short: read as far as it goes)") from None
 
 
 def _index(path: Path, topics: Topics, given: set[str], names: FrameNames) -> Recording:

@@ -427,7 +427,61 @@ def test_a_killed_runs_mcap_log_replays_up_to_where_it_stopped(tmp_path, capsys)
     cut = chunks[1].chunk_start_offset + chunks[1].chunk_length // 2
     (tmp_path / "early").mkdir()
     (tmp_path / "early" / "early_0.mcap").write_bytes(data[:cut])
-    with pytest.raises(RecordingError, match=r"no camera info.*\(a recording never closed: read as far as"):
+    with pytest.raises(RecordingError, match=r"no camera info.*\(a recording never closed or cut short"):
         open_recording(tmp_path / "early")
     assert main(["replay", str(folder), "--out", str(tmp_path / "r"), "--quiet", "--no-video"]) == 0
     assert f"{folder}: a recording never closed" in capsys.readouterr().err
+
+
+def test_a_killed_runs_bag_log_replays_up_to_where_it_stopped(tmp_path, capsys):
+    """A ROS 1 bag whose run was killed has no index (its header's index_pos still 0) or, cut, one past
+    its end: cut a closed 8-frame bag inside its chunks (rosbags closes a chunk past 1 MiB), each cut
+    reads back as its first frames, up to the last stamp in the whole chunks (the closed bag's chunk
+    infos, read by rosbags, say where they end), that stamp's frame left out; and a bag whose header
+    still says index_pos 0 reads the same."""
+    from rosbags.rosbag1 import Reader
+
+    from eval.ros.reader import open_recording
+    from eval.ros.writer import LogWriter
+    from poi.core.geometry import make_transform, rot_z
+    from poi.core.types import Frame, Intrinsics
+
+    k = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=319.5, ppy=239.5)
+    w = LogWriter(tmp_path / "full.bag", "bag", start_ns=START_NS, T_tracker_camera=np.eye(4), truth=[])
+    n = 8
+    for i in range(n):
+        rgb = np.full((480, 640, 3), 10 * i, np.uint8)
+        depth = np.full((480, 640), 1.0 + 0.1 * i, np.float32)
+        pose = make_transform(rot_z(0.1 * i), [0.2 * i, 0.0, 0.5])
+        w.write(Frame(index=i, timestamp_s=0.1 * i, rgb=rgb, intrinsics=k, depth_m=depth, pose=pose), [], [])
+    w.close()
+    want = list(open_recording(tmp_path / "full.bag").frames())
+    with Reader(tmp_path / "full.bag") as r:
+        chunks = [(c.pos, c.end_time - 1) for c in r.chunk_infos]  # end_time: one past the last stamp
+    data = (tmp_path / "full.bag").read_bytes()
+    stamps = [START_NS + round(0.1 * i * 1e9) for i in range(n)]
+    assert len(chunks) >= 4
+    for j in range(2, len(chunks) - 1):
+        cut = chunks[j][0] + 1000  # inside chunk j: chunks 0 .. j - 1 whole
+        bag = tmp_path / f"cut{j}.bag"
+        bag.write_bytes(data[:cut])
+        rec = open_recording(bag)
+        got = list(rec.frames())
+        assert any(note.startswith(f"{bag}: a recording never closed (no index") for note in rec.notes), rec.notes
+        last = max(end for _, end in chunks[:j])
+        assert len(got) == sum(s < last for s in stamps) > 0
+        for g, f in zip(got, want[: len(got)], strict=True):
+            assert g.timestamp_s == f.timestamp_s
+            assert np.array_equal(g.rgb, f.rgb) and np.array_equal(g.depth_m, f.depth_m)
+            assert np.allclose(g.pose, f.pose, atol=1e-12)
+    # as a killed run leaves it: the header's index_pos never written (0), the file whole up to the index
+    index_pos = data.index(b"index_pos=") + len(b"index_pos=")
+    unindexed = bytearray(data)
+    unindexed[index_pos : index_pos + 8] = bytes(8)
+    (tmp_path / "killed.bag").write_bytes(bytes(unindexed))
+    got = list(open_recording(tmp_path / "killed.bag").frames())
+    assert len(got) == n - 1 and all(np.array_equal(g.rgb, f.rgb) for g, f in zip(got, want, strict=False))
+    assert (
+        main(["replay", str(tmp_path / "killed.bag"), "--out", str(tmp_path / "r"), "--quiet", "--no-video"]) == 0
+    )
+    assert "a recording never closed (no index" in capsys.readouterr().err
