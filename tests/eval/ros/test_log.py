@@ -374,6 +374,23 @@ def test_renamed_topics_and_the_tf_chain_give_the_pose_and_mount(tmp_path):
     assert abs(base[2, 3]) < 1e-12 and np.allclose(base[:3, 2], [0, 0, 1])  # the base on the floor, upright
 
 
+def _full_frame_log(path: Path, fmt: str, n: int) -> None:
+    """A log of ``n`` 640x480 frames, each its own grey, depth and pose: a frame and a half a chunk
+    (rosbags closes a chunk of either format past 1 MiB)."""
+    from eval.ros.writer import LogWriter
+    from poi.core.geometry import make_transform, rot_z
+    from poi.core.types import Frame, Intrinsics
+
+    k = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=319.5, ppy=239.5)
+    w = LogWriter(path, fmt, start_ns=START_NS, T_tracker_camera=np.eye(4), truth=[])
+    for i in range(n):
+        rgb = np.full((480, 640, 3), 10 * i, np.uint8)
+        depth = np.full((480, 640), 1.0 + 0.1 * i, np.float32)
+        pose = make_transform(rot_z(0.1 * i), [0.2 * i, 0.0, 0.5])
+        w.write(Frame(index=i, timestamp_s=0.1 * i, rgb=rgb, intrinsics=k, depth_m=depth, pose=pose), [], [])
+    w.close()
+
+
 def test_a_killed_runs_mcap_log_replays_up_to_where_it_stopped(tmp_path, capsys):
     """A run killed mid-trial leaves its rosbag2 folder without metadata.yaml and its MCAP file without
     summary or footer: the data section written so far, whole chunks (rosbags closes a chunk past 1 MiB)
@@ -384,19 +401,9 @@ def test_a_killed_runs_mcap_log_replays_up_to_where_it_stopped(tmp_path, capsys)
     from mcap.reader import make_reader
 
     from eval.ros.reader import RecordingError, open_recording
-    from eval.ros.writer import LogWriter
-    from poi.core.geometry import make_transform, rot_z
-    from poi.core.types import Frame, Intrinsics
 
-    k = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=319.5, ppy=239.5)
-    w = LogWriter(tmp_path / "full", "mcap", start_ns=START_NS, T_tracker_camera=np.eye(4), truth=[])
     n = 8
-    for i in range(n):
-        rgb = np.full((480, 640, 3), 10 * i, np.uint8)
-        depth = np.full((480, 640), 1.0 + 0.1 * i, np.float32)
-        pose = make_transform(rot_z(0.1 * i), [0.2 * i, 0.0, 0.5])
-        w.write(Frame(index=i, timestamp_s=0.1 * i, rgb=rgb, intrinsics=k, depth_m=depth, pose=pose), [], [])
-    w.close()
+    _full_frame_log(tmp_path / "full", "mcap", n)
     full = open_recording(tmp_path / "full")
     want = list(full.frames())
     assert len(want) == n and not any("never closed" in note for note in full.notes)
@@ -442,19 +449,9 @@ def test_a_killed_runs_bag_log_replays_up_to_where_it_stopped(tmp_path, capsys):
     from rosbags.rosbag1 import Reader
 
     from eval.ros.reader import open_recording
-    from eval.ros.writer import LogWriter
-    from poi.core.geometry import make_transform, rot_z
-    from poi.core.types import Frame, Intrinsics
 
-    k = Intrinsics(width=640, height=480, fx=600.0, fy=600.0, ppx=319.5, ppy=239.5)
-    w = LogWriter(tmp_path / "full.bag", "bag", start_ns=START_NS, T_tracker_camera=np.eye(4), truth=[])
     n = 8
-    for i in range(n):
-        rgb = np.full((480, 640, 3), 10 * i, np.uint8)
-        depth = np.full((480, 640), 1.0 + 0.1 * i, np.float32)
-        pose = make_transform(rot_z(0.1 * i), [0.2 * i, 0.0, 0.5])
-        w.write(Frame(index=i, timestamp_s=0.1 * i, rgb=rgb, intrinsics=k, depth_m=depth, pose=pose), [], [])
-    w.close()
+    _full_frame_log(tmp_path / "full.bag", "bag", n)
     want = list(open_recording(tmp_path / "full.bag").frames())
     with Reader(tmp_path / "full.bag") as r:
         chunks = [(c.pos, c.end_time - 1) for c in r.chunk_infos]  # end_time: one past the last stamp
