@@ -144,6 +144,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     sr.add_argument(
         "--overlay", type=non_negative_int, default=12, help="images a side on misses.jpg (default 12; 0: none)"
     )
+    sr.add_argument(
+        "--decompose",
+        action="store_true",
+        help="also paste poibench's drawing of each placard's label over it, one at a time, on both sides: "
+        "where the gap lies, in the placard or around it (a detector run a placard of 40 px or more, three "
+        "versions each)",
+    )
     sr.add_argument("--quiet", action="store_true", help="no progress bars")
     sr.set_defaults(func=cmd_sim2real)
 
@@ -425,6 +432,19 @@ def cmd_sim2real(args) -> int:
             f"{rendered.images} renders; the recalls are 0 by default, not measured"
         )
     cpu["card"] = time.process_time() - t0
+    if args.decompose:
+        from eval.detector.quality import ImageDetector
+        from eval.detector.sim2real_paste import PASTE_MIN_PX, decompose_side
+
+        t0 = time.process_time()
+        detect = ImageDetector(args.model, args.conf, args.label_model, _options(args))
+        card["decomposition"] = {"min_side_px": PASTE_MIN_PX}
+        for side, images in (("photos", photo_images), ("renders", renders.images)):
+            with progress_bar(total=len(images), desc=f"paste, {side}", unit="img", quiet=args.quiet) as bar:
+                card["decomposition"][side] = decompose_side(
+                    detect, images, frame_scales(images), args.absent, args.seed, progress=bar.update
+                )
+        cpu["decompose"] = time.process_time() - t0
     card["cpu_s"] = {k: round(v, 1) for k, v in cpu.items()} | {"total": round(time.process_time() - cpu0, 1)}
     sides = [
         (replace(folders[0][0], name="photos", images=photo_images), photo_results),

@@ -155,6 +155,51 @@ def _read_label_file(lab: Path) -> np.ndarray:
     return np.array([(b.cls, *b.xyxy) for b in boxes], dtype=float).reshape(-1, 5)
 
 
+class ImageDetector:
+    """The detector of the evaluation commands on one RGB image at a time: the ONNX detector
+    (with its hazmat label classifier, when given) at ``conf``, or a team's Python detector
+    (``model`` is ``python:MODULE:CLASS`` or an entry point name) built from ``options`` with its
+    own threshold. Detections of classes outside RESCUE_CLASSES are dropped (the datasets are
+    rescue mazes labelled with them; a model that also knows the arena's classes has nothing to
+    find of those here)."""
+
+    def __init__(
+        self, model: str | Path, conf: float, label_model: str | Path | None = None, options: dict | None = None
+    ) -> None:
+        from poi.detectors import build_detector, build_python_detector, is_team_detector
+
+        if is_team_detector(str(model)):
+            if label_model is not None:
+                raise DetectorQualityError(f"{model}: a label model goes behind an ONNX detector only")
+            self.det = build_python_detector(str(model), options)
+        else:
+            spec = {"name": "onnx", "model": str(model), "conf": conf}
+            if label_model is not None:
+                spec["label_model"] = str(label_model)
+            self.det = build_detector(spec)
+
+    def __call__(self, rgb: np.ndarray, name: str | Path, index: int = 0) -> list:
+        """The detections on ``rgb`` (its image ``name`` is what an error names)."""
+        from poi.core.types import Frame, Intrinsics
+        from poi.detectors.plugins import DetectorOutputError
+
+        h, w = rgb.shape[:2]
+        K = Intrinsics(width=w, height=h, fx=1.0, fy=1.0, ppx=w / 2, ppy=h / 2)
+        try:
+            dets = self.det.detect(Frame(index=index, timestamp_s=0.0, rgb=rgb, intrinsics=K))
+        except DetectorOutputError as e:  # a team detector's bad output: name the image, not "frame k"
+            raise DetectorOutputError(f"{name}: detector {e.detector!r}: {e.reason}") from None
+        return [d for d in dets if d.class_name in RESCUE_CLASSES]
+
+
+def read_rgb(path: Path) -> np.ndarray:
+    """An image file as RGB uint8; one line naming it when it is not an image."""
+    bgr = cv2.imread(str(path))
+    if bgr is None:
+        raise DetectorQualityError(f"{path}: not a readable image")
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
 def detect_all(
     model: str | Path,
     images: list[LabelledImage],
@@ -163,38 +208,14 @@ def detect_all(
     label_model: str | Path | None = None,
     options: dict | None = None,
 ) -> list[ImageBoxes]:
-    """Run the ONNX detector (with its hazmat label classifier, when given) on every image;
-    detections and labels as ImageBoxes. A team's Python detector (``model`` is
-    ``python:MODULE:CLASS`` or an entry point name) is built from ``options`` and keeps its own
-    confidence threshold (``conf`` is the ONNX detector's)."""
-    from poi.core.types import Frame, Intrinsics
-    from poi.detectors import build_detector, build_python_detector, is_team_detector
-    from poi.detectors.plugins import DetectorOutputError
-
-    if is_team_detector(str(model)):
-        if label_model is not None:
-            raise DetectorQualityError(f"{model}: a label model goes behind an ONNX detector only")
-        det = build_python_detector(str(model), options)
-    else:
-        spec = {"name": "onnx", "model": str(model), "conf": conf}
-        if label_model is not None:
-            spec["label_model"] = str(label_model)
-        det = build_detector(spec)
+    """Run the detector (:class:`ImageDetector`) on every image; detections and labels as
+    ImageBoxes."""
+    detect = ImageDetector(model, conf, label_model, options)
     out = []
     for k, im in enumerate(images):
-        bgr = cv2.imread(str(im.path))
-        if bgr is None:
-            raise DetectorQualityError(f"{im.path}: not a readable image")
-        rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        rgb = read_rgb(im.path)
         h, w = rgb.shape[:2]
-        K = Intrinsics(width=w, height=h, fx=1.0, fy=1.0, ppx=w / 2, ppy=h / 2)
-        try:
-            dets = det.detect(Frame(index=k, timestamp_s=0.0, rgb=rgb, intrinsics=K))
-        except DetectorOutputError as e:  # a team detector's bad output: name the image, not "frame k"
-            raise DetectorOutputError(f"{im.path}: detector {e.detector!r}: {e.reason}") from None
-        # the datasets are rescue mazes labelled with RESCUE_CLASSES; a model that also knows
-        # the arena's classes has nothing to find of them here
-        dets = [d for d in dets if d.class_name in RESCUE_CLASSES]
+        dets = detect(rgb, im.path, k)
         boxes = ImageBoxes(
             gt_boxes=im.boxes_px(w, h),
             gt_classes=im.classes,

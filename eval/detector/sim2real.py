@@ -803,6 +803,10 @@ def format_card(card: dict) -> str:
     ):
         cells = [pm[s][key] for s in ("photos", "renders", "renders_matched")]
         out.append(f"| {text} | " + " | ".join("-" if v is None else f"{v:g}" for v in cells) + " |")
+    if card.get("decomposition"):
+        from eval.detector.sim2real_paste import format_decomposition
+
+        out += format_decomposition(card["decomposition"])
     out += ["", f"Intervals: {card['intervals']}.", "", f"Definition: {card['false_detection']}."]
     if card.get("cpu_s"):
         c = card["cpu_s"]

@@ -262,6 +262,20 @@ def test_sim2real_end_to_end(photos, tmp_path, capsys):
     sheet = cv2.imread(str(out / "misses.jpg"))
     assert sheet is not None and sheet.shape[1] == 6 * 300
     assert "card.md, card.json and misses.jpg" in capsys.readouterr().out
+    assert "decomposition" not in card  # only with --decompose
+
+    # --decompose: a constant model ignores the pixels, so each version of a placard is named as the
+    # placard is: on the photos a's poison of the four (all 40 px or more), on the renders as their card
+    assert _run(photos, model, out, "--decompose") == 0
+    capsys.readouterr()
+    card = json.loads((out / "card.json").read_text())
+    d = card["decomposition"]
+    assert d["min_side_px"] == 40.0 and card["cpu_s"]["decompose"] >= 0
+    for variant in ("as it is", "the drawing", "the drawing, a trial's print"):
+        assert (d["photos"][variant]["value"], d["photos"][variant]["n"]) == (0.25, 4)
+        assert d["photos"][variant]["ci95"] == [round(v, 4) for v in wilson(1, 4)]
+        assert d["renders"][variant] == d["renders"]["as it is"]
+    assert "## Where the gap lies" in (out / "card.md").read_text()
 
     # a model that boxes nothing: the card says so, the command fails in one line (renders reused)
     blind = _model(tmp_path / "blind.onnx", 0.0)
@@ -452,3 +466,20 @@ def test_box_sizes_are_compared_at_the_frames_scale(tmp_path):
     assert np.array_equal(side.box, np.vstack([box, box]))  # the boxes stay in each image's pixels
     bands = {r["band_px"]: r["n"] for r in side.by_size}
     assert bands["20-40"] == 1 and bands["40-80"] == 1
+
+
+def test_a_pasted_drawing_fills_the_diamond_inscribed_in_the_box_and_nothing_else():
+    from eval.detector.sim2real_paste import diamond_mask, paste
+
+    rgb = np.full((60, 80, 3), 30, np.uint8)
+    picture = np.full((256, 256, 3), 200, np.uint8)
+    out = paste(rgb, (10, 20, 50, 40), picture)  # a 40 x 20 box
+    changed = np.any(out != rgb, axis=2)
+    ys, xs = np.nonzero(changed)
+    assert ys.min() >= 20 and ys.max() < 40 and xs.min() >= 10 and xs.max() < 50  # inside the box only
+    assert tuple(out[30, 30]) == (200, 200, 200)  # the box's centre: the picture
+    for y, x in ((20, 10), (20, 49), (39, 10), (39, 49)):  # the box's corners: the frame's own
+        assert tuple(out[y, x]) == (30, 30, 30)
+    # the diamond covers half the box, as the inscribed rhombus does (within 1%)
+    for w, h in ((40, 20), (57, 33), (100, 100)):
+        assert abs(float(diamond_mask(w, h).sum()) / (w * h / 2) - 1.0) < 0.01
