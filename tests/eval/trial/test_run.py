@@ -302,7 +302,9 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
     deadline = time.monotonic() + 240
     try:
         while time.monotonic() < deadline:
-            if pois.exists() and len(pois.read_text().splitlines()) >= 8 + 3:  # header + 3 objects
+            logged = sum(f.stat().st_size for f in out.glob("trial_mcap/*.mcap"))
+            # header + 3 objects, and a log of 3 MiB (whole chunks of 1 MiB written: frames to read back)
+            if pois.exists() and len(pois.read_text().splitlines()) >= 8 + 3 and logged > 3 * 2**20:
                 break
             if proc.poll() is not None:
                 pytest.fail("the run ended before it was killed")
@@ -337,7 +339,8 @@ def test_killed_run_leaves_a_valid_poi_file(tmp_path):
 
     rec = open_recording(out / "trial_mcap")
     assert any("a recording never closed" in note for note in rec.notes)
-    assert rec.n_frames >= 0.5 * len(src.frames), (rec.n_frames, len(src.frames))
+    frames = list(rec.frames())  # how many depends on when the kill came; at least the first chunks'
+    assert len(frames) == rec.n_frames >= 1 and frames[0].timestamp_s == 0.0 and frames[0].depth_m is not None
 
 
 @pytest.mark.slow
