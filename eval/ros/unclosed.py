@@ -39,7 +39,9 @@ from pathlib import Path
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.msg import normalize_msgtype
 
-ROS1_MAGIC = b"#ROSBAG V2.0\n"
+from eval.ros.reader import ROS1_MAGIC
+
+ROS1_MAGIC_LINE = ROS1_MAGIC + b"\n"
 OP_MESSAGE, OP_BAG_HEADER, OP_CHUNK, OP_CONNECTION = 0x02, 0x03, 0x05, 0x07
 
 
@@ -173,7 +175,7 @@ def bag_is_unclosed(path: Path) -> bool:
     """A ROS 1 bag whose header's ``index_pos`` is 0 (its writer never wrote the index) or points
     past the end of the file (cut)."""
     with open(path, "rb") as f:
-        if f.read(len(ROS1_MAGIC)) != ROS1_MAGIC:
+        if f.read(len(ROS1_MAGIC_LINE)) != ROS1_MAGIC_LINE:
             return False
         try:
             fields, _ = next(_records(f))
@@ -193,7 +195,7 @@ class UnclosedBag(_Unclosed):
 
     def _scan(self) -> Iterator[tuple]:
         with open(self.path, "rb") as f:
-            f.read(len(ROS1_MAGIC))
+            f.read(len(ROS1_MAGIC_LINE))
             try:
                 for fields, data in _records(f):
                     op = fields.get("op", b"\0")[0]
