@@ -220,9 +220,6 @@ class Recording:
         )
 
 
-ROS1_MAGIC = b"#ROSBAG V2.0"  # the first bytes of a ROS 1 bag
-
-
 def _unclosed_mcap(path: Path) -> Path | None:
     """The MCAP file of a rosbag2 folder its writer never closed (no metadata.yaml), or None."""
     if not path.is_dir() or (path / "metadata.yaml").is_file():
@@ -272,6 +269,8 @@ def _not_a_recording(path: Path) -> str | None:
                 "never closed: a run stopped before its end?); ros2 bag reindex rebuilds it"
             )
         return f"{path}: not a recording (no rosbag2 metadata.yaml, no .mcap or .db3 in the folder)"
+    from eval.ros.unclosed import ROS1_MAGIC
+
     with open(path, "rb") as f:
         head = f.read(len(ROS1_MAGIC))
     if path.suffix == ".bag" and head != ROS1_MAGIC:

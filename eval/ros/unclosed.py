@@ -39,8 +39,7 @@ from pathlib import Path
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.msg import normalize_msgtype
 
-from eval.ros.reader import ROS1_MAGIC
-
+ROS1_MAGIC = b"#ROSBAG V2.0"  # the first bytes of a ROS 1 bag, then a newline
 ROS1_MAGIC_LINE = ROS1_MAGIC + b"\n"
 OP_MESSAGE, OP_BAG_HEADER, OP_CHUNK, OP_CONNECTION = 0x02, 0x03, 0x05, 0x07
 
