@@ -286,7 +286,7 @@ def cmd_evaluate_photos(args) -> int:
 
     from eval.detector.label_eval import load_folders
     from eval.detector.photos import FALSE_DETECTION, fold_classes, folder_report, load_folder, write_outputs
-    from eval.detector.quality import DetectorQualityError
+    from eval.detector.quality import DetectorQualityError, frame_scales
 
     if args.limit is not None and args.limit < 1:
         raise DetectorQualityError(f"--limit must be at least 1, got {args.limit}")
@@ -327,7 +327,7 @@ def cmd_evaluate_photos(args) -> int:
                 "total_images": f.total_images,
                 "without_labels": f.without_labels,
                 "detect_cpu_s": round(c, 1),
-                **folder_report(r, args.conf),
+                **folder_report(r, args.conf, frame_scales(f.images)),
             }
             for f, r, c in zip(folders, results, cpu, strict=True)
         ],
@@ -349,9 +349,8 @@ def cmd_sim2real(args) -> int:
     from eval.detector.dataset import DatasetSpec, write_dataset
     from eval.detector.label_eval import load_folders
     from eval.detector.photos import fold_classes, load_folder
-    from eval.detector.quality import DetectorQualityError
+    from eval.detector.quality import DetectorQualityError, frame_scales
     from eval.detector.sim2real import (
-        frame_scales,
         measure_photometry,
         photo_labels,
         render_labels,

@@ -35,6 +35,19 @@ class ImageBoxes:
     det_scores: np.ndarray  # (D,)
 
 
+def scaled_boxes(im: ImageBoxes, f: float) -> ImageBoxes:
+    """``im`` with its true and detected boxes multiplied by ``f`` (IoU and pairs unchanged)."""
+    if f == 1.0:
+        return im
+    return ImageBoxes(
+        gt_boxes=im.gt_boxes * f,
+        gt_classes=im.gt_classes,
+        det_boxes=im.det_boxes * f,
+        det_classes=im.det_classes,
+        det_scores=im.det_scores,
+    )
+
+
 def drop_ignored(im: ImageBoxes, ignore_boxes: np.ndarray, ignore_classes: np.ndarray) -> ImageBoxes:
     """``im`` without the detections of ignored objects (KITTI's DontCare).
 

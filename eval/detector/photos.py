@@ -47,7 +47,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from eval.detector.metrics import ImageBoxes, match_classes_first, recall_by_size
+from eval.detector.metrics import ImageBoxes, match_classes_first, recall_by_size, scaled_boxes
 from eval.detector.quality import DetectorQualityError, LabelledImage, labelled_image
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 
@@ -180,8 +180,10 @@ def _ratio(a: int, b: int) -> float | None:
     return round(a / b, 4) if b else None
 
 
-def folder_report(results: list[ImageBoxes], conf: float) -> dict:
-    """Every number of one folder (module docstring for the definitions).
+def folder_report(results: list[ImageBoxes], conf: float, scales: np.ndarray | None = None) -> dict:
+    """Every number of one folder (module docstring for the definitions); its recall by box size at
+    ``scales`` (:func:`eval.detector.quality.frame_scales`: the sizes a detector sees, comparable
+    across image sets; each image's own pixels when not given).
 
     >>> gt = np.array([[0, 0, 30, 30], [100, 0, 130, 30.0]])
     >>> im = ImageBoxes(gt_boxes=gt, gt_classes=np.array([0, 2]),
@@ -260,7 +262,7 @@ def folder_report(results: list[ImageBoxes], conf: float) -> dict:
             for i, c in enumerate(RESCUE_CLASSES)
         },
         "by_size": recall_by_size(
-            results,
+            results if scales is None else [scaled_boxes(im, f) for im, f in zip(results, scales, strict=True)],
             ["hazmat label" if i in HAZMAT_IDS else "other type" for i in range(n_cls)],
             conf,
             iou_min=IOU_MIN,
@@ -325,7 +327,13 @@ def format_markdown(summary: dict) -> str:
         key=lambda b: float(b.split("-")[0].rstrip("+")),
     )
     if bands:
-        out += ["", "Hazmat placards by box size (shorter side, px): right label / any class (boxes)", "", head]
+        out += [
+            "",
+            "Hazmat placards by box size (shorter side, px of a frame 640 px on its long side): right label / "
+            "any class (boxes)",
+            "",
+            head,
+        ]
         for band in bands:
             cells = []
             for f in folders:
@@ -412,7 +420,7 @@ def plot_by_size(path: Path, summary: dict) -> None:
             if b in rows:
                 ax.text(xi, 1.01, str(rows[b]["n"]), ha="center", fontsize=7)
     ax.set_xticks(np.arange(len(bands)) + width * (len(folders) - 1) / 2, bands)
-    ax.set_xlabel("placard box, shorter side (px); numbers: boxes")
+    ax.set_xlabel("placard box, shorter side (px, at a 640 px long side); numbers: boxes")
     ax.set_ylabel("fraction found at IoU >= 0.5")
     ax.set_ylim(0, 1.35)
     ax.set_yticks(np.linspace(0, 1, 6))

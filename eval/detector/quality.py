@@ -30,6 +30,7 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -84,6 +85,25 @@ class LabelledImage:
     def ignore_px(self, width: int, height: int) -> np.ndarray:
         """(I, 4) xyxy pixels of the ignored objects."""
         return self.ignore_norm * np.array([width, height, width, height], dtype=float)
+
+
+# box sizes compared across image sets are those of a frame whose long side is the D435 colour frame's:
+# a YOLO detector letterboxes every image by its long side, so a box of a 520 px photo is seen 640 / 520
+# times as large as its pixels
+FRAME_LONG_SIDE_PX = 640.0
+
+
+def frame_scales(images: Sequence[LabelledImage]) -> np.ndarray:
+    """(n,) per image, :data:`FRAME_LONG_SIDE_PX` over its long side (read from the file's header):
+    what its box sizes are multiplied by to be compared with another image's, as a detector that
+    letterboxes by the long side sees them (1 for the 640x480 renders)."""
+    from PIL import Image
+
+    scales = []
+    for im in images:
+        with Image.open(im.path) as f:
+            scales.append(FRAME_LONG_SIDE_PX / max(f.size))
+    return np.array(scales, dtype=float)
 
 
 def model_metadata(model: str | Path) -> dict[str, str]:

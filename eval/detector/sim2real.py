@@ -16,7 +16,7 @@ Renders show placards at other sizes than hand-held photos do (more far away), a
 depends on size, so the renders' shares are also given **at the photos' size mix**
 (post-stratification): a rendered placard of label c whose box's shorter side falls in size
 bin b (:data:`SIZE_BINS_PX`, at the scale of a frame whose long side is 640 px, as a detector that
-letterboxes by the long side sees it: :func:`frame_scales`) weighs
+letterboxes by the long side sees it: :func:`eval.detector.quality.frame_scales`) weighs
 
     w_cb = p_photo(c, b) / p_render(c, b)
 
@@ -67,14 +67,14 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from eval.detector.label_eval import wilson
-from eval.detector.metrics import ImageBoxes, recall_by_size, size_band_label
+from eval.detector.metrics import ImageBoxes, recall_by_size, scaled_boxes, size_band_label
 from eval.detector.photos import (
     FALSE_DETECTION,
     HAZMAT_IDS,
@@ -84,13 +84,10 @@ from eval.detector.photos import (
     outcome,
     write_overlay,
 )
-from eval.detector.quality import DetectorQualityError, LabelledImage
+from eval.detector.quality import FRAME_LONG_SIDE_PX, DetectorQualityError, LabelledImage
 from poi.core.names import RESCUE_CLASSES
 
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, 160.0, float("inf"))  # shorter box side
-# the sizes are those of a frame whose long side is the D435 colour frame's: a YOLO detector letterboxes
-# every image by its long side, so a box of a 520 px photo is seen 640 / 520 times as large as its pixels
-FRAME_LONG_SIDE_PX = 640.0
 SHAPE_BINS: tuple[float, ...] = (0.0, 0.75, 0.9, float("inf"))  # shorter / longer box side
 TOO_FEW = 20  # placards a side below which a label's gap is flagged
 PHOTOMETRY_MIN_PX = 40.0  # crops with a shorter side under this are left out of the photometry
@@ -298,7 +295,7 @@ class Side:
     false detections of each image."""
 
     label: np.ndarray  # (n,) class index
-    side_px: np.ndarray  # (n,) shorter side of the labelled box, at the frame's scale (frame_scales)
+    side_px: np.ndarray  # (n,) shorter side of the labelled box, at the frame's scale (quality.frame_scales)
     aspect: np.ndarray  # (n,) shorter over longer side of the labelled box, in (0, 1]
     right: np.ndarray  # (n,) paired with a detection of its own label
     placard: np.ndarray  # (n,) paired with a detection of any hazmat label
@@ -314,19 +311,6 @@ class Side:
         return len(self.false)
 
 
-def frame_scales(images: Sequence[LabelledImage]) -> np.ndarray:
-    """(n,) per image, :data:`FRAME_LONG_SIDE_PX` over its long side (read from the file's header):
-    what its box sizes are multiplied by to be compared with another image's, as a detector that
-    letterboxes by the long side sees them (1 for the 640x480 renders)."""
-    from PIL import Image
-
-    scales = []
-    for im in images:
-        with Image.open(im.path) as f:
-            scales.append(FRAME_LONG_SIDE_PX / max(f.size))
-    return np.array(scales, dtype=float)
-
-
 def side_outcomes(
     results: Sequence[ImageBoxes],
     conf: float,
@@ -336,8 +320,9 @@ def side_outcomes(
     """Every labelled hazmat placard of ``results`` with its outcome at ``conf``
     (:func:`eval.detector.photos.outcome`), each image's false detections by detected class, and
     the placards' recall in each band of ``bins`` (:func:`eval.detector.metrics.recall_by_size`).
-    Sizes (``Side.side_px``, the bands) are the boxes' at ``scales`` (:func:`frame_scales`; 1 when
-    not given); the boxes themselves stay in the image's pixels."""
+    Sizes (``Side.side_px``, the bands) are the boxes' at ``scales``
+    (:func:`eval.detector.quality.frame_scales`; 1 when not given); the boxes themselves stay in
+    the image's pixels."""
     scales = np.ones(len(results)) if scales is None else np.asarray(scales, dtype=float)
     label, side, aspect, right, placard, image, boxes = [], [], [], [], [], [], []
     false = np.zeros((len(results), len(RESCUE_CLASSES)), dtype=np.int64)
@@ -374,7 +359,7 @@ def side_outcomes(
         by_size=[
             r
             for r in recall_by_size(
-                [_scaled(im, f) for im, f in zip(results, scales, strict=True)],
+                [scaled_boxes(im, f) for im, f in zip(results, scales, strict=True)],
                 GROUPS,
                 conf,
                 tuple(bins),
@@ -384,11 +369,6 @@ def side_outcomes(
             if r["group"] == "hazmat label"
         ],
     )
-
-
-def _scaled(im: ImageBoxes, f: float) -> ImageBoxes:
-    """``im`` with its boxes multiplied by ``f`` (IoU and pairs unchanged)."""
-    return im if f == 1.0 else replace(im, gt_boxes=im.gt_boxes * f, det_boxes=im.det_boxes * f)
 
 
 def measure_photometry(side: Side, images: Sequence[LabelledImage], min_px: float = PHOTOMETRY_MIN_PX) -> None:

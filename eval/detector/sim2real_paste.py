@@ -17,7 +17,7 @@ the photo set's sheets. Read down a column, a drawing named less often in the re
 the photos says what the frame around the placard costs (its scene, light and view); the
 renders' first column below their second, what the render's drawing of the placard costs.
 Only placards whose box lies wholly inside the image and whose shorter side is at least
-:data:`PASTE_MIN_PX` (at the frame's scale, :func:`eval.detector.sim2real.frame_scales`) are
+:data:`PASTE_MIN_PX` (at the frame's scale, :func:`eval.detector.quality.frame_scales`) are
 pasted: smaller ones hold too few pixels to show a drawing.
 """
 

@@ -246,3 +246,20 @@ def test_absent_map_folds_labels_the_photo_set_lacks():
     assert mapped["hazmat"]["boxes"] == kept["hazmat"]["boxes"] == 4
     with pytest.raises(DetectorQualityError, match="--absent must be one of keep, map"):
         fold_classes([im], "drop")
+
+
+def test_recall_by_size_is_at_the_frames_scale():
+    """A 30 px placard of an image 320 px on its long side is counted with the 60 px ones, as the
+    detector sees it; without scales, in the image's own pixels."""
+    from eval.detector.metrics import ImageBoxes
+    from eval.detector.photos import folder_report
+
+    box = np.array([[10.0, 10.0, 40.0, 45.0]])  # 30 x 35 px
+    two = np.array([2])
+    im = ImageBoxes(gt_boxes=box, gt_classes=two, det_boxes=box, det_classes=two, det_scores=np.array([0.9]))
+
+    def bands(report: dict) -> dict:
+        return {b["band_px"]: b["n"] for b in report["by_size"] if b["group"] == "hazmat label"}
+
+    assert bands(folder_report([im], 0.5, np.array([2.0])))["40-80"] == 1
+    assert bands(folder_report([im], 0.5))["20-40"] == 1

@@ -449,8 +449,8 @@ def test_box_sizes_are_compared_at_the_frames_scale(tmp_path):
     from PIL import Image
 
     from eval.detector.metrics import ImageBoxes
-    from eval.detector.quality import LabelledImage
-    from eval.detector.sim2real import frame_scales, side_outcomes
+    from eval.detector.quality import LabelledImage, frame_scales
+    from eval.detector.sim2real import side_outcomes
 
     small, frame = tmp_path / "small.png", tmp_path / "frame.png"
     Image.new("RGB", (320, 240)).save(small)
