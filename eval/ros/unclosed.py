@@ -32,6 +32,7 @@ from __future__ import annotations
 import bz2
 import io
 import struct
+from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,7 +54,7 @@ class Connection:
     msgtype: str
 
 
-class _Unclosed:
+class _Unclosed(ABC):
     """What both formats share: the connections and types found, the messages read again per
     ``messages`` without those of the last stamp, and the note. A format gives ``_scan``: every
     (kind, ...) item of the file in order, ``("connection", id, topic, type, definition)`` and
@@ -84,8 +85,9 @@ class _Unclosed:
         self._typestore = get_typestore(Stores.EMPTY)
         self._typestore.register(types)
 
+    @abstractmethod
     def _scan(self) -> Iterator[tuple]:
-        raise NotImplementedError
+        """The file's items in order (class note)."""
 
     def messages(self, connections: list[Connection]) -> Iterator[tuple[Connection, int, bytes]]:
         """(connection, log time, serialised message) of ``connections``, in file order, without the
@@ -101,7 +103,8 @@ class _Unclosed:
         return self._typestore.deserialize_ros1(raw, msgtype)
 
     def close(self) -> None:
-        """Nothing is held open between reads."""
+        """Nothing is held open between reads (each opens and closes the file)."""
+        return None
 
     def note(self) -> str:
         """One line for the replay's notes: what was read and what was left out."""
