@@ -393,8 +393,9 @@ def cmd_sim2real(args) -> int:
     render_results = fold_classes(_detect(args, renders.images, args.conf), args.absent)
     cpu["detect_renders"] = time.process_time() - t0
     t0 = time.process_time()
-    photos = side_outcomes(photo_results, args.conf, scales=frame_scales(photo_images))
-    rendered = side_outcomes(render_results, args.conf, scales=frame_scales(renders.images))
+    photo_scales, render_scales = frame_scales(photo_images), frame_scales(renders.images)
+    photos = side_outcomes(photo_results, args.conf, scales=photo_scales)
+    rendered = side_outcomes(render_results, args.conf, scales=render_scales)
     measure_photometry(photos, photo_images)
     measure_photometry(rendered, renders.images)
     card = {
@@ -438,10 +439,13 @@ def cmd_sim2real(args) -> int:
         t0 = time.process_time()
         detect = ImageDetector(args.model, args.conf, args.label_model, _options(args))
         card["decomposition"] = {"min_side_px": PASTE_MIN_PX}
-        for side, images in (("photos", photo_images), ("renders", renders.images)):
+        for side, images, results, scales in (
+            ("photos", photo_images, photo_results, photo_scales),
+            ("renders", renders.images, render_results, render_scales),
+        ):
             with progress_bar(total=len(images), desc=f"paste, {side}", unit="img", quiet=args.quiet) as bar:
                 card["decomposition"][side] = decompose_side(
-                    detect, images, frame_scales(images), args.absent, args.seed, progress=bar.update
+                    detect, images, results, scales, args.absent, args.seed, progress=bar.update
                 )
         cpu["decompose"] = time.process_time() - t0
     card["cpu_s"] = {k: round(v, 1) for k, v in cpu.items()} | {"total": round(time.process_time() - cpu0, 1)}

@@ -127,6 +127,18 @@ REAL_SET_FOLD: dict[str, str] = {
 FOLD_MODES = ("keep", "map")
 
 
+def fold_lut(absent: str) -> np.ndarray:
+    """(len(RESCUE_CLASSES),) the class index each class is counted as under ``absent``
+    (:func:`fold_classes`): itself with ``keep``, the real set's class holding it with ``map``."""
+    if absent not in FOLD_MODES:
+        raise DetectorQualityError(f"--absent must be one of {', '.join(FOLD_MODES)}, got {absent!r}")
+    lut = np.arange(len(RESCUE_CLASSES))
+    if absent == "map":
+        for label, into in REAL_SET_FOLD.items():
+            lut[RESCUE_CLASSES.index(label)] = RESCUE_CLASSES.index(into)
+    return lut
+
+
 def fold_classes(results: list[ImageBoxes], absent: str) -> list[ImageBoxes]:
     """``results`` with labelled and detected classes folded as ``absent`` says.
 
@@ -134,13 +146,9 @@ def fold_classes(results: list[ImageBoxes], absent: str) -> list[ImageBoxes]:
     class that holds it, in the truth and in the detections alike, so a detector naming an
     INHALATION HAZARD placard ``inhalation-hazard`` is right where the set says ``poison``.
     """
-    if absent not in FOLD_MODES:
-        raise DetectorQualityError(f"--absent must be one of {', '.join(FOLD_MODES)}, got {absent!r}")
+    lut = fold_lut(absent)
     if absent == "keep":
         return results
-    lut = np.arange(len(RESCUE_CLASSES))
-    for label, into in REAL_SET_FOLD.items():
-        lut[RESCUE_CLASSES.index(label)] = RESCUE_CLASSES.index(into)
     return [
         replace(
             im, gt_classes=lut[np.asarray(im.gt_classes, int)], det_classes=lut[np.asarray(im.det_classes, int)]

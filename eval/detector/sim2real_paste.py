@@ -30,7 +30,8 @@ import cv2
 import numpy as np
 
 from eval.detector.label_eval import wilson
-from eval.detector.photos import HAZMAT_IDS, IOU_MIN, REAL_SET_FOLD
+from eval.detector.metrics import ImageBoxes
+from eval.detector.photos import HAZMAT_IDS, IOU_MIN, fold_lut
 from eval.detector.quality import ImageDetector, LabelledImage, read_rgb
 from poi.core.geometry import iou_matrix
 from poi.core.names import RESCUE_CLASSES
@@ -80,30 +81,31 @@ def drawings(label: str, seed: int) -> dict[str, np.ndarray]:
     return {VARIANTS[1]: draw_hazmat(label, DRAWING_PX), VARIANTS[2]: draw_hazmat(label, DRAWING_PX, printed)}
 
 
-def _named(dets: list, box: np.ndarray, label: int, fold: Callable[[int], int]) -> bool:
-    """A detection of ``label`` (both folded) at IoU >= IOU_MIN with ``box``."""
-    right = [d for d in dets if fold(RESCUE_CLASSES.index(d.class_name)) == fold(label)]
-    if not right:
-        return False
-    return bool((iou_matrix(np.array([d.box_xyxy for d in right], float), box[None, :]) >= IOU_MIN).any())
+def _named(det_boxes: np.ndarray, det_classes: np.ndarray, box: np.ndarray, label: int) -> bool:
+    """A detection of class ``label`` (boxes (D, 4), classes (D,), all folded alike) at IoU >=
+    IOU_MIN with ``box``."""
+    right = np.asarray(det_boxes, float).reshape(-1, 4)[np.asarray(det_classes) == label]
+    return bool(len(right)) and bool((iou_matrix(right, box[None, :]) >= IOU_MIN).any())
 
 
 def decompose_side(
     detect: ImageDetector,
     images: Sequence[LabelledImage],
+    results: Sequence[ImageBoxes],
     scales: np.ndarray,
     absent: str,
     seed: int,
     progress: Callable[[int], object] | None = None,
 ) -> dict[str, dict]:
     """Right-label recall of each of :data:`VARIANTS` over the placards of ``images`` that are
-    pasted (module note), each with Wilson's interval: ``{variant: {"value", "ci95", "n"}}``. The
-    trial's print of the k-th pasted placard is drawn from ``seed`` and k."""
-    fold_map = {RESCUE_CLASSES.index(a): RESCUE_CLASSES.index(b) for a, b in REAL_SET_FOLD.items()}
-    fold = (lambda c: fold_map.get(c, c)) if absent == "map" else (lambda c: c)
+    pasted (module note), each with Wilson's interval: ``{variant: {"value", "ci95", "n"}}``.
+    ``results`` are ``detect``'s detections on ``images`` as they are (the card's, classes folded
+    as ``absent`` says): the first version's, not run again. The trial's print of the k-th pasted
+    placard is drawn from ``seed`` and k."""
+    lut = fold_lut(absent)
     hits = {v: 0 for v in VARIANTS}
     n = 0
-    for im, scale in zip(images, scales, strict=True):
+    for im, found, scale in zip(images, results, scales, strict=True):
         rgb = None
         for box_norm, label in zip(im.boxes_norm, im.classes, strict=True):
             if int(label) not in HAZMAT_IDS:
@@ -111,7 +113,6 @@ def decompose_side(
             if rgb is None:
                 rgb = read_rgb(im.path)
                 h_img, w_img = rgb.shape[:2]
-                found = detect(rgb, im.path)
             box = np.round(box_norm * np.array([w_img, h_img, w_img, h_img])).astype(int)
             x1, y1, x2, y2 = (int(v) for v in box)
             inside = x1 >= 0 and y1 >= 0 and x2 <= w_img and y2 <= h_img
@@ -119,10 +120,12 @@ def decompose_side(
                 continue
             pictures = drawings(RESCUE_CLASSES[int(label)], seed * 100_003 + n)
             n += 1
-            hits[VARIANTS[0]] += _named(found, box.astype(float), int(label), fold)
+            want, at = int(lut[int(label)]), box.astype(float)
+            hits[VARIANTS[0]] += _named(found.det_boxes, found.det_classes, at, want)
             for variant, picture in pictures.items():
                 dets = detect(paste(rgb, (x1, y1, x2, y2), picture), im.path)
-                hits[variant] += _named(dets, box.astype(float), int(label), fold)
+                classes = lut[np.array([RESCUE_CLASSES.index(d.class_name) for d in dets], int)]
+                hits[variant] += _named(np.array([d.box_xyxy for d in dets], float), classes, at, want)
         if progress:
             progress(1)
     out = {}
