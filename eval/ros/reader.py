@@ -228,31 +228,28 @@ def _unclosed_mcap(path: Path) -> Path | None:
     return stored[0] if len(stored) == 1 else None
 
 
-def _unclosed_kind(path: Path) -> str | None:
-    """ "mcap" for a rosbag2 MCAP folder its writer never closed (no metadata.yaml), "bag" for a
-    ROS 1 bag without its index, else None."""
+def _never_closed(path: Path) -> bool:
+    """A rosbag2 MCAP folder without metadata.yaml, or a ROS 1 bag without its index."""
     from eval.ros.unclosed import bag_is_unclosed
 
-    if _unclosed_mcap(path) is not None:
-        return "mcap"
-    return "bag" if path.is_file() and bag_is_unclosed(path) else None
+    return _unclosed_mcap(path) is not None or (path.is_file() and bag_is_unclosed(path))
 
 
 def _unclosed(path: Path):
     """A reader of :mod:`eval.ros.unclosed` for a log its writer never closed, or None."""
     import importlib.util
 
-    from eval.ros.unclosed import UnclosedBag, UnclosedMcap
+    from eval.ros.unclosed import UnclosedBag, UnclosedMcap, bag_is_unclosed
 
-    kind = _unclosed_kind(path)
-    if kind == "mcap":
+    stored = _unclosed_mcap(path)
+    if stored is not None:
         if importlib.util.find_spec("mcap") is None:
             raise RecordingError(
                 f"{path}: a recording never closed (no metadata.yaml); reading it needs the mcap library: "
                 "pip install 'poibench[ros]' (or pip install mcap)"
             )
-        return UnclosedMcap(_unclosed_mcap(path))
-    return UnclosedBag(path) if kind == "bag" else None
+        return UnclosedMcap(stored)
+    return UnclosedBag(path) if path.is_file() and bag_is_unclosed(path) else None
 
 
 def _not_a_recording(path: Path) -> str | None:
@@ -354,7 +351,7 @@ def open_recording(
     try:
         return _index(path, topics or Topics(), given, names or FrameNames())
     except RecordingError as e:
-        if "never closed" in str(e) or _unclosed_kind(path) is None:
+        if "never closed" in str(e) or not _never_closed(path):
             raise
         # what is missing may be what the writer had not flushed when it stopped
         raise RecordingError(f"{e} (a recording never closed or cut short: read as far as it goes)") from None
