@@ -35,11 +35,13 @@ Full entries in docs/SOURCES.md.
 from __future__ import annotations
 
 import bisect
+import contextlib
 import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -57,6 +59,9 @@ from eval.ros.messages import (
 from eval.ros.topics import UNALIGNED_DEPTH, FrameNames, Topics, viewer_streams
 from poi.core.geometry import R_BODY_OPTICAL, invert_transform, make_transform
 from poi.core.types import Frame, Intrinsics
+
+if TYPE_CHECKING:
+    from eval.ros.unclosed import _Unclosed
 
 IMAGE = "sensor_msgs/msg/Image"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
@@ -151,6 +156,9 @@ class Recording:
     _poses: list[np.ndarray | None] = field(default_factory=list, repr=False)
     # per colour frame, the odometry's angular velocity with its pose (the tracker's gyro; None without)
     _rates: list[np.ndarray | None] = field(default_factory=list, repr=False)
+    # a log its writer never closed: the reader that found its connections and last stamp (one scan
+    # of the file), kept so that reading the frames does not scan it again
+    _unclosed: _Unclosed | None = field(default=None, repr=False)
 
     @property
     def fps(self) -> float:
@@ -169,7 +177,7 @@ class Recording:
         last_thermal = {d: j for j, d in enumerate(self._thermal_of) if d is not None}
         k = 0
         t0 = self._color_stamps[0] if self._color_stamps else 0
-        with _open(self.path) as reader:
+        with _open(self.path) if self._unclosed is None else contextlib.nullcontext(self._unclosed) as reader:
             conns = [c for c in reader.connections if c.topic in want]
             for conn, _, raw in _messages(reader, conns, self.path):
                 msg = _deserialize(reader, raw, conn, self.path)
@@ -363,8 +371,9 @@ def _index(path: Path, topics: Topics, given: set[str], names: FrameNames) -> Re
     names = names or FrameNames()
     notes: list[str] = []
     with _open(path) as reader:
-        if hasattr(reader, "note"):
-            notes.append(reader.note())
+        unclosed = reader if hasattr(reader, "note") else None
+        if unclosed is not None:
+            notes.append(unclosed.note())
         by_topic = {}
         for c in reader.connections:
             by_topic.setdefault(c.topic, c)
@@ -592,6 +601,7 @@ def _index(path: Path, topics: Topics, given: set[str], names: FrameNames) -> Re
         _thermal_of=thermal_of,
         _poses=poses,
         _rates=rates,
+        _unclosed=unclosed,
     )
 
 

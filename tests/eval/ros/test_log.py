@@ -391,6 +391,21 @@ def _full_frame_log(path: Path, fmt: str, n: int) -> None:
     w.close()
 
 
+def _count_scans(monkeypatch) -> list[int]:
+    """A list that gets a 1 each time an unclosed log's file is scanned from its start."""
+    from eval.ros.unclosed import UnclosedBag
+
+    scans: list[int] = []
+    scan = UnclosedBag._scan
+
+    def counted(self):
+        scans.append(1)
+        yield from scan(self)
+
+    monkeypatch.setattr(UnclosedBag, "_scan", counted)
+    return scans
+
+
 def test_a_killed_runs_mcap_log_replays_up_to_where_it_stopped(tmp_path, capsys):
     """A run killed mid-trial leaves its rosbag2 folder without metadata.yaml and its MCAP file without
     summary or footer: the data section written so far, whole chunks (rosbags closes a chunk past 1 MiB)
@@ -440,7 +455,7 @@ def test_a_killed_runs_mcap_log_replays_up_to_where_it_stopped(tmp_path, capsys)
     assert f"{folder}: a recording never closed" in capsys.readouterr().err
 
 
-def test_a_killed_runs_bag_log_replays_up_to_where_it_stopped(tmp_path, capsys):
+def test_a_killed_runs_bag_log_replays_up_to_where_it_stopped(tmp_path, capsys, monkeypatch):
     """A ROS 1 bag whose run was killed has no index (its header's index_pos still 0) or, cut, one past
     its end: cut a closed 8-frame bag inside its chunks (rosbags closes a chunk past 1 MiB), each cut
     reads back as its first frames, up to the last stamp in the whole chunks (the closed bag's chunk
@@ -476,8 +491,12 @@ def test_a_killed_runs_bag_log_replays_up_to_where_it_stopped(tmp_path, capsys):
     unindexed = bytearray(data)
     unindexed[index_pos : index_pos + 8] = bytes(8)
     (tmp_path / "killed.bag").write_bytes(bytes(unindexed))
+    scans = _count_scans(monkeypatch)
     got = list(open_recording(tmp_path / "killed.bag").frames())
     assert len(got) == n - 1 and all(np.array_equal(g.rgb, f.rgb) for g, f in zip(got, want, strict=False))
+    # the file read three times, as a closed log is read twice plus the scan for its connections and
+    # last stamp: opening it finds them once, and reading the frames uses what it found
+    assert scans == [1, 1, 1]
     assert (
         main(["replay", str(tmp_path / "killed.bag"), "--out", str(tmp_path / "r"), "--quiet", "--no-video"]) == 0
     )
