@@ -142,10 +142,11 @@ def main() -> None:
             (root / "one_full" / f).read_bytes() == (root / "one_replay" / f).read_bytes()
             for f in ("pois.csv", "score.json")
         )
+        a, b = one_full.cost, one_replay.cost
         print(
-            f"one trial ({sc.name}, {one_full.sim_duration_s:.0f} simulated s): full {one_full.cpu_s:.2f} CPU-s "
-            f"({one_full.cpu_s_per_sim_s:.3f} per simulated s), replayed {one_replay.cpu_s:.2f} CPU-s "
-            f"({one_replay.cpu_s_per_sim_s:.4f} per simulated s): {one_full.cpu_s / one_replay.cpu_s:.1f}x less; "
+            f"one trial ({sc.name}, {one_full.sim_duration_s:.0f} simulated s): full {a.cpu_s:.2f} CPU-s "
+            f"({a.cpu_s_per_sim_s:.3f} per simulated s), replayed {b.cpu_s:.2f} CPU-s "
+            f"({b.cpu_s_per_sim_s:.4f} per simulated s): {a.cpu_s / b.cpu_s:.1f}x less; "
             f"pois.csv and score.json identical: {same_one}"
         )
         size = sum(p.stat().st_size for p in (root / "c1").glob("*.pcache")) / 1e6

@@ -154,8 +154,8 @@ def main() -> None:
         f"{load1[0]:.1f} at the end; detector {r.detector}; {video} video{record}{live}"
     )
     print(
-        f"frames {r.n_frames}, simulated {r.sim_duration_s:.1f} s, wall {r.wall_s:.1f} s, "
-        f"real-time factor {r.real_time_factor:.2f}x, score {r.score.total:g}/{r.score.max_total:g}"
+        f"frames {r.n_frames}, simulated {r.sim_duration_s:.1f} s, wall {r.cost.wall_s:.1f} s, "
+        f"real-time factor {r.cost.real_time_factor:.2f}x, score {r.score.total:g}/{r.score.max_total:g}"
     )
     target = TARGET_CPU_PER_SIM_S.get(args.detector)
     aim = f" (target {target:.2f})" if target is not None else ""

@@ -331,12 +331,13 @@ def cmd_run(args) -> int:
             f"{counted(s.misses, 'miss', 'misses')}"
         )
     if res.sim_duration_s > 0:
+        c = res.cost
         cost = (
-            f"{res.sim_duration_s:.0f} s simulated in {res.wall_s:.0f} s ({res.real_time_factor:.1f}x real time), "
-            f"{res.cpu_s:.0f} CPU s ({res.cpu_s_per_sim_s:.2f} per simulated s)"
+            f"{res.sim_duration_s:.0f} s simulated in {c.wall_s:.0f} s ({c.real_time_factor:.1f}x real time), "
+            f"{c.cpu_s:.0f} CPU s ({c.cpu_s_per_sim_s:.2f} per simulated s)"
         )
     else:  # one frame: no simulated time to divide by
-        cost = f"0 s simulated, {res.wall_s:.0f} s, {res.cpu_s:.0f} CPU s"
+        cost = f"0 s simulated, {res.cost.wall_s:.0f} s, {res.cost.cpu_s:.0f} CPU s"
     print(
         f"\n{sc.name} (seed {sc.seed}), detector {res.detector}, rules {rules_name}: {outcome}; "
         f"{counted(res.n_frames, 'frame')}, {cost}"

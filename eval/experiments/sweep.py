@@ -296,8 +296,8 @@ def run_task(task: TrialTask) -> dict:
             pose_err_median_m=res.pose_error.get("median_m", float("nan")),
             pose_err_p90_m=res.pose_error.get("p90_m", float("nan")),
             frames=res.n_frames,
-            cpu_s=round(res.cpu_s, 2),
-            cpu_s_per_sim_s=round(res.cpu_s_per_sim_s, 4),
+            cpu_s=round(res.cost.cpu_s, 2),
+            cpu_s_per_sim_s=round(res.cost.cpu_s_per_sim_s, 4),
             error="",
         )
         f = res.funnel

@@ -38,7 +38,7 @@ from eval.scoring.report import live_summary, to_json_dict
 from eval.scoring.rules import AnyRules
 from eval.scoring.scorer import ScoreResult, score
 from eval.scoring.truth import write_truth_csv
-from eval.trial.cost import CostClock
+from eval.trial.cost import CostClock, TrialCost
 from eval.trial.episode import run_episode
 from eval.trial.funnel_recorder import FunnelRecorder, funnel_objects, write_funnel_csv
 from eval.trial.observers import (
@@ -69,23 +69,13 @@ class TrialResult:
     score: ScoreResult | MapErrorResult
     n_frames: int
     sim_duration_s: float
-    wall_s: float
-    cpu_s: float  # process CPU, all threads, plus reaped children (ffmpeg): eval.trial.cost
-    cpu_children_s: float
+    cost: TrialCost  # wall and CPU seconds, as cost.json gives them (eval.trial.cost)
     detector: str
     notes: list[str] = field(default_factory=list)
     skipped_frames: int = 0
     pose_error: dict[str, float] = field(default_factory=dict)
     written: list[str] = field(default_factory=list)  # the outputs in out_dir, e.g. "pois.csv", "live/"
     funnel: Funnel | None = None  # which stage lost each point (eval.scoring.funnel); None for a map-error preset
-
-    @property
-    def real_time_factor(self) -> float:
-        return self.sim_duration_s / self.wall_s if self.wall_s > 0 else float("inf")
-
-    @property
-    def cpu_s_per_sim_s(self) -> float:
-        return self.cpu_s / self.sim_duration_s if self.sim_duration_s > 0 else float("nan")
 
 
 @dataclass(kw_only=True)
@@ -231,11 +221,11 @@ class _Recorders:
         return [FunnelObserver(self.funnel), self.skips, self.pose, PoiStream(self.writer)]
 
 
-def finish_trial(t: _Trial, source, cfg, pipe, rec: _Recorders, truth_file, clock: CostClock):
+def finish_trial(t: _Trial, source, cfg, pipe, rec: _Recorders, truth_file):
     """The files written at the end of a trial, in turn: ``pois.csv`` (rewritten with the final
     positions, and scored as it is on disk: if this rewrite failed, the rows streamed so far),
-    ``score.json``, ``funnel.csv``, ``cost.json``, ``config.yaml``, ``map.png``.
-    Returns (score, funnel, pose error summary)."""
+    ``score.json``, ``funnel.csv``, ``config.yaml``, ``map.png`` (``cost.json`` is written by
+    :func:`run_trial` once the frame source is closed). Returns (score, funnel, pose error summary)."""
     sc = t.sc
     t.outputs.write("pois.csv", lambda _: rec.writer.finalize(pipe.confirmed() + pipe.landmarks()), atomic=False)
     n, sim_duration = source.n_frames, source.sim_duration_s()
@@ -247,9 +237,6 @@ def finish_trial(t: _Trial, source, cfg, pipe, rec: _Recorders, truth_file, cloc
     pose_error = rec.pose.summary()
     write_json(t, "score.json", score_doc(t, result, funnel, pose_error, n, sim_duration, rec.skips.skipped))
     t.outputs.write("funnel.csv", lambda path: write_funnel_csv(path, funnel))
-    # What the trial cost, up to its score: the one output that differs between reruns, so it has a
-    # file of its own and score.json stays the same, byte for byte, for the same seed and config.
-    write_json(t, "cost.json", clock.read(sim_duration).to_dict(), allow_nan=False)
     write_config(t, cfg)
     t.outputs.write(
         "map.png",
@@ -336,20 +323,22 @@ def run_trial(
         if interrupt is not None:  # a Ctrl-C ends the trial here, between two frames
             observers.append(InterruptCheck(interrupt))
         run_episode(source, pipe, observers, progress=progress, desc="trial")
-        result, funnel, pose_error = finish_trial(t, source, cfg, pipe, rec, truth_file, clock)
+        result, funnel, pose_error = finish_trial(t, source, cfg, pipe, rec, truth_file)
         n, sim_duration = source.n_frames, source.sim_duration_s()
     finally:
         source.close()
-    t.outputs.check()
+    # What the whole trial cost, read once, after its last file: the one output that differs between
+    # reruns, so it has a file of its own and score.json stays the same, byte for byte, for the same
+    # seed and config; `poibench run` prints the same figures.
     cost = clock.read(sim_duration)
+    write_json(t, "cost.json", cost.to_dict(), allow_nan=False)
+    t.outputs.check()
     return TrialResult(
         out_dir=out,
         score=result,
         n_frames=n,
         sim_duration_s=sim_duration,
-        wall_s=cost.wall_s,
-        cpu_s=cost.cpu_s,
-        cpu_children_s=cost.cpu_children_s,
+        cost=cost,
         detector=detector_label(detector),
         notes=t.notes,
         skipped_frames=rec.skips.skipped,
