@@ -238,6 +238,45 @@ def test_the_configuration_reference_has_every_key_with_a_meaning():
     assert "| `maze.generate.rows` | an integer | `4` | >= 1 and <= 64 |" in scenario
 
 
+def test_every_command_has_a_row_in_the_commands_page(parser):
+    """docs/reference/commands.md's table names every command the parser has, subcommands of `suite` too."""
+    import argparse
+
+    rows = [
+        line
+        for line in (ROOT / "docs" / "reference" / "commands.md").read_text().splitlines()
+        if line.startswith("| `poibench ")
+    ]
+
+    def commands(p: argparse.ArgumentParser, name: str):
+        subs = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
+        if name and not subs:
+            yield name
+        for action in subs:
+            for sub_name, sub in action.choices.items():
+                yield from commands(sub, f"{name} {sub_name}".strip())
+
+    named = {c for c in commands(parser, "") for r in rows if re.match(rf"\| `poibench {c}[ `]", r)}
+    assert named == set(commands(parser, "")), set(commands(parser, "")) - named
+
+
+def test_the_key_tables_kept_in_the_pages_are_up_to_date():
+    """docs/reference/configuration.md keeps the keys' tables for readers of the Markdown; a key added,
+    renamed or given another range or meaning makes them stale until the hook writes them again."""
+    hook = load_hook()
+    stale = hook.stale_pages()
+    assert not stale, f"out of date: {stale}; run python docs/hooks/reference.py"
+    page = (ROOT / "docs" / "reference" / "configuration.md").read_text(encoding="utf-8")
+    assert "| `tracker.gate` | a number | `9.0` | > 0 |" in page
+    # a page whose table has a wrong row is written back to the code's table
+    assert (
+        hook.kept_in_page(
+            page.replace("| `tracker.gate` |", "| `tracker.gatex` |"), {"pipeline-config": hook.pipeline_config()}
+        )
+        == page
+    )
+
+
 def test_the_hook_examples_run():
     import doctest
 

@@ -18,6 +18,13 @@ A page holds a marker comment where a generated part goes:
 
 Nothing is copied by hand, so a key added, renamed or given a new range shows on the next build.
 The functions are plain Python; ``tests/test_docs_site.py`` calls them as well.
+
+The keys' tables (``pipeline-config``, ``scenario``, ``rules``) are also kept in the Markdown
+files themselves, between their marker and ``<!-- end generated -->``, so that the pages read on a
+forge or in a checkout show them: ``python docs/hooks/reference.py`` writes them there, ``--check``
+lists the pages whose tables are out of date (a test runs it). The commands' ``--help`` and the
+README's table are put in at build time only (``poibench COMMAND --help`` prints the one; the
+README holds the other).
 """
 
 from __future__ import annotations
@@ -37,7 +44,13 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:  # the packages, when mkdocs runs from a checkout that is not installed
     sys.path.insert(0, str(ROOT))
 
-MARKER = re.compile(r"<!-- generated: ([a-z-]+) -->")
+# a marker, and the part generated after it up to its end marker where the page keeps one
+MARKER = re.compile(
+    r"<!-- generated: ([a-z-]+) -->(?:\n(?:(?!<!-- generated: ).)*?<!-- end generated -->)?", flags=re.S
+)
+END = "<!-- end generated -->"
+KEPT_IN_PAGES = ("pipeline-config", "scenario", "rules")  # written into the Markdown files too
+DOCS = ROOT / "docs"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -332,5 +345,51 @@ GENERATORS = {
 
 
 def on_page_markdown(markdown: str, **kwargs: Any) -> str:
-    """MkDocs event: put each generated part where its marker is."""
+    """MkDocs event: put each generated part where its marker is (in place of what a page keeps
+    there: the site shows the code's keys as they are at build time)."""
     return MARKER.sub(lambda m: GENERATORS[m.group(1)](), markdown)
+
+
+def kept_in_page(markdown: str, parts: dict[str, str]) -> str:
+    r"""``markdown`` with each kept part (``parts``: name -> generated text) written after its
+    marker, up to its end marker.
+
+    >>> kept_in_page("a\n<!-- generated: rules -->\nold\n<!-- end generated -->\nb\n", {"rules": "new\n"})
+    'a\n<!-- generated: rules -->\nnew\n<!-- end generated -->\nb\n'
+    >>> kept_in_page("<!-- generated: cli -->\n", {"rules": "x"})
+    '<!-- generated: cli -->\n'
+    """
+
+    def put(m: re.Match) -> str:
+        name = m.group(1)
+        if name not in parts:
+            return m.group(0)
+        return f"<!-- generated: {name} -->\n{parts[name].rstrip()}\n{END}"
+
+    return MARKER.sub(put, markdown)
+
+
+def stale_pages(write: bool = False) -> list[Path]:
+    """The pages under docs/ whose kept parts differ from the code's (written afresh with ``write``)."""
+    parts = {name: GENERATORS[name]() for name in KEPT_IN_PAGES}
+    stale = []
+    for page in sorted(DOCS.rglob("*.md")):
+        text = page.read_text(encoding="utf-8")
+        if not any(f"<!-- generated: {name} -->" in text for name in KEPT_IN_PAGES):
+            continue
+        fresh = kept_in_page(text, parts)
+        if fresh != text:
+            stale.append(page)
+            if write:
+                page.write_text(fresh, encoding="utf-8")
+    return stale
+
+
+if __name__ == "__main__":
+    check = sys.argv[1:] == ["--check"]
+    if sys.argv[1:] not in ([], ["--check"]):
+        sys.exit("usage: python docs/hooks/reference.py [--check]")
+    pages = stale_pages(write=not check)
+    for page in pages:
+        print(f"{page.relative_to(ROOT)}: {'out of date' if check else 'written'}")
+    sys.exit(1 if check and pages else 0)
