@@ -85,6 +85,7 @@ from eval.detector.photos import (
     write_overlay,
 )
 from eval.detector.quality import FRAME_LONG_SIDE_PX, DetectorQualityError, LabelledImage
+from eval.detector.sim2real_paste import GAP_PARTS
 from poi.core.names import RESCUE_CLASSES
 
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, 160.0, float("inf"))  # shorter box side
@@ -98,7 +99,7 @@ INTERVALS = (
     "95%: recall, Wilson's score interval (Wilson 1927), the renders at the photos' mix at Kish's "
     "effective n = (sum w)^2 / sum w^2 (Kish 1965); gap, Newcombe's hybrid score interval (Newcombe "
     "1998, method 10); false detections an image, seeded bootstrap percentile over images (Efron and "
-    "Tibshirani 1993, 13.3)"
+    "Tibshirani 1993, 13.3); with --decompose, the gap's parts, the same over each side's placards"
 )
 
 
@@ -229,14 +230,61 @@ def rate_interval(
     ([1.0], True)
     """
     x = np.asarray(counts, dtype=float)  # (n, K)
-    n = len(x)
-    if n == 0:
+    if len(x) == 0:
         nan = np.full(x.shape[1], np.nan)
         return nan, nan, nan
-    draws = rng.multinomial(n, np.full(n, 1.0 / n), size=resamples)  # (R, n) times each image is drawn
-    means = draws @ x / n  # (R, K)
-    lo, hi = np.quantile(means, [0.025, 0.975], axis=0)  # (K,) each
+    lo, hi = np.quantile(bootstrap_means(x, rng, resamples), [0.025, 0.975], axis=0)  # (K,) each
     return x.mean(axis=0), np.clip(lo, x.min(axis=0), None), np.clip(hi, None, x.max(axis=0))
+
+
+def bootstrap_means(x: np.ndarray, rng: np.random.Generator, resamples: int = BOOTSTRAP_RESAMPLES) -> np.ndarray:
+    """(resamples, K): the column means of ``x`` ((n, K), n >= 1) over ``resamples`` bootstrap
+    resamples of its rows ([Efron1993]_, 6.2), each drawn as multinomial counts of the rows.
+
+    >>> bootstrap_means(np.array([[1.0], [1.0]]), np.random.default_rng(0), 3).tolist()
+    [[1.0], [1.0], [1.0]]
+    """
+    n = len(x)
+    draws = rng.multinomial(n, np.full(n, 1.0 / n), size=resamples)  # (R, n) times each row is drawn
+    return draws @ np.asarray(x, dtype=float) / n
+
+
+def _parts(photos: np.ndarray, renders: np.ndarray) -> np.ndarray:
+    """(..., 4): the gap as it is and its three parts (:mod:`eval.detector.sim2real_paste`) from the
+    recalls of each side, ``photos`` and ``renders`` (..., 3) in the order of its ``VARIANTS``:
+
+        A_r - A_p = (D_r - D_p) + [(T_r - D_r) - (T_p - D_p)] + [(A_r - T_r) - (A_p - T_p)]
+    """
+    (a_p, d_p, t_p), (a_r, d_r, t_r) = np.moveaxis(photos, -1, 0), np.moveaxis(renders, -1, 0)
+    frame = d_r - d_p
+    printed = (t_r - d_r) - (t_p - d_p)
+    placard = (a_r - t_r) - (a_p - t_p)
+    return np.stack([a_r - a_p, frame, printed, placard], axis=-1)
+
+
+def gap_parts(photos: np.ndarray, renders: np.ndarray, seed: int) -> dict | None:
+    """The gap of the placards as they are (renders minus photos, points of recall) and its three
+    parts (:mod:`eval.detector.sim2real_paste`'s note), each ``{"value", "ci95"}``: ``{"gap": ...,
+    part: ...}`` for each of ``GAP_PARTS``; None where a side pasted no placard. ``photos``,
+    ``renders``: (n, 3) bool per pasted placard (``decompose_side``); the 95% intervals are bootstrap
+    percentile intervals ([Efron1993]_, 13.3), each side's placards resampled on their own.
+
+    >>> p = np.array([[1, 1, 1], [1, 1, 0], [0, 1, 1], [0, 1, 1]], bool)  # A 0.5, D 1.0, T 0.75
+    >>> r = np.array([[0, 1, 0], [0, 1, 1], [0, 0, 0], [1, 1, 0]], bool)  # A 0.25, D 0.75, T 0.25
+    >>> d = gap_parts(p, r, seed=0)
+    >>> [d[k]["value"] for k in ("gap", *GAP_PARTS)]  # -25 = -25 + (-50 + 25) + (0 - (-25))
+    [-25.0, -25.0, -25.0, 25.0]
+    """
+    if not len(photos) or not len(renders):
+        return None
+    value = _parts(photos.mean(axis=0), renders.mean(axis=0))  # (4,)
+    rng = np.random.default_rng(seed)
+    boot = _parts(bootstrap_means(photos, rng), bootstrap_means(renders, rng))  # (R, 4)
+    lo, hi = np.quantile(boot, [0.025, 0.975], axis=0)
+    return {
+        name: {"value": round(100 * float(value[j]), 1), "ci95": [round(100 * lo[j], 1), round(100 * hi[j], 1)]}
+        for j, name in enumerate(("gap", *GAP_PARTS))
+    }
 
 
 def weighted_median(x: np.ndarray, w: np.ndarray | None = None) -> float | None:

@@ -19,6 +19,18 @@ renders' first column below their second, what the render's drawing of the placa
 Only placards whose box lies wholly inside the image and whose shorter side is at least
 :data:`PASTE_MIN_PX` (at the frame's scale, :func:`eval.detector.quality.frame_scales`) are
 pasted: smaller ones hold too few pixels to show a drawing.
+
+The gap of the placards as they are splits into three parts that add up to it exactly
+(:func:`eval.detector.sim2real.gap_parts`). With A, D and T a side's recall as it is, with the
+drawing and with the drawing in a trial's print (p the photos, r the renders):
+
+    A_r - A_p = (D_r - D_p) + [(T_r - D_r) - (T_p - D_p)] + [(A_r - T_r) - (A_p - T_p)]
+
+the frame around the placard (the same drawing on both sides), a trial's print (what it costs in
+the renders beyond what it costs in the photos), and the placard (the render's placard against
+its print pasted flat, beyond the real print against a trial's print pasted flat: the render's
+light, view, sampling and camera on the placard, less how far the real prints are from the
+print model). Each with a 95% bootstrap percentile interval over the placards of each side.
 """
 
 from __future__ import annotations
@@ -40,6 +52,13 @@ PASTE_MIN_PX = 40.0  # shorter side at the frame's scale below which a placard i
 DRAWING_PX = 256  # the drawing's side before it is scaled into the box
 SUPERSAMPLE = 8  # the diamond mask's anti-aliasing
 VARIANTS = ("as it is", "the drawing", "the drawing, a trial's print")
+# the parts of the gap (module note), in the order of the equation's terms: name -> what it compares
+GAP_PARTS = {
+    "the frame around the placard": "the drawing in the renders against the drawing in the photos",
+    "a trial's print": "what a trial's print costs the drawing in the renders, beyond what it costs in the photos",
+    "the placard": "the rendered placard against its print pasted flat, beyond the real print against a trial's "
+    "print pasted flat",
+}
 
 
 def diamond_mask(width: int, height: int) -> np.ndarray:
@@ -96,14 +115,15 @@ def decompose_side(
     absent: str,
     seed: int,
     progress: Callable[[int], object] | None = None,
-) -> dict[str, dict]:
+) -> tuple[dict[str, dict], np.ndarray]:
     """Right-label recall of each of :data:`VARIANTS` over the placards of ``images`` that are
-    pasted (module note), each with Wilson's interval: ``{variant: {"value", "ci95", "n"}}``.
+    pasted (module note), each with Wilson's interval: ``{variant: {"value", "ci95", "n"}}``, and
+    each pasted placard's outcomes, (n, 3) bool in the order of :data:`VARIANTS`.
     ``results`` are ``detect``'s detections on ``images`` as they are (the card's, classes folded
     as ``absent`` says): the first version's, not run again. The trial's print of the k-th pasted
     placard is drawn from ``seed`` and k."""
     lut = fold_lut(absent)
-    hits = {v: 0 for v in VARIANTS}
+    rows: list[list[bool]] = []
     n = 0
     for im, found, scale in zip(images, results, scales, strict=True):
         rgb = None
@@ -121,22 +141,25 @@ def decompose_side(
             pictures = drawings(RESCUE_CLASSES[int(label)], seed * 100_003 + n)
             n += 1
             want, at = int(lut[int(label)]), box.astype(float)
-            hits[VARIANTS[0]] += _named(found.det_boxes, found.det_classes, at, want)
-            for variant, picture in pictures.items():
+            row = [_named(found.det_boxes, found.det_classes, at, want)]
+            for picture in pictures.values():
                 dets = detect(paste(rgb, (x1, y1, x2, y2), picture), im.path)
                 classes = lut[np.array([RESCUE_CLASSES.index(d.class_name) for d in dets], int)]
-                hits[variant] += _named(np.array([d.box_xyxy for d in dets], float), classes, at, want)
+                row.append(_named(np.array([d.box_xyxy for d in dets], float), classes, at, want))
+            rows.append(row)
         if progress:
             progress(1)
+    hits = np.array(rows, dtype=bool).reshape(-1, len(VARIANTS))
     out = {}
-    for variant in VARIANTS:
-        ci = wilson(hits[variant], n)
+    for j, variant in enumerate(VARIANTS):
+        k = int(hits[:, j].sum())
+        ci = wilson(k, n)
         out[variant] = {
-            "value": round(hits[variant] / n, 4) if n else None,
+            "value": round(k / n, 4) if n else None,
             "ci95": None if ci is None else [round(ci[0], 4), round(ci[1], 4)],
             "n": n,
         }
-    return out
+    return out, hits
 
 
 def format_decomposition(d: dict) -> list[str]:
@@ -166,4 +189,19 @@ def format_decomposition(d: dict) -> list[str]:
         "drawing named less often in the renders than in the photos is what the frame around the placard costs "
         "(scene, light, view); the renders' placards below their drawing, what the render's placard costs.",
     ]
+    parts = d.get("gap_parts")
+    if parts:
+
+        def pts(e: dict) -> str:
+            return f"{e['value']:+.1f} ({e['ci95'][0]:+.1f} to {e['ci95'][1]:+.1f})"
+
+        out += [
+            "",
+            f"The gap of these placards as they are, {pts(parts['gap'])} points (renders minus photos, 95% "
+            "bootstrap interval), in three parts that add up to it:",
+            "",
+            "| part | points | what it compares |",
+            "|---|---|---|",
+            *(f"| {name} | {pts(parts[name])} | {meaning} |" for name, meaning in GAP_PARTS.items()),
+        ]
     return out

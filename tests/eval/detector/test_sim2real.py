@@ -275,7 +275,13 @@ def test_sim2real_end_to_end(photos, tmp_path, capsys):
         assert (d["photos"][variant]["value"], d["photos"][variant]["n"]) == (0.25, 4)
         assert d["photos"][variant]["ci95"] == [round(v, 4) for v in wilson(1, 4)]
         assert d["renders"][variant] == d["renders"]["as it is"]
-    assert "## Where the gap lies" in (out / "card.md").read_text()
+    # the gap's parts: the same recall in every version, so the whole gap lies in the frame around
+    gap = round(100 * (d["renders"]["as it is"]["value"] - 0.25), 1)
+    parts = d["gap_parts"]
+    assert parts["gap"]["value"] == parts["the frame around the placard"]["value"] == gap
+    assert parts["a trial's print"] == parts["the placard"] == {"value": 0.0, "ci95": [0.0, 0.0]}
+    md = (out / "card.md").read_text()
+    assert "## Where the gap lies" in md and f"| the frame around the placard | {gap:+.1f} (" in md
 
     # a model that boxes nothing: the card says so, the command fails in one line (renders reused)
     blind = _model(tmp_path / "blind.onnx", 0.0)
