@@ -159,3 +159,21 @@ def test_patterns_match_what_they_are_meant_to():
     ]
     assert BARE_DOC.findall("FACTS.md and docs/FACTS.md") == ["FACTS.md"]
     assert SEED_NICKNAME.findall("seed 1 2.4.4, seed 2, --seed 1000") == ["seed 1", "seed 2"]
+
+
+def test_the_alias_tables_of_the_rules_page_are_the_codes():
+    """docs/RULES.md's two alias tables ("Type names", "Hazmat labels") list every alias
+    poi.core.names maps, each to what the code maps it to, and none it does not."""
+    from poi.core.names import LABEL_ALIASES, TYPE_ALIASES
+
+    page = (DOCS / "RULES.md").read_text(encoding="utf-8")
+    written: dict[str, str] = {}
+    for line in page.splitlines():
+        m = re.fullmatch(r"\| ((?:`[a-z-]+`(?:, )?)+) \| ((?:`[a-z-]+`(?:, )?)+) \|", line.strip())
+        if m is None:
+            continue
+        aliases, targets = (re.findall(r"`([a-z-]+)`", g) for g in m.groups())
+        # one target for all, or one target an alias (the pillars' row)
+        for alias, target in zip(aliases, targets * len(aliases) if len(targets) == 1 else targets, strict=True):
+            written[alias] = target
+    assert written == {**TYPE_ALIASES, **LABEL_ALIASES}

@@ -3,8 +3,9 @@
 A rules file says which kind of score it gives with ``scoring``: ``points`` (the
 default when the key is absent: ex3, rmrc2025) or ``map_error`` (turtlebot).
 
-A ``points`` rules file is a mapping with these fields (all required except
-``description``, ``scoring`` and the three autonomy fields, no others):
+A ``points`` rules file is a mapping with these fields (all required except ``description``,
+``scoring``, the three autonomy fields, ``qr_mapping`` and ``qr_text_filter``; the two fiducial
+fields exactly with ``qr_mapping: fiducials``; no others):
 
 ``name``
     A non-empty string.
@@ -55,7 +56,7 @@ A ``points`` rules file is a mapping with these fields (all required except
     (metres, 3D) to pair with it.
 
 A ``map_error`` rules file (the TurtleBot goal arena, [Bouda2025]_ section 1; scored by
-eval/map_error.py) has these fields (all required except ``description``):
+eval/scoring/map_error.py) has these fields (all required except ``description``):
 
 ``name``, ``description``
     As above.
