@@ -47,12 +47,12 @@ class PanSpec:
     or a PTU-D46 ([PTU-D46]_) turns.
 
     At a step that faces a wall of the cell (0.6 m away in an RRL cell, where the D435's
-    42-degree vertical view spans only 0.27-0.73 m of it from a 0.5 m mast) the head also dwells
+    43-degree vertical view spans only 0.27-0.73 m of it from a 0.5 m mast) the head also dwells
     at each tilt of ``wall_tilts_deg`` (up positive) before levelling: at -25 and +25 degrees it
     sees the wall from its foot to 1.1 m, as a sensor head looks down and up a wall within reach.
 
     ``mode: sweep`` pans continuously, ``pan(t) = amplitude_deg sin(2 pi t / period_s)``, while the
-    robot drives and turns without stopping (the default before issue 57).
+    robot drives and turns without stopping.
 
     References
     ----------
