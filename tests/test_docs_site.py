@@ -92,6 +92,19 @@ def test_every_package_is_in_the_design_tree():
     assert not unlisted, "packages missing from docs/DESIGN.md's layout tree:\n" + "\n".join(unlisted)
 
 
+def test_every_module_is_in_the_design_tree():
+    """Each tracked module of the four packages is a path of the tree, or, where the tree names a
+    folder's modules in a line of prose (shapes/, cli/), named there."""
+    tree = layout_tree(DESIGN.read_text(encoding="utf-8"))
+    listed, text = set(tree_paths(tree)), "\n".join(tree)
+    tracked = subprocess.run(["git", "ls-files", *PACKAGES], cwd=ROOT, capture_output=True, text=True, check=True)
+    modules = [f for f in tracked.stdout.split() if f.endswith(".py") and not f.endswith("__init__.py")]
+    unlisted = [f for f in modules if f not in listed and not re.search(rf"\b{Path(f).stem}\b", text)]
+    assert len(modules) > 100 and not unlisted, "modules missing from docs/DESIGN.md's layout tree:\n" + "\n".join(
+        unlisted
+    )
+
+
 def test_the_tree_test_fails_on_a_missing_path():
     lines = ["sim/                    the world", "  no_such_module.py     gone"]
     assert not (ROOT / tree_paths(lines)[1]).exists()
