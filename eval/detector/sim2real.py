@@ -86,6 +86,7 @@ from eval.detector.photos import (
 )
 from eval.detector.quality import FRAME_LONG_SIDE_PX, DetectorQualityError, LabelledImage
 from eval.detector.sim2real_paste import GAP_PARTS
+from eval.stats import bootstrap_means
 from poi.core.names import RESCUE_CLASSES
 
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, 160.0, float("inf"))  # shorter box side
@@ -222,7 +223,7 @@ def rate_interval(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Means over images of ``counts`` ((n_img, K): false detections an image, K kinds) with their
     95% bootstrap percentile intervals ([Efron1993]_, 13.3): the images drawn with replacement
-    ``resamples`` times (as multinomial counts), the 2.5% and 97.5% quantiles of the means. Each
+    ``resamples`` times (:func:`eval.stats.bootstrap_means`), the 2.5% and 97.5% quantiles of the means. Each
     end is a mean of counts, so it is >= 0 and within [min, max] of the counts.
 
     >>> m, lo, hi = rate_interval(np.array([[0], [0], [2], [2]]), np.random.default_rng(0))
@@ -235,18 +236,6 @@ def rate_interval(
         return nan, nan, nan
     lo, hi = np.quantile(bootstrap_means(x, rng, resamples), [0.025, 0.975], axis=0)  # (K,) each
     return x.mean(axis=0), np.clip(lo, x.min(axis=0), None), np.clip(hi, None, x.max(axis=0))
-
-
-def bootstrap_means(x: np.ndarray, rng: np.random.Generator, resamples: int = BOOTSTRAP_RESAMPLES) -> np.ndarray:
-    """(resamples, K): the column means of ``x`` ((n, K), n >= 1) over ``resamples`` bootstrap
-    resamples of its rows ([Efron1993]_, 6.2), each drawn as multinomial counts of the rows.
-
-    >>> bootstrap_means(np.array([[1.0], [1.0]]), np.random.default_rng(0), 3).tolist()
-    [[1.0], [1.0], [1.0]]
-    """
-    n = len(x)
-    draws = rng.multinomial(n, np.full(n, 1.0 / n), size=resamples)  # (R, n) times each row is drawn
-    return draws @ np.asarray(x, dtype=float) / n
 
 
 def _parts(photos: np.ndarray, renders: np.ndarray) -> np.ndarray:
@@ -279,7 +268,8 @@ def gap_parts(photos: np.ndarray, renders: np.ndarray, seed: int) -> dict | None
         return None
     value = _parts(photos.mean(axis=0), renders.mean(axis=0))  # (4,)
     rng = np.random.default_rng(seed)
-    boot = _parts(bootstrap_means(photos, rng), bootstrap_means(renders, rng))  # (R, 4)
+    boot_p, boot_r = (bootstrap_means(side, rng, BOOTSTRAP_RESAMPLES) for side in (photos, renders))  # (R, 3) each
+    boot = _parts(boot_p, boot_r)  # (R, 4)
     lo, hi = np.quantile(boot, [0.025, 0.975], axis=0)
     return {
         name: {"value": round(100 * float(value[j]), 1), "ci95": [round(100 * lo[j], 1), round(100 * hi[j], 1)]}

@@ -47,6 +47,7 @@ import yaml
 
 from eval.experiments.shard import Shard
 from eval.experiments.suites import Suite, load_suite
+from eval.stats import bootstrap_means
 from poi.core.loader import safe_load_file
 from poi.core.poi_file import write_text_atomic
 
@@ -741,8 +742,7 @@ def mean_interval(
         raise ValueError(f"level must lie in (0, 1), got {level}")
     if x.size < 2:
         return float("nan"), float("nan")
-    draws = rng.integers(0, x.size, size=(resamples, x.size))  # (resamples, n) maze indices
-    means = x[draws].mean(axis=1)  # (resamples,)
+    means = bootstrap_means(x, rng, resamples)  # (resamples,): the mazes drawn with replacement
     lo, hi = np.quantile(means, [(1.0 - level) / 2.0, (1.0 + level) / 2.0])
     # a mean of equal values can differ from them in the last bit: keep the ends within the values
     return float(np.clip(lo, x.min(), x.max())), float(np.clip(hi, x.min(), x.max()))
