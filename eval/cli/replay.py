@@ -15,8 +15,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "replay",
         help="run the pipeline over a ROS recording (bag, rosbag2 sqlite3/MCAP) and write pois.csv",
         description="Read a ROS 1 bag (realsense-ros topics or the RealSense Viewer's layout) or a rosbag2 "
-        "folder (sqlite3 or MCAP), run the pipeline on its frames and write pois.csv, map.png, trial.mp4 and "
-        "live/ (poibench view replays it); with --truth, score.json.",
+        "folder (sqlite3 or MCAP), run the pipeline on its frames and write pois.csv, map.png, trial.mp4, "
+        "live/ (poibench view replays it) and replay.json; with --truth, score.json and funnel.csv.",
     )
     p.add_argument("recording", help="a .bag file or a rosbag2 folder (with metadata.yaml)")
     p.add_argument("--out", default="replay", help="output folder (default: ./replay)")
@@ -102,7 +102,8 @@ def cmd_replay(args) -> int:
     print(
         f"{rec.path.name} ({rec.layout} layout, pose from {rec.pose_source}): {res.n_frames} frames in "
         f"{res.wall_s:.1f} s ({res.frames_per_s:.1f} frames/s, {res.cpu_ms_per_frame:.0f} ms CPU a frame), "
-        f"{res.confirmed} objects reported" + (f"; {res.score.headline()}" if res.score is not None else "")
+        f"{res.confirmed} {'report' if res.confirmed == 1 else 'reports'}"
+        + (f"; {res.score.headline()}" if res.score is not None else "")
     )
     print(f"wrote {res.out_dir}/: {' '.join(res.written)}")
     return 0

@@ -118,6 +118,15 @@ def counted(n: int, noun: str, plural: str | None = None) -> str:
     return f"{n} {noun if n == 1 else (plural or noun + 's')}"
 
 
+def seconds(s: float) -> str:
+    """Seconds to the tenth under 100 s, whole above: the figures a ratio beside them is read from.
+
+    >>> seconds(5.94), seconds(251.3)
+    ('5.9 s', '251 s')
+    """
+    return f"{s:.1f} s" if s < 100 else f"{s:.0f} s"
+
+
 def check_detector(choice: str) -> None:
     """Refuse a ``--detector`` that names nothing before the trial starts. A ``python:`` module is
     also looked for in the working folder (a console script does not have it on sys.path)."""
@@ -333,11 +342,12 @@ def cmd_run(args) -> int:
     if res.sim_duration_s > 0:
         c = res.cost
         cost = (
-            f"{res.sim_duration_s:.0f} s simulated in {c.wall_s:.0f} s ({c.real_time_factor:.1f}x real time), "
-            f"{c.cpu_s:.0f} CPU s ({c.cpu_s_per_sim_s:.2f} per simulated s)"
+            f"{seconds(res.sim_duration_s)} simulated in {seconds(c.wall_s)} "
+            f"({c.real_time_factor:.1f}x real time), "
+            f"{seconds(c.cpu_s)} of CPU ({c.cpu_s_per_sim_s:.2f} CPU s per simulated s)"
         )
     else:  # one frame: no simulated time to divide by
-        cost = f"0 s simulated, {res.cost.wall_s:.0f} s, {res.cost.cpu_s:.0f} CPU s"
+        cost = f"0 s simulated, {seconds(res.cost.wall_s)}, {seconds(res.cost.cpu_s)} of CPU"
     print(
         f"\n{sc.name} (seed {sc.seed}), detector {res.detector}, rules {rules_name}: {outcome}; "
         f"{counted(res.n_frames, 'frame')}, {cost}"

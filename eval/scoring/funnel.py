@@ -290,18 +290,20 @@ def _perception_detail(cause: str, o: ObjectTrace) -> str:
     if cause == "not read":
         if o.type == "qr":
             ppm = o.px_per_module()
-            at = "" if ppm is None else f", best {ppm:.1f} px a module"
+            best = "" if ppm is None else f" (best {ppm:.1f} px a module)"
             if not o.qr_views:
-                whole = "none of them"
+                views = f"no view at >= {QR_MIN_MODULE_PX:g} px a module{best}"
             elif not o.qr_whole_views:
-                whole = "none whole in the image: no decoder could read it there"
+                views = (
+                    f"{o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a module{best}, none whole in the image: "
+                    "no decoder could read it there"
+                )
             else:
-                whole = f"{o.qr_whole_views} of them whole in the image, {o.qr_whole_decoded} read right there"
-
-            return (
-                f"localised {o.localised_frames} frames; {o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a "
-                f"module{at}, {whole}; the pipeline's reads: none right"
-            )
+                views = (
+                    f"{o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a module{best}, {o.qr_whole_views} of them "
+                    f"whole in the image, {o.qr_whole_decoded} read right there"
+                )
+            return f"localised {o.localised_frames} frames; {views}; the pipeline's reads: none right"
         read = ", ".join(f"{t or 'nothing'} {n}" for t, n in o.read_as.most_common(3))
         return f"localised {o.localised_frames} frames, read as {read}"
     return seen
@@ -633,6 +635,9 @@ def format_funnel(per_type: dict[str, dict[str, float]], lost: float, max_minus_
             + (f" ({qr['qr_whole_decoded'] / qr['qr_whole_views']:.0%})" if qr["qr_whole_views"] else "")
             + f"; the other {_g(qr['qr_views'] - qr['qr_whole_views'])} cut by the image's border"
         )
+    elif qr.get("objects"):
+        at = f">= {QR_MIN_MODULE_PX:g} px a module"
+        lines.append(f"QR reader: no view of a QR code at {at} (the views its read rate counts)")
     if max_minus_score is not None:
         verdict = "ok" if abs(lost - max_minus_score) < 1e-6 else "MISMATCH"
         lines.append(f"lost {_g(lost)} = max - score {_g(max_minus_score)}: {verdict}")

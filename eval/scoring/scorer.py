@@ -406,10 +406,12 @@ def _apply_autonomy(
             r.reason = f"autonomous: points x{factor:g}"
             object_of[r.line].points = r.points
             multiplied += 1
-        reason = f"{multiplied} autonomous report(s) multiplied by {multiplier:g}"
+        reports = "report" if multiplied == 1 else "reports"
+        reason = f"{multiplied} autonomous {reports} (mode A) multiplied by {multiplier:g}"
     else:
         reason = (
-            f"not applied: the run has {len(false)} false report(s), {multiple} of them multiple "
+            f"not applied: the run has {len(false)} false {'report' if len(false) == 1 else 'reports'}, "
+            f"{multiple} of them multiple "
             "detections; the multiplier requires none"
         )
     return {

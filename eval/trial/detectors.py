@@ -65,6 +65,8 @@ def _onnx_or_oracle(choice: str, cfg, sim, notes: list[str]):
     if cfg.thermal.enabled:
         wanted.discard("heat-source")  # the thermal detector reports those
     wanted.discard("landolt-c")  # the Landolt-C finder reports those
+    if cfg.fiducials.enabled:
+        wanted.discard("fiducial")  # the fiducial mapper finds those in depth
     if choice == shipped.SHIPPED and wanted and not wanted & onnx.known_types:
         # the shipped model is the rescue maze's; this world holds nothing it knows
         notes.append(

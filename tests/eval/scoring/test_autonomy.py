@@ -48,10 +48,10 @@ def test_autonomous_run_without_false_reports_is_multiplied() -> None:
         "applied": True,
         "autonomous_reports": 3,
         "multiplied_reports": 2,
-        "reason": "2 autonomous report(s) multiplied by 4",
+        "reason": "2 autonomous reports (mode A) multiplied by 4",
     }
     assert to_json_dict(res)["autonomy"] == res.autonomy
-    assert "autonomy x4: 2 autonomous report(s) multiplied by 4" in format_tables(res)
+    assert "autonomy x4: 2 autonomous reports (mode A) multiplied by 4" in format_tables(res)
 
 
 def test_mode_is_per_row() -> None:
@@ -73,7 +73,7 @@ def test_a_multiple_detection_costs_the_multiplier() -> None:
     assert res.total == 7 and res.max_total == 13 and res.false_reports == 1
     assert res.autonomy["applied"] is False and res.autonomy["multiplied_reports"] == 0
     assert res.autonomy["reason"] == (
-        "not applied: the run has 1 false report(s), 1 of them multiple detections; the multiplier requires none"
+        "not applied: the run has 1 false report, 1 of them multiple detections; the multiplier requires none"
     )
 
 
@@ -81,7 +81,7 @@ def test_a_false_report_costs_the_multiplier() -> None:
     reports = poi(row(0, "qr", 0.1, "A"), row(1, "hazmat", 5.0, "poison"), row(2, "qr", 3.0, "no such code"))
     res = score(reports, TRUTH, RMRC)
     assert [r.points for r in res.reports] == [5, 1, 0] and res.total == 6
-    assert res.autonomy["reason"].startswith("not applied: the run has 1 false report(s), 0 of them multiple")
+    assert res.autonomy["reason"].startswith("not applied: the run has 1 false report, 0 of them multiple")
 
 
 def test_without_the_two_conditions_every_autonomous_pair_is_multiplied() -> None:

@@ -311,3 +311,17 @@ def test_a_false_reports_box_lies_on_an_object_from_a_tenth_of_iou(shift_px, cau
     f = rec.funnel([snap(5, 1, "exit-sign")], res)
     assert [(c.cause, c.points) for c in f.charges if c.report_line is not None] == [(cause, 1)]
     assert f.check_ok
+
+
+def test_a_qr_code_never_seen_at_3_px_a_module_is_said_so() -> None:
+    """Without a view at >= 3 px a module the QR reader has no read rate: the table says why its line
+    is missing, and the object's cause says how close it came, in plain words."""
+    from eval.scoring.funnel import STAGES, ObjectTrace, _perception_detail
+
+    row = {"objects": 1, **{s: 0 for s in STAGES}, "in_view": 1, "not read": 2.0, "qr_views": 0}
+    text = format_funnel({"qr": row}, 2.0, 2.0)
+    assert "QR reader: no view of a QR code at >= 3 px a module (the views its read rate counts)" in text
+    o = ObjectTrace(id=4, type="qr", text="Chart A", modules=29, best_px=32.0, localised_frames=6)
+    assert _perception_detail("not read", o) == (
+        "localised 6 frames; no view at >= 3 px a module (best 1.1 px a module); the pipeline's reads: none right"
+    )

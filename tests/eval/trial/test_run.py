@@ -34,7 +34,7 @@ def test_run_writes_every_file_and_reruns_from_its_config(tmp_path, capsys):
     assert "points" in printed and "TOTAL" in printed
     # what the run prints it cost is what cost.json says: one reading, after the trial's last file
     cost = json.loads((out / "cost.json").read_text())
-    assert f"{cost['cpu_s']:.0f} CPU s ({cost['cpu_s_per_sim_s']:.2f} per simulated s)" in printed
+    assert f"{cost['cpu_s']:.1f} s of CPU ({cost['cpu_s_per_sim_s']:.2f} CPU s per simulated s)" in printed
     # the closing line lists what was written, the live record included
     wrote = "pois.csv truth.csv score.json funnel.csv cost.json map.png trial.mp4 config.yaml live/"
     assert f"wrote {out}/: {wrote}\n" in printed
