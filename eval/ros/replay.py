@@ -194,7 +194,11 @@ def replay(
     observers = []
     recorder = positions = None
     if truth is not None:  # the funnel, with views of the truth's positions by the recording's pose
-        recorder = FunnelRecorder(funnel_objects(truth.rows), cfg, rules)
+        recorder = FunnelRecorder(funnel_objects(truth.rows), cfg, rules, by_pose=True)
+        notes.append(
+            "funnel: an object is in view where its point, projected by the recording's own pose, lies in the "
+            "image before the depth there; a drifted pose can count it boxed less often than the scorer pairs it"
+        )
         positions = {int(r.id): np.array([r.x, r.y, r.z], dtype=float) for r in truth.rows}
         observers.append(FunnelObserver(recorder))
     else:

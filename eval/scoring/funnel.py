@@ -118,6 +118,9 @@ class ObjectTrace:
     type: str
     text: str
     modules: int | None = None  # a QR code's modules across, quiet zone included
+    # in view judged at its point by a recording's own pose (poibench replay: no box, no visible
+    # share, and a drifted pose can miss it where the scorer still pairs its report)
+    by_pose: bool = False
     in_view_frames: int = 0
     first_in_view: int | None = None  # frame index
     best_px: float = 0.0  # the largest short side of its box in view
@@ -271,14 +274,20 @@ def _stages(o: ObjectTrace, outcome: ObjectOutcome, confirmed: bool) -> dict[str
 
 def _perception_detail(cause: str, o: ObjectTrace) -> str:
     if cause == "not in view":
+        if o.by_pose:
+            return "its point never in view by the recording's pose (inside the image, before the depth there)"
         return f"never at least {IN_VIEW_FRACTION:.0%} visible with a box of {IN_VIEW_MIN_PX:g} px"
     blur = sorted(o.blur_px)
     median_blur = blur[len(blur) // 2] if blur else 0.0
-    seen = (
-        f"in view {o.in_view_frames} frames, best {o.best_px:.0f} px, nearest {o.min_distance_m:.2f} m"
-        + ("" if math.isnan(o.min_angle_deg) else f", angle from {o.min_angle_deg:.0f} deg")
-        + f", blur {median_blur:.1f} px median"
-    )
+    if o.by_pose:
+        n, d = o.in_view_frames, o.min_distance_m
+        seen = f"its point in view {n} frames by the recording's pose, nearest {d:.2f} m"
+    else:
+        seen = (
+            f"in view {o.in_view_frames} frames, best {o.best_px:.0f} px, nearest {o.min_distance_m:.2f} m"
+            + ("" if math.isnan(o.min_angle_deg) else f", angle from {o.min_angle_deg:.0f} deg")
+            + f", blur {median_blur:.1f} px median"
+        )
     if cause == "not boxed":
         return seen
     if cause == "wrong type":

@@ -136,7 +136,8 @@ class FunnelRecorder:
     ``objects``: (id, type, text, modules) of every ground-truth object, ``modules`` a QR
     code's modules across (quiet zone included; None for other types); ``cfg`` the trial's
     pipeline configuration (its localisation settings say why a box gave no observation);
-    ``rules`` the scoring preset (what identity a read must give).
+    ``rules`` the scoring preset (what identity a read must give); ``by_pose``: the views are a
+    recording's (:func:`point_views`), each object's point projected by the recording's own pose.
     """
 
     def __init__(
@@ -145,9 +146,11 @@ class FunnelRecorder:
         cfg,
         rules: AnyRules,
         qr_reader: Callable[[Frame, Detection], str] | None = None,
+        by_pose: bool = False,
     ) -> None:
         self.traces = {
-            oid: ObjectTrace(id=oid, type=t, text=text, modules=modules) for oid, t, text, modules in objects
+            oid: ObjectTrace(id=oid, type=t, text=text, modules=modules, by_pose=by_pose)
+            for oid, t, text, modules in objects
         }
         self.tracks: dict[int, TrackTrace] = {}
         self.cfg = cfg

@@ -325,3 +325,21 @@ def test_a_qr_code_never_seen_at_3_px_a_module_is_said_so() -> None:
     assert _perception_detail("not read", o) == (
         "localised 6 frames; no view at >= 3 px a module (best 1.1 px a module); the pipeline's reads: none right"
     )
+
+
+def test_a_recordings_funnel_says_its_views_are_points_by_the_recordings_pose() -> None:
+    """A replay judges in view at each object's point projected by the recording's pose: no box size
+    or visible share to quote, so the causes say what was judged instead of '0 px'."""
+    from eval.scoring.funnel import ObjectTrace, _perception_detail
+
+    never = ObjectTrace(id=1, type="valve", text="", by_pose=True)
+    assert _perception_detail("not in view", never) == (
+        "its point never in view by the recording's pose (inside the image, before the depth there)"
+    )
+    seen = ObjectTrace(id=2, type="valve", text="", by_pose=True, in_view_frames=18, min_distance_m=1.25)
+    assert (
+        _perception_detail("not boxed", seen)
+        == "its point in view 18 frames by the recording's pose, nearest 1.25 m"
+    )
+    rec = FunnelRecorder([(3, "door", "", None)], load_config(), EX3, by_pose=True)
+    assert rec.traces[3].by_pose
