@@ -324,7 +324,8 @@ def map_figure(
         )
     for f, facing in zip(fids, fiducial_facings(fids, segs), strict=True):
         _draw_fiducial(ax, f, facing, pt_per_px)
-    for o, ring in zip(objs, circled(objs, reps, truth_circle_m), strict=True):
+    rings = circled(objs, reps, truth_circle_m)
+    for o, ring in zip(objs, rings, strict=True):
         _draw_truth(ax, o, pt_per_px, truth_circle_m if ring else None)
     if goal is not None:
         _draw_goal(ax, goal, pt_per_px)
@@ -357,8 +358,17 @@ def map_figure(
     if title:
         ax.set_title(title)
     types = {*(r.type for r in reps), *(o.type for o in objs)} - {None, "fiducial"}
+    statuses = {r.status for r in reps}
+    drawn = {
+        "robot path": len(path_xy) > 0,
+        "identified, not located": bool(statuses - {STATUS_LOCATED, STATUS_FALSE}),
+        "false report": STATUS_FALSE in statuses,
+        "ground truth": bool(objs),
+        "locate circle": any(rings),
+        "missed object (dashed)": any(not o.found for o in objs),
+    }
     ax.legend(
-        handles=_legend_handles(pt_per_px, truth_circle_m, types, goal is not None, bool(fids)),
+        handles=_legend_handles(pt_per_px, truth_circle_m, types, goal is not None, bool(fids), drawn),
         loc="upper left",
         bbox_to_anchor=(1.02, 1.0),
         borderaxespad=0.0,
@@ -692,9 +702,12 @@ def _legend_handles(
     types: Iterable[str] = (),
     goal: bool = False,
     fiducials: bool = False,
+    drawn: dict[str, bool] | None = None,
 ) -> list[Line2D]:
     """The legend: the path and walls, an entry a type on the map (in the type table's order,
-    its shape and colour, :func:`style_of`), then what outlines, crosses and circles mean."""
+    its shape and colour, :func:`style_of`), then what outlines, crosses and circles mean; with
+    ``drawn`` (entry -> whether the map shows it: the path, the outlines, crosses, circles and
+    dashes), only those the map shows."""
 
     def h(label: str, **kw: Any) -> Line2D:
         return Line2D([], [], label=label, **kw)
@@ -740,7 +753,7 @@ def _legend_handles(
             markeredgewidth=1.5,
         ),
         h(
-            f"{circle_m:g} m: a report just missed",
+            f"{circle_m:g} m round an object a report just missed",
             marker="o",
             linestyle="",
             markersize=ms * 1.6,
@@ -752,6 +765,13 @@ def _legend_handles(
     ]
     if arena:
         tail = [t for t in tail if t.get_label() != "identified, not located"]
+    if drawn is not None:
+
+        def shown(entry: Line2D) -> bool:
+            label = entry.get_label()
+            return drawn.get("locate circle" if label.endswith("a report just missed") else label, True)
+
+        head, tail = [e for e in head if shown(e)], [e for e in tail if shown(e)]
     if fiducials:
         for label, rgb in (("fiducial (truth)", FIDUCIAL_RGB), ("fiducial (reported)", FIDUCIAL_REPORT_RGB)):
             tail.append(

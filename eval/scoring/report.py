@@ -214,7 +214,7 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             "located",
             "false",
             "won",
-            "lost",
+            "penalty",
             "points",
             "objects",
             "found",

@@ -225,3 +225,28 @@ def test_the_live_view_marks_the_map_in_the_same_colours(tmp_path: Path) -> None
     for t in COMPETITION_TYPES:
         assert init["marker_colors"][t] == "#{:02x}{:02x}{:02x}".format(*TYPE_COLORS_RGB[t]), t
         assert init["marker_shapes"][t] == style_of(t)[0]
+
+
+def test_the_legend_lists_only_what_the_map_draws(tmp_path: Path) -> None:
+    """No path, every report located, every object found, no circle: the legend names none of the
+    path, the outlines, crosses, circles or dashes; a false report and a missed object bring theirs."""
+
+    def labels(reports, truth, path) -> list[str]:
+        fig = map_figure(walls=WALLS, robot_path=path, reports=reports, truth=truth)
+        return [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+
+    found = [MapTruth(x=0.5, y=0.3, type="qr", found=True)]
+    located = [MapReport(id=0, type="qr", text="Chart M", x=0.5, y=0.3, status="located")]
+    quiet = labels(located, found, np.zeros((0, 2)))
+    assert quiet == ["wall", "QR code", "ground truth"]
+    missed = [*found, MapTruth(x=3.0, y=0.0, type="qr", found=False)]
+    false = [*located, MapReport(id=1, type="qr", text="Chart Z", x=4.4, y=0.0, status="false")]  # 1.4 m off
+    busy = labels(false, missed, np.array([[0.0, 0.0], [1.0, 0.0]]))
+    for entry in (
+        "robot path",
+        "false report",
+        "missed object (dashed)",
+        "1 m round an object a report just missed",
+    ):
+        assert entry in busy, entry
+    assert "identified, not located" not in busy
