@@ -225,9 +225,11 @@ def print_funnel(ok, per_type: dict) -> None:
 def cmd_suite_list(args) -> int:
     from eval.experiments.suites import load_suite, shipped_suites
 
+    print(f"{'suite':10s} {'version':7s}  {'scenarios':9s}  what it holds")
     for name in shipped_suites():
         s = load_suite(name)
-        print(f"{s.name:10s} v{s.version}  {len(s.scenarios):2d} scenarios  {s.description}")
+        print(f"{s.name:10s} {'v' + str(s.version):7s}  {len(s.scenarios):9d}  {s.description}")
+    print("poibench suite run NAME runs one; each is eval/experiments/suites/NAME.yaml")
     return 0
 
 

@@ -54,3 +54,15 @@ def test_missing_gl_backend_is_one_line_that_says_what_to_install(monkeypatch, c
         "install Mesa's EGL (apt-get install libegl1 libgl1-mesa-dri) or OSMesa (apt-get install libosmesa6)"
         in err
     )
+
+
+def test_suite_list_names_each_shipped_suite_under_a_header(capsys):
+    from eval.experiments.suites import load_suite, shipped_suites
+
+    assert cli.main(["suite", "list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["suite", "version", "scenarios", "what", "it", "holds"]
+    for name, line in zip(shipped_suites(), lines[1:], strict=False):
+        s = load_suite(name)
+        assert line.split()[:3] == [name, f"v{s.version}", str(len(s.scenarios))]
+    assert lines[-1].startswith("poibench suite run NAME runs one")

@@ -22,6 +22,7 @@ def test_scenario_new_prints_a_loadable_scenario(tmp_path, capsys):
     out = tmp_path / "s.yaml"
     assert main(["scenario", "new", "--seed", "5", "-o", str(out)]) == 0
     assert out.read_text() == text
+    assert f"wrote {out}: poibench run {out} runs it" in capsys.readouterr().err  # what to do next
     # an existing file is not overwritten, a path under a file is one line
     assert main(["scenario", "new", "--seed", "6", "-o", str(out)]) == 2
     assert f"error: -o {out}: exists; choose another name or remove it first" in capsys.readouterr().err
