@@ -172,12 +172,17 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
         ],
     )
     out += ["", "Totals per type"]
+
+    def locates(type_: str) -> bool:  # the preset gives the type a locate bonus ('-' where it gives none)
+        rule = rules.types.get(type_)
+        return rule is not None and rule.located_points is not None
+
     rows = [
         [
             t.type,
             t.reports,
             t.identified,
-            t.located,
+            t.located if locates(t.type) else "-",
             t.false_reports,
             _fmt(t.points_won),
             _fmt(t.points_lost),
@@ -195,7 +200,7 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             "TOTAL",
             sum(t.reports for t in result.per_type.values()),
             result.identified,
-            result.located,
+            result.located if any(locates(t) for t in result.per_type) else "-",
             result.false_reports,
             _fmt(sum(t.points_won for t in result.per_type.values())),
             _fmt(sum(t.points_lost for t in result.per_type.values())),

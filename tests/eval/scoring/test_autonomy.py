@@ -51,7 +51,13 @@ def test_autonomous_run_without_false_reports_is_multiplied() -> None:
         "reason": "2 autonomous reports (mode A) multiplied by 4",
     }
     assert to_json_dict(res)["autonomy"] == res.autonomy
-    assert "autonomy x4: 2 autonomous reports (mode A) multiplied by 4" in format_tables(res)
+    table = format_tables(res)
+    assert "autonomy x4: 2 autonomous reports (mode A) multiplied by 4" in table
+    # rmrc2025 gives placards no locate bonus: their 'located' reads '-', the QR code's (mapping) 1
+    totals = {
+        line.split()[0]: line.split() for line in table.splitlines()[table.splitlines().index("Totals per type") :]
+    }
+    assert totals["hazmat"][3] == "-" and totals["qr"][3] == "1" and totals["TOTAL"][3] == "1"
 
 
 def test_mode_is_per_row() -> None:
