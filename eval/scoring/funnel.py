@@ -587,7 +587,14 @@ def funnel_json(f: Funnel) -> dict[str, Any]:
     """The funnel as ``score.json`` carries it: per type, per cause, the check, the charges."""
     return {
         "stages": list(STAGES),
-        "per_type": {t: {k: _r(v, 3) for k, v in row.items()} for t, row in f.per_type().items()},
+        # objects and stages are counts (whole numbers), the causes points
+        "per_type": {
+            t: {
+                k: int(round(v)) if k == "objects" or k in STAGES or k.startswith("qr_") else _r(v, 3)
+                for k, v in row.items()
+            }
+            for t, row in f.per_type().items()
+        },
         "lost_by_cause": {k: _r(v, 3) for k, v in f.by_cause().items()},
         "lost": _r(f.lost, 3),
         "max_minus_score": _r(f.max_minus_score, 3),

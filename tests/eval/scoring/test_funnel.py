@@ -271,6 +271,11 @@ def test_the_outputs_carry_every_charge_and_a_suite_sums_per_type() -> None:
     assert sum(float(r["points_lost"] or 0) for r in rows) == pytest.approx(f.lost)
     doc = funnel_json(f)
     assert doc["check"] == "ok" and doc["lost"] == pytest.approx(f.lost)
+    # counts are whole numbers in score.json (1, not 1.0), the points lost to each cause are not
+    from eval.scoring.funnel import STAGES
+
+    for counts in doc["per_type"].values():
+        assert all(type(counts[k]) is int for k in ("objects", *STAGES)), counts
     twice = sum_per_type([f.per_type(), f.per_type()])
     assert twice["exit-sign"]["objects"] == 4 and twice["exit-sign"]["misplaced"] == 4
     text = format_funnel(twice, 2 * f.lost, 2 * f.max_minus_score)
