@@ -14,7 +14,7 @@ from typing import Any
 
 from eval.scoring.map_error import MapErrorResult, format_m
 from eval.scoring.pairing import MAP_ERROR_OMITS, ObjectOutcome, ReportOutcome
-from eval.scoring.scorer import ScoreResult
+from eval.scoring.scorer import STATUS_IGNORED, ScoreResult
 
 _NUMERIC = ("line", "id", "x", "y", "z", "object", "found_by", "dist_m", "points")
 
@@ -97,6 +97,18 @@ TYPES_NOTE = (
 )
 
 
+def _ignored(result: ScoreResult) -> str:
+    """', ignored: N reports, M objects (...)' for what the preset does not score, or ''."""
+    objects = sum(o.status == STATUS_IGNORED for o in result.objects)
+    if not (result.ignored_reports or objects):
+        return ""
+    parts = [
+        f"{n} {noun if n == 1 else noun + 's'}"
+        for n, noun in ((result.ignored_reports, "report"), (objects, "object"))
+    ]
+    return f", ignored: {', '.join(parts)} (of types the rules do not score)"
+
+
 def format_tables(result: ScoreResult | MapErrorResult) -> str:
     """Plain-text tables for a terminal: reports, objects, totals per type, problems."""
     if isinstance(result, MapErrorResult):
@@ -106,8 +118,7 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
         f"Score {_fmt(result.total)} of {_fmt(result.max_total)} "
         f"(rules {rules.name}{f': {rules.source}' if rules.source else ''})",
         f"identified {result.identified}, located {result.located}, "
-        f"false reports {result.false_reports}, misses {result.misses}"
-        + (f", ignored {result.ignored_reports}" if result.ignored_reports else ""),
+        f"false reports {result.false_reports}, misses {result.misses}" + _ignored(result),
         *([] if result.types_checked else [f"note: {TYPES_NOTE}"]),
         *(
             []
@@ -241,8 +252,7 @@ def format_map_error_tables(result: MapErrorResult) -> str:
         + ("" if result.goal is None else f"; goal centre error {format_m(result.goal.error_m)}")
         + f" (rules {rules.name}{f': {rules.source}' if rules.source else ''})",
         f"paired {result.paired} of {n_obj} objects (2D, at most {rules.max_pair_distance_m:g} m apart), "
-        f"misses {result.misses}, false reports {result.false_reports}"
-        + (f", ignored {result.ignored_reports}" if result.ignored_reports else ""),
+        f"misses {result.misses}, false reports {result.false_reports}" + _ignored(result),
         "",
         "Reports",
     ]

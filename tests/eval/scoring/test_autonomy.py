@@ -137,3 +137,12 @@ def test_autonomy_fields_are_checked(tmp_path, line: str, message: str) -> None:
     )
     with pytest.raises(RulesError, match="^" + re.escape(f"{path}:{message}")):
         load_rules(str(path))
+
+
+def test_the_summary_counts_ignored_reports_and_objects_apart() -> None:
+    """rmrc2025 does not score doors: a door report and a door object are both ignored, and the
+    summary line says which is which."""
+    truth = poi(*TRUTH.rows, row(4, "door", 20.0, "", "GT"))
+    res = score(poi(row(0, "door", 20.0)), truth, RMRC)
+    line = format_tables(res).splitlines()[1]
+    assert line.endswith(", ignored: 1 report, 1 object (of types the rules do not score)")
