@@ -97,6 +97,10 @@ TYPES_NOTE = (
 )
 
 
+REPORTS_TITLE = "Reports (line: in the report file; object: the id of the object it pairs with; x, y, z: metres)"
+OBJECTS_TITLE = "Objects (line: in the truth file; found_by: the id of the report paired with it; x, y, z: metres)"
+
+
 def _ignored(result: ScoreResult) -> str:
     """', ignored: N reports, M objects (...)' for what the preset does not score, or ''."""
     objects = sum(o.status == STATUS_IGNORED for o in result.objects)
@@ -127,7 +131,7 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
         ),
         *([] if result.qr_mapping is None else [f"QR mapping by fiducials: {result.qr_mapping['reason']}"]),
         "",
-        "Reports",
+        REPORTS_TITLE,
     ]
     out += _table(
         [
@@ -162,7 +166,7 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             for r in result.reports
         ],
     )
-    out += ["", "Objects"]
+    out += ["", OBJECTS_TITLE]
     out += _table(
         ["line", "id", "type", "text", "x", "y", "z", "found_by", "dist_m", "points", "status"],
         [

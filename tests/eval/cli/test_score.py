@@ -99,15 +99,17 @@ def test_tables_output(files, capsys) -> None:
     assert _main(["score", str(report), "--truth", str(truth)]) == 0
     out = capsys.readouterr().out
     assert out.startswith("Score 3 of 18 (rules ex3")
-    for section in ("Reports", "Objects", "Totals per type", "Problems"):
+    from eval.scoring.report import OBJECTS_TITLE, REPORTS_TITLE
+
+    for section in (REPORTS_TITLE, OBJECTS_TITLE, "Totals per type", "Problems"):
         assert f"\n{section}\n" in out
     lines = out.splitlines()
     total_line = next(line for line in lines if line.startswith("TOTAL"))
     assert total_line.split()[-5:] == ["3", "3", "2", "1", "18"]  # points objects found missed max
-    header = lines[lines.index("Reports") + 1]
+    header = lines[lines.index(REPORTS_TITLE) + 1]
     assert header.split()[:3] == ["line", "id", "type"]
     # Aligned: every row of the reports table starts its 'points' column at the same place.
-    rows = lines[lines.index("Reports") + 1 : lines.index("Reports") + 7]
+    rows = lines[lines.index(REPORTS_TITLE) + 1 : lines.index(REPORTS_TITLE) + 7]
     end = header.index("points") + len("points")
     assert all(r[end - 2 : end].strip().lstrip("-").isdigit() for r in rows[2:])
 
