@@ -101,7 +101,7 @@ REPORTS_TITLE = "Reports (line: in the report file; object: the id of the object
 OBJECTS_TITLE = "Objects (line: in the truth file; found_by: the id of the report paired with it; x, y, z: metres)"
 
 
-def _ignored(result: ScoreResult) -> str:
+def _ignored(result: ScoreResult | MapErrorResult) -> str:
     """', ignored: N reports, M objects (...)' for what the preset does not score, or ''."""
     objects = sum(o.status == STATUS_IGNORED for o in result.objects)
     if not (result.ignored_reports or objects):
