@@ -7,6 +7,7 @@ import argparse
 import sys
 
 from eval.cli.args import RULES_HELP, positive_int
+from eval.text import counted
 from eval.trial.scenarios import split_settings
 
 
@@ -102,8 +103,7 @@ def cmd_replay(args) -> int:
     print(
         f"{rec.path.name} ({rec.layout} layout, pose from {rec.pose_source}): {res.n_frames} frames in "
         f"{res.wall_s:.1f} s ({res.frames_per_s:.1f} frames/s, {res.cpu_ms_per_frame:.0f} ms CPU a frame), "
-        f"{res.confirmed} {'report' if res.confirmed == 1 else 'reports'}"
-        + (f"; {res.score.headline()}" if res.score is not None else "")
+        f"{counted(res.confirmed, 'report')}" + (f"; {res.score.headline()}" if res.score is not None else "")
     )
     print(f"wrote {res.out_dir}/: {' '.join(res.written)}")
     return 0

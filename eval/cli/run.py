@@ -10,6 +10,7 @@ from datetime import timezone
 from pathlib import Path
 
 from eval.cli.args import RULES_HELP, port, positive_int
+from eval.text import counted
 from eval.trial.scenarios import (
     SettingError,
     UnknownScenarioError,
@@ -107,15 +108,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--port", type=port, default=0, help="port on 127.0.0.1, 0-65535 (default 0: a free one, printed)"
     )
     v.set_defaults(func=cmd_view)
-
-
-def counted(n: int, noun: str, plural: str | None = None) -> str:
-    """``n`` and the noun in the number it takes.
-
-    >>> counted(1, "false report"), counted(3, "miss", "misses"), counted(0, "frame")
-    ('1 false report', '3 misses', '0 frames')
-    """
-    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
 
 
 def seconds(s: float) -> str:

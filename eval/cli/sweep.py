@@ -283,7 +283,7 @@ def print_suite_table(title: str, df, out: Path) -> None:
 
 def shard_note(args, out: Path, n_rows: int) -> str:
     """The line a shard ends with: what it ran and how its folder is joined to the others'."""
-    from eval.cli.run import counted
+    from eval.text import counted
 
     return (
         f"shard {args.shard}: {counted(n_rows, 'trial')} in {out}; when all {args.shard.count} shards have "
@@ -310,8 +310,8 @@ def cmd_suite_run(args) -> int:
 
 
 def cmd_suite_merge(args) -> int:
-    from eval.cli.run import counted
     from eval.experiments.merge import merge_shards
+    from eval.text import counted
 
     out = Path(args.out)
     df, agg = merge_shards(args.shards, out)
@@ -341,8 +341,8 @@ def cmd_suite_compare(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    from eval.cli.run import counted
     from eval.experiments.sweep import parse_grid
+    from eval.text import counted
 
     grid = parse_grid(args.set)
     out = Path(args.out)

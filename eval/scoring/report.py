@@ -15,6 +15,7 @@ from typing import Any
 from eval.scoring.map_error import MapErrorResult, format_m
 from eval.scoring.pairing import MAP_ERROR_OMITS, ObjectOutcome, ReportOutcome
 from eval.scoring.scorer import STATUS_IGNORED, ScoreResult
+from eval.text import counted
 
 _NUMERIC = ("line", "id", "x", "y", "z", "object", "found_by", "dist_m", "points")
 
@@ -106,11 +107,8 @@ def _ignored(result: ScoreResult | MapErrorResult) -> str:
     objects = sum(o.status == STATUS_IGNORED for o in result.objects)
     if not (result.ignored_reports or objects):
         return ""
-    parts = [
-        f"{n} {noun if n == 1 else noun + 's'}"
-        for n, noun in ((result.ignored_reports, "report"), (objects, "object"))
-    ]
-    return f", ignored: {', '.join(parts)} (of types the rules do not score)"
+    which = f"{counted(result.ignored_reports, 'report')}, {counted(objects, 'object')}"
+    return f", ignored: {which} (of types the rules do not score)"
 
 
 def format_tables(result: ScoreResult | MapErrorResult) -> str:

@@ -87,6 +87,7 @@ from eval.scoring.pairing import (
     unreadable_outcome,
 )
 from eval.scoring.rules import AnyRules, Rules, TypeRule
+from eval.text import counted
 from poi.core.names import HAZMAT_LABELS
 from poi.core.poi_file import PoiFile, PoiRow
 
@@ -406,11 +407,10 @@ def _apply_autonomy(
             r.reason = f"autonomous: points x{factor:g}"
             object_of[r.line].points = r.points
             multiplied += 1
-        reports = "report" if multiplied == 1 else "reports"
-        reason = f"{multiplied} autonomous {reports} (mode A) multiplied by {multiplier:g}"
+        reason = f"{counted(multiplied, 'autonomous report')} (mode A) multiplied by {multiplier:g}"
     else:
         reason = (
-            f"not applied: the run has {len(false)} false {'report' if len(false) == 1 else 'reports'}, "
+            f"not applied: the run has {counted(len(false), 'false report')}, "
             f"{multiple} of them multiple "
             "detections; the multiplier requires none"
         )

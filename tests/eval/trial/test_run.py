@@ -258,7 +258,7 @@ def test_max_frames_below_one_is_refused_and_one_frame_writes_valid_json(tmp_pat
 @pytest.mark.slow
 def test_counts_take_their_number_and_the_live_header_the_trials_frames(tmp_path, capsys):
     # issue 60 edge 13: "1 false reports"; the live header said "/ 1191" frames under --max-frames 400
-    from eval.cli.run import counted
+    from eval.text import counted
 
     assert counted(1, "false report") == "1 false report" and counted(2, "false report") == "2 false reports"
     assert counted(1, "miss", "misses") == "1 miss" and counted(0, "miss", "misses") == "0 misses"
