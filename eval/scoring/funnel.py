@@ -41,6 +41,7 @@ from eval.scoring.map_error import MapErrorResult
 from eval.scoring.pairing import STATUS_FALSE, STATUS_IGNORED, STATUS_MISSED, ObjectOutcome, ReportOutcome
 from eval.scoring.rules import Rules
 from eval.scoring.scorer import ScoreResult, identity_of
+from poi.core.names import in_type_order
 
 # The stages, in the order an object passes them (Funnel.per_type counts the objects that passed each)
 STAGES = ("in_view", "boxed", "typed", "localised", "read", "confirmed", "paired", "located")
@@ -623,7 +624,7 @@ def format_funnel(per_type: dict[str, dict[str, float]], lost: float, max_minus_
         "lost to",
     ]
     rows = []
-    for t in sorted(per_type):
+    for t in in_type_order(per_type):
         row = per_type[t]
         causes = [(c, row[c]) for c in CAUSES if row.get(c)]
         lost_t = sum(v for _, v in causes)

@@ -72,7 +72,7 @@ from eval.scoring.map_error import STATUS_PAIRED, MapErrorResult
 from eval.scoring.scorer import STATUS_FALSE, STATUS_IGNORED, STATUS_LOCATED, ScoreResult
 from maze_assets.objects import fiducial_diameter_m
 from poi.annotate import DEFAULT_COLOR_RGB, TYPE_COLORS_RGB
-from poi.core.names import TYPES, display_name
+from poi.core.names import display_name, in_type_order
 
 GRID_STEP_M = 0.5
 MARKER_RADIUS_M = 0.175
@@ -718,7 +718,7 @@ def _legend_handles(
         h("wall", color=_rgb(WALL_RGB), linewidth=4 * pt_per_px),
     ]
     present = set(types)
-    ordered = [t for t in TYPES if t in present] + sorted(present - set(TYPES))
+    ordered = in_type_order(present)
     marker_of = {"circle": "o", "square": "s", "diamond": "D"}
     kinds = []
     for t in ordered:

@@ -16,6 +16,7 @@ from eval.scoring.map_error import MapErrorResult, format_m
 from eval.scoring.pairing import MAP_ERROR_OMITS, ObjectOutcome, ReportOutcome
 from eval.scoring.scorer import STATUS_IGNORED, ScoreResult
 from eval.text import counted
+from poi.core.names import in_type_order
 
 _NUMERIC = ("line", "id", "x", "y", "z", "object", "found_by", "dist_m", "points")
 
@@ -98,6 +99,11 @@ TYPES_NOTE = (
 )
 
 
+# what the text column holds for the types whose text is not a name or a code's content
+TEXT_MEANING = {
+    "fiducial": "the mapping pipe's diameter",
+    "landolt-c": "each ring's gap direction, ring:direction, ring 1 the outermost",
+}
 REPORTS_TITLE = "Reports (line: in the report file; object: the id of the object it pairs with; x, y, z: metres)"
 OBJECTS_TITLE = "Objects (line: in the truth file; found_by: the id of the report paired with it; x, y, z: metres)"
 
@@ -184,6 +190,8 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             for o in result.objects
         ],
     )
+    shown = {o.type for o in result.objects} | {r.type for r in result.reports}
+    out += [f"text of a {t}: {TEXT_MEANING[t]}" for t in in_type_order(shown & set(TEXT_MEANING))]
     out += ["", "Totals per type"]
 
     def locates(type_: str) -> bool:  # the preset gives the type a locate bonus ('-' where it gives none)
@@ -205,7 +213,7 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             t.missed,
             _fmt(t.max_points),
         ]
-        for t in result.per_type.values()
+        for t in (result.per_type[name] for name in in_type_order(result.per_type))
         if t.reports or t.objects
     ]
     rows.append(

@@ -168,6 +168,17 @@ def class_domain(class_name: str) -> tuple[str, ...]:
     return RESCUE_CLASSES
 
 
+def in_type_order(types) -> list[str]:
+    """``types`` in :data:`TYPES`' order, any other name after them in alphabetical order: the one
+    order every table and legend lists types in.
+
+    >>> in_type_order({"landolt-c", "qr", "hazmat", "zebra"})
+    ['hazmat', 'qr', 'landolt-c', 'zebra']
+    """
+    present = set(types)
+    return [t for t in TYPES if t in present] + sorted(present - set(TYPES))
+
+
 def normalise(name: str) -> str:
     """Lower-case, trim, and map runs of spaces / ``_`` / ``-`` to one ``-``."""
     out = []

@@ -348,3 +348,12 @@ def test_a_recordings_funnel_says_its_views_are_points_by_the_recordings_pose() 
     )
     rec = FunnelRecorder([(3, "door", "", None)], load_config(), EX3, by_pose=True)
     assert rec.traces[3].by_pose
+
+
+def test_the_funnel_lists_types_in_the_order_the_score_table_does() -> None:
+    """Both tables list types in poi.core.names.TYPES' order (the funnel listed them alphabetically)."""
+    from eval.scoring.funnel import STAGES
+
+    rows = {t: {"objects": 1, **{s: 1 for s in STAGES}} for t in ("qr", "door", "hazmat")}
+    body = format_funnel(rows, 0.0, 0.0).splitlines()[3:6]
+    assert [line.split()[0] for line in body] == ["hazmat", "qr", "door"]

@@ -50,6 +50,10 @@ def test_right_3rd_ring_scores_and_is_multiplied_when_nothing_is_false() -> None
     assert (hz.status, hz.points) == ("identified", 4)
     assert res.total == 8 and res.max_total == 12
     t = res.per_type["landolt-c"]
+    from eval.scoring.report import format_tables
+
+    text_lines = [line for line in format_tables(res).splitlines() if line.startswith("text of a")]
+    assert text_lines == ["text of a landolt-c: each ring's gap direction, ring:direction, ring 1 the outermost"]
     assert (t.objects, t.found, t.missed, t.points) == (2, 1, 1, 4)
 
 
