@@ -360,15 +360,15 @@ def map_figure(
     types = {*(r.type for r in reps), *(o.type for o in objs)} - {None, "fiducial"}
     statuses = {r.status for r in reps}
     drawn = {
-        "robot path": len(path_xy) > 0,
-        "identified, not located": bool(statuses - {STATUS_LOCATED, STATUS_FALSE}),
-        "false report": STATUS_FALSE in statuses,
-        "ground truth": bool(objs),
-        "locate circle": any(rings),
-        "missed object (dashed)": any(not o.found for o in objs),
+        "path": len(path_xy) > 0,
+        "identified": bool(statuses - {STATUS_LOCATED, STATUS_FALSE}),
+        "false": STATUS_FALSE in statuses,
+        "truth": bool(objs),
+        "circle": any(rings),
+        "missed": any(not o.found for o in objs),
     }
     ax.legend(
-        handles=_legend_handles(pt_per_px, truth_circle_m, types, goal is not None, bool(fids), drawn),
+        handles=_legend_handles(pt_per_px, drawn, truth_circle_m, types, goal is not None, bool(fids)),
         loc="upper left",
         bbox_to_anchor=(1.02, 1.0),
         borderaxespad=0.0,
@@ -698,36 +698,34 @@ def _draw_report(ax: Any, r: MapReport, pt_per_px: float) -> None:
 
 def _legend_handles(
     pt_per_px: float,
+    drawn: dict[str, bool],
     circle_m: float = LOCATE_CIRCLE_M,
     types: Iterable[str] = (),
     goal: bool = False,
     fiducials: bool = False,
-    drawn: dict[str, bool] | None = None,
 ) -> list[Line2D]:
     """The legend: the path and walls, an entry a type on the map (in the type table's order,
-    its shape and colour, :func:`style_of`), then what outlines, crosses and circles mean; with
-    ``drawn`` (entry -> whether the map shows it: the path, the outlines, crosses, circles and
-    dashes), only those the map shows."""
+    its shape and colour, :func:`style_of`), then what outlines, crosses and circles mean; of the
+    path, outlines, crosses, circles and dashes only those ``drawn`` says the map shows (keys
+    ``path``, ``identified``, ``false``, ``truth``, ``circle``, ``missed``)."""
 
     def h(label: str, **kw: Any) -> Line2D:
         return Line2D([], [], label=label, **kw)
 
     ms = 9
-    head = [
-        h("robot path", color=_rgb(PATH_RGB), linewidth=PATH_WIDTH_PX * pt_per_px),
-        h("wall", color=_rgb(WALL_RGB), linewidth=4 * pt_per_px),
-    ]
+    head = [h("wall", color=_rgb(WALL_RGB), linewidth=4 * pt_per_px)]
+    if drawn["path"]:
+        head.insert(0, h("robot path", color=_rgb(PATH_RGB), linewidth=PATH_WIDTH_PX * pt_per_px))
     present = set(types)
-    ordered = in_type_order(present)
     marker_of = {"circle": "o", "square": "s", "diamond": "D"}
     kinds = []
-    for t in ordered:
+    for t in in_type_order(present):
         shape, rgb = style_of(t)
         label = ARENA_LABELS.get(t, "victim (baby doll)" if t == "baby-doll" else display_name(t))
         kinds.append(_swatch(h, label, rgb, ms * (1.0 if shape == "circle" else 0.85), marker=marker_of[shape]))
     arena = any(t in ARENA_RGB for t in present)
-    tail = [
-        h(
+    meanings = {
+        "identified": h(
             "identified, not located",
             marker="o",
             linestyle="",
@@ -735,7 +733,7 @@ def _legend_handles(
             markerfacecolor="0.6",
             markeredgecolor="black",
         ),
-        h(
+        "false": h(
             "false report",
             marker="x",
             linestyle="",
@@ -743,7 +741,7 @@ def _legend_handles(
             color="black",
             markeredgewidth=2,
         ),
-        h(
+        "truth": h(
             "ground truth",
             marker="o",
             linestyle="",
@@ -752,7 +750,7 @@ def _legend_handles(
             markeredgecolor="0.3",
             markeredgewidth=1.5,
         ),
-        h(
+        "circle": h(
             f"{circle_m:g} m round an object a report just missed",
             marker="o",
             linestyle="",
@@ -761,17 +759,9 @@ def _legend_handles(
             markeredgecolor="0.6",
             markeredgewidth=0.8,
         ),
-        h("missed object (dashed)", color="0.3", linestyle=(0, (4, 3)), linewidth=1.5),
-    ]
-    if arena:
-        tail = [t for t in tail if t.get_label() != "identified, not located"]
-    if drawn is not None:
-
-        def shown(entry: Line2D) -> bool:
-            label = entry.get_label()
-            return drawn.get("locate circle" if label.endswith("a report just missed") else label, True)
-
-        head, tail = [e for e in head if shown(e)], [e for e in tail if shown(e)]
+        "missed": h("missed object (dashed)", color="0.3", linestyle=(0, (4, 3)), linewidth=1.5),
+    }
+    tail = [e for key, e in meanings.items() if drawn[key] and not (arena and key == "identified")]
     if fiducials:
         for label, rgb in (("fiducial (truth)", FIDUCIAL_RGB), ("fiducial (reported)", FIDUCIAL_REPORT_RGB)):
             tail.append(
