@@ -199,33 +199,32 @@ class UnclosedBag(_Unclosed):
         with open(self.path, "rb") as f:
             f.read(len(ROS1_MAGIC_LINE))
             try:
-                for fields, data in _records(f):
-                    op = fields.get("op", b"\0")[0]
-                    if op == OP_CHUNK:
-                        yield from self._chunk(fields, data)
-                    elif op == OP_CONNECTION:
-                        yield self._connection(fields, data)
-                    elif op == OP_MESSAGE:
-                        yield self._message(fields, data)
+                yield from self._items(_records(f))
             except (EOFError, struct.error, OSError, ValueError):
                 self.cut_short = True
 
-    def _chunk(self, fields: dict[str, bytes], data: bytes) -> Iterator[tuple]:
+    def _items(self, records: Iterator[tuple[dict[str, bytes], bytes]]) -> Iterator[tuple]:
+        """The connections and messages of ``records``, those inside a chunk record included."""
+        for fields, data in records:
+            op = fields.get("op", b"\0")[0]
+            if op == OP_CHUNK:
+                yield from self._items(_records(io.BytesIO(self._unpacked(fields, data))))
+            elif op == OP_CONNECTION:
+                yield self._connection(fields, data)
+            elif op == OP_MESSAGE:
+                yield self._message(fields, data)
+
+    @staticmethod
+    def _unpacked(fields: dict[str, bytes], data: bytes) -> bytes:
+        """A chunk record's data, decompressed as its header says."""
         compression = fields.get("compression", b"none").decode()
         if compression == "lz4":
             import lz4.frame  # rosbags' own dependency
 
-            raw = lz4.frame.decompress(data)
-        elif compression in _DECOMPRESS:
-            raw = _DECOMPRESS[compression](data)
-        else:
-            raise ValueError(f"chunk compression {compression!r}")
-        for inner, payload in _records(io.BytesIO(raw)):
-            op = inner.get("op", b"\0")[0]
-            if op == OP_CONNECTION:
-                yield self._connection(inner, payload)
-            elif op == OP_MESSAGE:
-                yield self._message(inner, payload)
+            return lz4.frame.decompress(data)
+        if compression in _DECOMPRESS:
+            return _DECOMPRESS[compression](data)
+        raise ValueError(f"chunk compression {compression!r}")
 
     @staticmethod
     def _connection(fields: dict[str, bytes], data: bytes) -> tuple:
