@@ -331,15 +331,15 @@ def cmd_run(args) -> int:
             f"{s.headline()} ({frac:.0%}), {counted(s.false_reports, 'false report')}, "
             f"{counted(s.misses, 'miss', 'misses')}"
         )
+    c = res.cost
     if res.sim_duration_s > 0:
-        c = res.cost
         cost = (
             f"{seconds(res.sim_duration_s)} simulated in {seconds(c.wall_s)} "
             f"({c.real_time_factor:.1f}x real time), "
             f"{seconds(c.cpu_s)} of CPU ({c.cpu_s_per_sim_s:.2f} CPU s per simulated s)"
         )
     else:  # one frame: no simulated time to divide by
-        cost = f"0 s simulated, {seconds(res.cost.wall_s)}, {seconds(res.cost.cpu_s)} of CPU"
+        cost = f"0 s simulated, {seconds(c.wall_s)}, {seconds(c.cpu_s)} of CPU"
     print(
         f"\n{sc.name} (seed {sc.seed}), detector {res.detector}, rules {rules_name}: {outcome}; "
         f"{counted(res.n_frames, 'frame')}, {cost}"

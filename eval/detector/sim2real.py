@@ -85,7 +85,7 @@ from eval.detector.photos import (
     write_overlay,
 )
 from eval.detector.quality import FRAME_LONG_SIDE_PX, DetectorQualityError, LabelledImage
-from eval.detector.sim2real_paste import GAP_PARTS
+from eval.detector.sim2real_paste import GAP_PARTS, format_decomposition
 from eval.stats import bootstrap_means
 from poi.core.names import RESCUE_CLASSES
 
@@ -822,8 +822,6 @@ def format_card(card: dict) -> str:
         cells = [pm[s][key] for s in ("photos", "renders", "renders_matched")]
         out.append(f"| {text} | " + " | ".join("-" if v is None else f"{v:g}" for v in cells) + " |")
     if card.get("decomposition"):
-        from eval.detector.sim2real_paste import format_decomposition
-
         out += format_decomposition(card["decomposition"])
     out += ["", f"Intervals: {card['intervals']}.", "", f"Definition: {card['false_detection']}."]
     if card.get("cpu_s"):

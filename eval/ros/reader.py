@@ -367,8 +367,6 @@ def open_recording(
 
 def _index(path: Path, topics: Topics, given: set[str], names: FrameNames) -> Recording:
     """:func:`open_recording` of an existing ``path``."""
-    topics = topics or Topics()
-    names = names or FrameNames()
     notes: list[str] = []
     with _open(path) as reader:
         unclosed = reader if hasattr(reader, "note") else None
