@@ -209,7 +209,6 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             _fmt(t.points_lost),
             _fmt(t.points),
             t.objects,
-            t.found,
             t.missed,
             _fmt(t.max_points),
         ]
@@ -227,7 +226,6 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             _fmt(sum(t.points_lost for t in result.per_type.values())),
             _fmt(result.total),
             sum(t.objects for t in result.per_type.values()),
-            sum(t.found for t in result.per_type.values()),
             result.misses,
             _fmt(result.max_total),
         ]
@@ -243,7 +241,6 @@ def format_tables(result: ScoreResult | MapErrorResult) -> str:
             "penalty",
             "points",
             "objects",
-            "found",
             "missed",
             "max",
         ],
