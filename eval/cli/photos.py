@@ -434,22 +434,24 @@ def cmd_sim2real(args) -> int:
     cpu["card"] = time.process_time() - t0
     if args.decompose:
         from eval.detector.quality import ImageDetector
-        from eval.detector.sim2real import gap_parts
+        from eval.detector.sim2real import TOO_FEW, gap_parts, gap_parts_by_label
         from eval.detector.sim2real_paste import PASTE_MIN_PX, decompose_side
 
         t0 = time.process_time()
         detect = ImageDetector(args.model, args.conf, args.label_model, _options(args))
         card["decomposition"] = {"min_side_px": PASTE_MIN_PX}
-        hits = {}
+        hits, pasted = {}, {}
         for side, images, results, scales in (
             ("photos", photo_images, photo_results, photo_scales),
             ("renders", renders.images, render_results, render_scales),
         ):
             with progress_bar(total=len(images), desc=f"paste, {side}", unit="img", quiet=args.quiet) as bar:
-                card["decomposition"][side], hits[side] = decompose_side(
+                card["decomposition"][side], hits[side], pasted[side] = decompose_side(
                     detect, images, results, scales, args.absent, args.seed, progress=bar.update
                 )
         card["decomposition"]["gap_parts"] = gap_parts(hits["photos"], hits["renders"], args.seed)
+        card["decomposition"]["by_label"] = gap_parts_by_label(hits, pasted, args.seed)
+        card["decomposition"]["too_few"] = TOO_FEW
         cpu["decompose"] = time.process_time() - t0
     card["cpu_s"] = {k: round(v, 1) for k, v in cpu.items()} | {"total": round(time.process_time() - cpu0, 1)}
     sides = [

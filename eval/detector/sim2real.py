@@ -277,6 +277,31 @@ def gap_parts(photos: np.ndarray, renders: np.ndarray, seed: int) -> dict | None
     }
 
 
+def gap_parts_by_label(hits: dict[str, np.ndarray], labels: dict[str, list[str]], seed: int) -> list[dict]:
+    """:func:`gap_parts` of each label with at least :data:`TOO_FEW` pasted placards on both sides,
+    the largest gap (either way) first: ``[{"label", "n": {"photos", "renders"}, "gap": ..., part: ...}]``.
+    ``hits`` and ``labels`` by side (``"photos"``, ``"renders"``): each pasted placard's outcomes and
+    label (``decompose_side``). A label's parts add up to its gap as the whole card's do.
+
+    >>> h = {"photos": np.ones((20, 3), bool), "renders": np.zeros((25, 3), bool)}
+    >>> rows = gap_parts_by_label(h, {"photos": ["poison"] * 20, "renders": ["poison"] * 25}, seed=0)
+    >>> r = rows[0]
+    >>> r["label"], r["n"]["renders"], r["gap"]["value"], r["the frame around the placard"]["value"]
+    ('poison', 25, -100.0, -100.0)
+    """
+    by_side = {side: np.asarray(labels[side], dtype=object) for side in ("photos", "renders")}
+    rows = []
+    for label in sorted(set(labels["photos"]) & set(labels["renders"])):
+        sel = {side: by_side[side] == label for side in by_side}
+        n = {side: int(sel[side].sum()) for side in sel}
+        if min(n.values()) < TOO_FEW:
+            continue
+        parts = gap_parts(hits["photos"][sel["photos"]], hits["renders"][sel["renders"]], seed)
+        rows.append({"label": label, "n": n, **parts})
+    rows.sort(key=lambda r: (-abs(r["gap"]["value"]), r["label"]))
+    return rows
+
+
 def weighted_median(x: np.ndarray, w: np.ndarray | None = None) -> float | None:
     """The weighted median: the smallest x whose cumulative weight reaches half the total; with
     no weights, np.median. None without a value of positive weight.

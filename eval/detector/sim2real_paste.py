@@ -115,15 +115,17 @@ def decompose_side(
     absent: str,
     seed: int,
     progress: Callable[[int], object] | None = None,
-) -> tuple[dict[str, dict], np.ndarray]:
+) -> tuple[dict[str, dict], np.ndarray, list[str]]:
     """Right-label recall of each of :data:`VARIANTS` over the placards of ``images`` that are
-    pasted (module note), each with Wilson's interval: ``{variant: {"value", "ci95", "n"}}``, and
-    each pasted placard's outcomes, (n, 3) bool in the order of :data:`VARIANTS`.
+    pasted (module note), each with Wilson's interval: ``{variant: {"value", "ci95", "n"}}``; each
+    pasted placard's outcomes, (n, 3) bool in the order of :data:`VARIANTS`; and each one's label
+    (as ``absent`` folds it).
     ``results`` are ``detect``'s detections on ``images`` as they are (the card's, classes folded
     as ``absent`` says): the first version's, not run again. The trial's print of the k-th pasted
     placard is drawn from ``seed`` and k."""
     lut = fold_lut(absent)
     rows: list[list[bool]] = []
+    labels: list[str] = []
     n = 0
     for im, found, scale in zip(images, results, scales, strict=True):
         rgb = None
@@ -141,6 +143,7 @@ def decompose_side(
             pictures = drawings(RESCUE_CLASSES[int(label)], seed * 100_003 + n)
             n += 1
             want, at = int(lut[int(label)]), box.astype(float)
+            labels.append(RESCUE_CLASSES[want])
             row = [_named(found.det_boxes, found.det_classes, at, want)]
             for picture in pictures.values():
                 dets = detect(paste(rgb, (x1, y1, x2, y2), picture), im.path)
@@ -159,7 +162,7 @@ def decompose_side(
             "ci95": None if ci is None else [round(ci[0], 4), round(ci[1], 4)],
             "n": n,
         }
-    return out, hits
+    return out, hits, labels
 
 
 def format_decomposition(d: dict) -> list[str]:
@@ -189,12 +192,12 @@ def format_decomposition(d: dict) -> list[str]:
         "drawing named less often in the renders than in the photos is what the frame around the placard costs "
         "(scene, light, view); the renders' placards below their drawing, what the render's placard costs.",
     ]
+
+    def pts(e: dict) -> str:
+        return f"{e['value']:+.1f} ({e['ci95'][0]:+.1f} to {e['ci95'][1]:+.1f})"
+
     parts = d.get("gap_parts")
     if parts:
-
-        def pts(e: dict) -> str:
-            return f"{e['value']:+.1f} ({e['ci95'][0]:+.1f} to {e['ci95'][1]:+.1f})"
-
         out += [
             "",
             f"The gap of these placards as they are, {pts(parts['gap'])} points (renders minus photos, 95% "
@@ -203,5 +206,21 @@ def format_decomposition(d: dict) -> list[str]:
             "| part | points | what it compares |",
             "|---|---|---|",
             *(f"| {name} | {pts(parts[name])} | {meaning} |" for name, meaning in GAP_PARTS.items()),
+        ]
+    rows = d.get("by_label")
+    if rows:
+        out += [
+            "",
+            f"By label (labels with at least {d['too_few']} pasted placards on each side; the same parts, each "
+            "label's adding up to its gap):",
+            "",
+            "| label | placards: photos / renders | gap | " + " | ".join(GAP_PARTS) + " |",
+            "|---|---|---|" + "---|" * len(GAP_PARTS),
+            *(
+                f"| {r['label']} | {r['n']['photos']} / {r['n']['renders']} | {pts(r['gap'])} | "
+                + " | ".join(pts(r[name]) for name in GAP_PARTS)
+                + " |"
+                for r in rows
+            ),
         ]
     return out
