@@ -236,28 +236,34 @@ def _unclosed_mcap(path: Path) -> Path | None:
     return stored[0] if len(stored) == 1 else None
 
 
-def _never_closed(path: Path) -> bool:
-    """A rosbag2 MCAP folder without metadata.yaml, or a ROS 1 bag without its index."""
+def _never_closed(path: Path) -> Path | None:
+    """What to read of a log its writer never closed: the MCAP file of a rosbag2 folder without
+    metadata.yaml, or a ROS 1 bag without its index (the bag itself); None for any other path."""
     from eval.ros.unclosed import bag_is_unclosed
 
-    return _unclosed_mcap(path) is not None or (path.is_file() and bag_is_unclosed(path))
+    stored = _unclosed_mcap(path)
+    if stored is not None:
+        return stored
+    return path if path.is_file() and bag_is_unclosed(path) else None
 
 
 def _unclosed(path: Path):
     """A reader of :mod:`eval.ros.unclosed` for a log its writer never closed, or None."""
     import importlib.util
 
-    from eval.ros.unclosed import UnclosedBag, UnclosedMcap, bag_is_unclosed
+    from eval.ros.unclosed import UnclosedBag, UnclosedMcap
 
-    stored = _unclosed_mcap(path)
-    if stored is not None:
-        if importlib.util.find_spec("mcap") is None:
-            raise RecordingError(
-                f"{path}: a recording never closed (no metadata.yaml); reading it needs the mcap library: "
-                "pip install 'poibench[ros]' (or pip install mcap)"
-            )
-        return UnclosedMcap(stored)
-    return UnclosedBag(path) if path.is_file() and bag_is_unclosed(path) else None
+    stored = _never_closed(path)
+    if stored is None:
+        return None
+    if stored == path:
+        return UnclosedBag(path)
+    if importlib.util.find_spec("mcap") is None:
+        raise RecordingError(
+            f"{path}: a recording never closed (no metadata.yaml); reading it needs the mcap library: "
+            "pip install 'poibench[ros]' (or pip install mcap)"
+        )
+    return UnclosedMcap(stored)
 
 
 def _not_a_recording(path: Path) -> str | None:
@@ -359,7 +365,7 @@ def open_recording(
     try:
         return _index(path, topics or Topics(), given, names or FrameNames())
     except RecordingError as e:
-        if "never closed" in str(e) or not _never_closed(path):
+        if "never closed" in str(e) or _never_closed(path) is None:
             raise
         # what is missing may be what the writer had not flushed when it stopped
         raise RecordingError(f"{e} (a recording never closed or cut short: read as far as it goes)") from None
