@@ -434,7 +434,7 @@ def cmd_sim2real(args) -> int:
     cpu["card"] = time.process_time() - t0
     if args.decompose:
         from eval.detector.quality import ImageDetector
-        from eval.detector.sim2real import TOO_FEW, gap_parts, gap_parts_by_label
+        from eval.detector.sim2real import gap_parts, gap_parts_by_label
         from eval.detector.sim2real_paste import PASTE_MIN_PX, decompose_side
 
         t0 = time.process_time()
@@ -451,7 +451,6 @@ def cmd_sim2real(args) -> int:
                 )
         card["decomposition"]["gap_parts"] = gap_parts(hits["photos"], hits["renders"], args.seed)
         card["decomposition"]["by_label"] = gap_parts_by_label(hits, pasted, args.seed)
-        card["decomposition"]["too_few"] = TOO_FEW
         cpu["decompose"] = time.process_time() - t0
     card["cpu_s"] = {k: round(v, 1) for k, v in cpu.items()} | {"total": round(time.process_time() - cpu0, 1)}
     sides = [

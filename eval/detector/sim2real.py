@@ -87,6 +87,7 @@ from eval.detector.photos import (
 from eval.detector.quality import FRAME_LONG_SIDE_PX, DetectorQualityError, LabelledImage
 from eval.detector.sim2real_paste import GAP_PARTS, format_decomposition
 from eval.stats import bootstrap_means
+from eval.text import signed_interval
 from poi.core.names import RESCUE_CLASSES
 
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, 160.0, float("inf"))  # shorter box side
@@ -727,7 +728,7 @@ def _rate(r: dict | None) -> str:
 def _points(gap: float | None, ci: list[float] | None) -> str:
     if gap is None or ci is None:
         return "-"
-    return f"{100 * gap:+.1f} ({100 * ci[0]:+.1f} to {100 * ci[1]:+.1f})"
+    return signed_interval(100 * gap, 100 * ci[0], 100 * ci[1])
 
 
 def format_card(card: dict) -> str:
@@ -847,7 +848,7 @@ def format_card(card: dict) -> str:
         cells = [pm[s][key] for s in ("photos", "renders", "renders_matched")]
         out.append(f"| {text} | " + " | ".join("-" if v is None else f"{v:g}" for v in cells) + " |")
     if card.get("decomposition"):
-        out += format_decomposition(card["decomposition"])
+        out += format_decomposition(card["decomposition"], card["too_few"])
     out += ["", f"Intervals: {card['intervals']}.", "", f"Definition: {card['false_detection']}."]
     if card.get("cpu_s"):
         c = card["cpu_s"]

@@ -45,6 +45,7 @@ from eval.detector.label_eval import wilson
 from eval.detector.metrics import ImageBoxes
 from eval.detector.photos import HAZMAT_IDS, IOU_MIN, fold_lut
 from eval.detector.quality import ImageDetector, LabelledImage, read_rgb
+from eval.text import signed_interval
 from poi.core.geometry import iou_matrix
 from poi.core.names import RESCUE_CLASSES
 
@@ -165,8 +166,9 @@ def decompose_side(
     return out, hits, labels
 
 
-def format_decomposition(d: dict) -> list[str]:
-    """The card's Markdown section for ``card["decomposition"]``."""
+def format_decomposition(d: dict, too_few: int) -> list[str]:
+    """The card's Markdown section for ``card["decomposition"]``; ``too_few``: the placards a side
+    a label needs for its own row (the card's)."""
     out = [
         "",
         f"## Where the gap lies: each placard replaced by poibench's drawing of its label (placards of "
@@ -194,7 +196,7 @@ def format_decomposition(d: dict) -> list[str]:
     ]
 
     def pts(e: dict) -> str:
-        return f"{e['value']:+.1f} ({e['ci95'][0]:+.1f} to {e['ci95'][1]:+.1f})"
+        return signed_interval(e["value"], *e["ci95"])
 
     parts = d.get("gap_parts")
     if parts:
@@ -211,7 +213,7 @@ def format_decomposition(d: dict) -> list[str]:
     if rows:
         out += [
             "",
-            f"By label (labels with at least {d['too_few']} pasted placards on each side; the same parts, each "
+            f"By label (labels with at least {too_few} pasted placards on each side; the same parts, each "
             "label's adding up to its gap):",
             "",
             "| label | placards: photos / renders | gap | " + " | ".join(GAP_PARTS) + " |",

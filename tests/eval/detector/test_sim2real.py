@@ -234,40 +234,51 @@ def _run(photos: Path, model: Path, out: Path, *extra: str) -> int:
 
 def test_gap_parts_by_label_split_each_label_as_the_card_splits_the_whole():
     """Each label's parts are gap_parts of its own placards (adding up to its gap); labels under
-    TOO_FEW pasted placards on a side are left out; the largest gap either way comes first."""
+    TOO_FEW pasted placards on either side are left out; the largest gap either way comes first;
+    the Markdown row lists the parts in GAP_PARTS' order."""
     from eval.detector.sim2real_paste import GAP_PARTS, format_decomposition
 
     rng = np.random.default_rng(3)
-    counts = {"poison": (20, 25), "corrosive": (24, 20), "explosive": (TOO_FEW - 1, 40)}
+    # photos / renders pasted, and each side's chance of a right label: poison loses much, corrosive
+    # gains more (the largest gap, positive), explosive has too few photos, oxidizer too few renders
+    cells = {
+        "poison": (20, 25, 0.8, 0.3),
+        "corrosive": (24, 20, 0.2, 0.95),
+        "explosive": (TOO_FEW - 1, 40, 0.8, 0.1),
+        "oxidizer": (30, TOO_FEW - 1, 0.9, 0.1),
+    }
     labels = {
-        side: [c for c, n in counts.items() for _ in range(n[j])] for j, side in enumerate(("photos", "renders"))
+        side: [c for c, n in cells.items() for _ in range(n[j])] for j, side in enumerate(("photos", "renders"))
     }
-    hits = {
-        "photos": rng.random((len(labels["photos"]), 3)) < 0.8,
-        "renders": rng.random((len(labels["renders"]), 3))
-        < np.where(np.array(labels["renders"])[:, None] == "poison", 0.2, 0.7),
+    p_hit = {
+        side: np.array([cells[c][2 + j] for c in labels[side]]) for j, side in enumerate(("photos", "renders"))
     }
+    hits = {side: rng.random((len(labels[side]), 3)) < p_hit[side][:, None] for side in labels}
     rows = gap_parts_by_label(hits, labels, seed=5)
-    assert [r["label"] for r in rows] == ["poison", "corrosive"]  # explosive: too few photos
-    assert rows[0]["n"] == {"photos": 20, "renders": 25}
+    assert [r["label"] for r in rows] == ["corrosive", "poison"]
+    assert rows[0]["gap"]["value"] > 0 > rows[1]["gap"]["value"]
+    assert abs(rows[0]["gap"]["value"]) > abs(rows[1]["gap"]["value"])
+    assert rows[1]["n"] == {"photos": 20, "renders": 25}
     for r in rows:
         sel = {side: np.array(labels[side]) == r["label"] for side in labels}
         assert {k: r[k] for k in ("gap", *GAP_PARTS)} == gap_parts(
             hits["photos"][sel["photos"]], hits["renders"][sel["renders"]], seed=5
         )
         assert abs(sum(r[k]["value"] for k in GAP_PARTS) - r["gap"]["value"]) <= 0.15  # each part rounded
-    assert abs(rows[0]["gap"]["value"]) > abs(rows[1]["gap"]["value"])
     side = {"value": 0.5, "ci95": [0.4, 0.6], "n": 45}
     d = {
         "min_side_px": 40.0,
-        "too_few": TOO_FEW,
         "photos": dict.fromkeys(("as it is", "the drawing", "the drawing, a trial's print"), side),
     }
     d["renders"] = d["photos"]
-    md = "\n".join(
-        format_decomposition({**d, "gap_parts": gap_parts(hits["photos"], hits["renders"], 5), "by_label": rows})
-    )
-    assert f"| poison | 20 / 25 | {rows[0]['gap']['value']:+.1f} (" in md
+    d |= {"gap_parts": gap_parts(hits["photos"], hits["renders"], 5), "by_label": rows}
+    md = format_decomposition(d, TOO_FEW)
+    p = rows[1]
+    cell = [
+        f"{p[k]['value']:+.1f} ({p[k]['ci95'][0]:+.1f} to {p[k]['ci95'][1]:+.1f})" for k in ("gap", *GAP_PARTS)
+    ]
+    assert f"| poison | 20 / 25 | {' | '.join(cell)} |" in md
+    assert f"at least {TOO_FEW} pasted placards on each side" in "\n".join(md)
 
 
 @pytest.mark.slow
@@ -312,7 +323,7 @@ def test_sim2real_end_to_end(photos, tmp_path, capsys):
     card = json.loads((out / "card.json").read_text())
     d = card["decomposition"]
     assert d["min_side_px"] == 40.0 and card["cpu_s"]["decompose"] >= 0
-    assert d["by_label"] == [] and d["too_few"] == TOO_FEW  # 4 pasted photo placards: no label has enough
+    assert d["by_label"] == []  # 4 pasted photo placards: no label has enough
     for variant in ("as it is", "the drawing", "the drawing, a trial's print"):
         assert (d["photos"][variant]["value"], d["photos"][variant]["n"]) == (0.25, 4)
         assert d["photos"][variant]["ci95"] == [round(v, 4) for v in wilson(1, 4)]
