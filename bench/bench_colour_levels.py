@@ -36,7 +36,8 @@ def main() -> None:
             for v in t.visible:
                 if v.type in ("hazmat", "qr") and v.pixels >= MIN_PIXELS:
                     whites.append(np.percentile(grey[t.object_mask == v.id], 90))
-            backgrounds.append(np.median(grey[t.object_mask < 0]))
+            if (t.object_mask < 0).any():  # a close view an object fills has no background
+                backgrounds.append(np.median(grey[t.object_mask < 0]))
         for k in range(0, s.n_frames, 5):
             raw = s.on_gl_thread(s._render_colour_depth, k)
             e = s.exposure(k, raw.rgb)

@@ -47,6 +47,7 @@ import yaml
 from poi.core.geometry import make_transform, rot_x, rot_y, rot_z
 from poi.core.loader import safe_load_file
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES, identity_to_class
+from sim.sensors.d435_color import ColourSpec
 from sim.world.placement import DEFAULT_COUNTS
 
 LIGHTING = ("bright", "dim", "uneven")
@@ -218,6 +219,9 @@ class DatasetSpec:
             del d["hazmat_labels"]  # datasets made before the field resume as they were
         else:
             d["hazmat_labels"] = list(self.hazmat_labels)
+        if self.camera is None:  # the trial's colour camera makes these images: its settings are theirs too
+            colour = asdict(ColourSpec())
+            d["trial_colour"] = {k: list(v) if isinstance(v, tuple) else v for k, v in colour.items()}
         return d
 
 

@@ -28,7 +28,8 @@ moves near things more). Defocus: a Gaussian of ``defocus_sigma_px``. Vignetting
 irradiance falls as cos^4 of the off-axis angle theta (the cos^4 law of a thin lens); the lens
 is assumed to correct part of it (a judgement: no public D435 figure),
 ``V = 1 - v * (1 - cos^4 theta)`` (:func:`vignette_map`).
-White balance: per-channel gains on the linear signal. Compression: JPEG at a quality.
+White balance: per-channel gains on the linear signal (the cast left after the camera's auto
+white balance). Compression: JPEG at a quality.
 
 The D435's colour imager (an OmniVision OV2740, rolling shutter, 1920 x 1080 at most,
 [IntelD400]) is simulated global-shutter: the rolling readout's skew is left out.
@@ -52,7 +53,7 @@ from sim.sensors.noise_pool import NoisePool
 class ColourSpec:
     """The D435 colour stream's camera effects (sim/sensors/d435_color.py; docs/FACTS.md
     "D435 colour camera"). Each is a setting and can be switched off; ``sensors.noise: false``
-    switches off the random ones (noise) and the blurs, compression and white-balance error,
+    switches off the random ones (noise) and the blurs, compression and white-balance cast,
     leaving exposure and tone.
 
     Light: ``lux`` is the illuminance on a white surface the robot's lamp lights (default: the
@@ -66,7 +67,9 @@ class ColourSpec:
     plus ``read_noise_e``, relative to ``full_well_e``. Output: display gamma ``gamma``.
     Blurs: the camera's own motion during the exposure (``motion_blur``), ``defocus_sigma_px``
     (Gaussian). ``vignetting``: the fraction of the cos^4 falloff left after the lens'
-    correction (0: none). ``wb_gains``: per-channel (R, G, B) white-balance error.
+    correction (0: none). ``wb_gains``: per-channel (R, G, B) gains on the linear signal, the
+    colour cast left after the camera's auto white balance (whites a little cool, fitted to real
+    placard photos: docs/FACTS.md "D435 colour camera").
     ``jpeg_quality``: JPEG compression of the delivered image (0, the default: off, as the
     D435 sends its colour frames uncompressed over USB; a robot that sends them on as JPEG
     sets its quality).
@@ -89,7 +92,7 @@ class ColourSpec:
     motion_blur: bool = True
     defocus_sigma_px: float = number(0.5, lo=0.0, hi=20.0)
     vignetting: float = number(0.4, lo=0.0, hi=1.0)
-    wb_gains: tuple[float, float, float] = number((1.04, 1.0, 0.95), lo=0.0, lo_open=True)
+    wb_gains: tuple[float, float, float] = number((1.0, 1.0, 1.15), lo=0.0, lo_open=True)
     jpeg_quality: int = number(0, lo=0, hi=100)
 
     def __post_init__(self) -> None:

@@ -12,6 +12,7 @@ from eval.detector.dataset import (
     DatasetError,
     DatasetSpec,
     _build,
+    _check_out_dir,
     _crosses,
     sample_view,
     scenario_for,
@@ -86,6 +87,21 @@ def test_same_seed_same_bytes_and_resume_skips_finished_scenarios(tiny, tmp_path
     write_dataset(spec, again)
     assert _tree_hash(again) == _tree_hash(out)
     assert (again / "images" / "train" / "s0000_000.jpg").stat().st_mtime_ns == before  # not redone
+
+
+def test_renders_of_the_trial_camera_made_with_other_colour_settings_are_refused(tmp_path):
+    """A dataset drawn with the trial's colour camera (``camera: None``, as sim2real's renders are)
+    records that camera's settings, so renders an earlier white balance made are not reused."""
+    spec = DatasetSpec.trial_looks(images=2, images_per_scenario=2, seed=3, val_every=1, camera=None)
+    same = spec.to_dict()
+    assert same["trial_colour"]["wb_gains"] == [1.0, 1.0, 1.15]
+    earlier = {**same, "trial_colour": {**same["trial_colour"], "wb_gains": [1.04, 1.0, 0.95]}}
+    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"poibench_dataset": 1, "spec": earlier}))
+    with pytest.raises(DatasetError, match="other settings"):
+        _check_out_dir(tmp_path, spec)
+    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"poibench_dataset": 1, "spec": same}))
+    _check_out_dir(tmp_path, spec)  # the same settings: reused
+    assert "trial_colour" not in DatasetSpec(images=2, images_per_scenario=2, seed=3).to_dict()  # drawn per image
 
 
 @pytest.mark.slow

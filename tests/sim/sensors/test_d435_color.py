@@ -99,6 +99,19 @@ def test_white_balance_gains_scale_channel_means():
     assert m[0] / m[1] == pytest.approx(1.2, abs=0.01) and m[2] / m[1] == pytest.approx(0.8, abs=0.01)
 
 
+def test_the_default_white_balance_leaves_a_white_surface_cool():
+    """The default white balance leaves whites a little cool, as real placard photos show them and
+    in the direction a real D435 takes in a warm room (docs/FACTS.md "D435 colour camera"): blue
+    above red on a grey surface, by 1.15 in linear light, 1.15^(1/2.2) = 1.066 encoded."""
+    spec = replace(
+        ColourSpec(), shot_noise=False, read_noise_e=0.0, motion_blur=False, defocus_sigma_px=0.0, vignetting=0.0
+    )
+    img = np.full((H, W, 3), 180, np.uint8)
+    out = _camera(spec).render(img, _unit_exposure(spec), 1000.0, rng=np.random.default_rng(0), pool=None)
+    r, g, b = out.reshape(-1, 3).astype(float).mean(axis=0)
+    assert b / r == pytest.approx(1.15 ** (1 / 2.2), abs=0.01) and r == pytest.approx(g, abs=1.0)
+
+
 def test_jpeg_off_leaves_the_image_byte_identical_and_on_changes_it():
     spec = replace(PLAIN, gamma=1.0)
     img = np.random.default_rng(1).integers(0, 256, (H, W, 3), dtype=np.uint8)
