@@ -214,15 +214,19 @@ class DatasetSpec:
         d["print_saturation"] = None if self.print_saturation is None else list(self.print_saturation)
         d["print_black"] = None if self.print_black is None else list(self.print_black)
         if d["camera"] is not None:
-            d["camera"] = {k: list(v) if isinstance(v, tuple) else v for k, v in d["camera"].items()}
+            d["camera"] = _listed(d["camera"])
         if self.hazmat_labels is None:
             del d["hazmat_labels"]  # datasets made before the field resume as they were
         else:
             d["hazmat_labels"] = list(self.hazmat_labels)
         if self.camera is None:  # the trial's colour camera makes these images: its settings are theirs too
-            colour = asdict(ColourSpec())
-            d["trial_colour"] = {k: list(v) if isinstance(v, tuple) else v for k, v in colour.items()}
+            d["trial_colour"] = _listed(asdict(ColourSpec()))
         return d
+
+
+def _listed(settings: dict) -> dict:
+    """``settings`` with its tuples as lists, as YAML writes them back (dataset.yaml's spec)."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in settings.items()}
 
 
 def scenario_for(spec: DatasetSpec, j: int, attempt: int = 0):

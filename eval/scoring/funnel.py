@@ -301,18 +301,14 @@ def _perception_detail(cause: str, o: ObjectTrace) -> str:
         if o.type == "qr":
             ppm = o.px_per_module()
             best = "" if ppm is None else f" (best {ppm:.1f} px a module)"
+            at = f"at >= {QR_MIN_MODULE_PX:g} px a module{best}"
             if not o.qr_views:
-                views = f"no view at >= {QR_MIN_MODULE_PX:g} px a module{best}"
+                views = f"no view {at}"
             elif not o.qr_whole_views:
-                views = (
-                    f"{o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a module{best}, none whole in the image: "
-                    "no decoder could read it there"
-                )
+                views = f"{o.qr_views} views {at}, none whole in the image: no decoder could read it there"
             else:
-                views = (
-                    f"{o.qr_views} views at >= {QR_MIN_MODULE_PX:g} px a module{best}, {o.qr_whole_views} of them "
-                    f"whole in the image, {o.qr_whole_decoded} read right there"
-                )
+                whole = f"{o.qr_whole_views} of them whole in the image, {o.qr_whole_decoded} read right there"
+                views = f"{o.qr_views} views {at}, {whole}"
             return f"localised {o.localised_frames} frames; {views}; the pipeline's reads: none right"
         read = ", ".join(f"{t or 'nothing'} {n}" for t, n in o.read_as.most_common(3))
         return f"localised {o.localised_frames} frames, read as {read}"
