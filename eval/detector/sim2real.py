@@ -10,7 +10,10 @@ gives, for each side:
 * right-label recall: the share of labelled placards paired with a detection of their label;
 * recall as a placard: paired with a detection of any hazmat label;
 * false detections an image: detections paired with no labelled box
-  (:data:`eval.detector.photos.FALSE_DETECTION`), of any class and of a hazmat label.
+  (:data:`eval.detector.photos.FALSE_DETECTION`), of any class and of a hazmat label;
+* what each label's placards were named: the share of each outcome, its own label, another
+  class, or missed (:func:`named_shares`), the renders' at the photos' size mix: where a gap is
+  a confusion (one label read as another on one side only) rather than a miss.
 
 Renders show placards at other sizes than hand-held photos do (more far away), and recall
 depends on size, so the renders' shares are also given **at the photos' size mix**
@@ -93,6 +96,8 @@ from poi.core.names import RESCUE_CLASSES
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 20.0, 40.0, 80.0, 160.0, float("inf"))  # shorter box side
 SHAPE_BINS: tuple[float, ...] = (0.0, 0.75, 0.9, float("inf"))  # shorter / longer box side
 TOO_FEW = 20  # placards a side below which a label's gap is flagged
+MISSED = -1  # Side.named of a placard no detection is paired with
+NAMED_SHOWN = 3  # outcomes a side the card's Markdown names per label (card.json keeps them all)
 PHOTOMETRY_MIN_PX = 40.0  # crops with a shorter side under this are left out of the photometry
 BOOTSTRAP_RESAMPLES = 2000
 GROUPS = ["hazmat label" if i in HAZMAT_IDS else "other type" for i in range(len(RESCUE_CLASSES))]
@@ -361,8 +366,7 @@ class Side:
     label: np.ndarray  # (n,) class index
     side_px: np.ndarray  # (n,) shorter side of the labelled box, at the frame's scale (quality.frame_scales)
     aspect: np.ndarray  # (n,) shorter over longer side of the labelled box, in (0, 1]
-    right: np.ndarray  # (n,) paired with a detection of its own label
-    placard: np.ndarray  # (n,) paired with a detection of any hazmat label
+    named: np.ndarray  # (n,) class index of the detection paired with it, MISSED where none is
     image: np.ndarray  # (n,) index of its image
     box: np.ndarray  # (n, 4) xyxy pixels
     false: np.ndarray  # (n_img, len(RESCUE_CLASSES)) false detections an image, by detected class
@@ -373,6 +377,16 @@ class Side:
     @property
     def images(self) -> int:
         return len(self.false)
+
+    @property
+    def right(self) -> np.ndarray:
+        """(n,) paired with a detection of its own label."""
+        return self.named == self.label
+
+    @property
+    def placard(self) -> np.ndarray:
+        """(n,) paired with a detection of any hazmat label."""
+        return np.isin(self.named, list(HAZMAT_IDS))
 
 
 def side_outcomes(
@@ -388,7 +402,7 @@ def side_outcomes(
     (:func:`eval.detector.quality.frame_scales`; 1 when not given); the boxes themselves stay in
     the image's pixels."""
     scales = np.ones(len(results)) if scales is None else np.asarray(scales, dtype=float)
-    label, side, aspect, right, placard, image, boxes = [], [], [], [], [], [], []
+    label, side, aspect, named, image, boxes = [], [], [], [], [], []
     false = np.zeros((len(results), len(RESCUE_CLASSES)), dtype=np.int64)
     detections = 0
     for k, im in enumerate(results):
@@ -401,21 +415,18 @@ def side_outcomes(
             t = int(b.gt_classes[g])
             if t not in HAZMAT_IDS:
                 continue
-            p = int(b.det_classes[paired[g]]) if g in paired else -1
             label.append(t)
             w, h = xyxy[2] - xyxy[0], xyxy[3] - xyxy[1]
             side.append(min(w, h) * scales[k])
             aspect.append(min(w, h) / max(w, h, 1e-9))
-            right.append(p == t)
-            placard.append(p in HAZMAT_IDS)
+            named.append(int(b.det_classes[paired[g]]) if g in paired else MISSED)
             image.append(k)
             boxes.append(xyxy)
     return Side(
         label=np.array(label, dtype=np.int64),
         side_px=np.array(side, dtype=float),
         aspect=np.array(aspect, dtype=float),
-        right=np.array(right, dtype=bool),
-        placard=np.array(placard, dtype=bool),
+        named=np.array(named, dtype=np.int64),
         image=np.array(image, dtype=np.int64),
         box=np.array(boxes, dtype=float).reshape(-1, 4),
         false=false,
@@ -489,6 +500,32 @@ def _side_shares(side: Side, sel: np.ndarray, w: np.ndarray | None) -> dict:
         s = weighted_share(hits[sel], None if w is None else w[sel])
         out[key] = None if s is None else s.to_dict()
     return out
+
+
+def named_shares(named: np.ndarray, w: np.ndarray | None = None) -> dict:
+    """What a label's placards were named: the (weighted) share of each outcome, a class name or
+    ``"missed"`` (:data:`MISSED`), largest first (ties by name); None without placards or weight.
+    ``n`` placards, ``n_eff`` Kish's effective size of the weighted ones (:func:`kish_n_eff`).
+
+    >>> named_shares(np.array([12, 12, 12, 15, -1]))
+    {'n': 5, 'n_eff': 5.0, 'shares': {'poison': 0.6, 'infectious-substance': 0.2, 'missed': 0.2}}
+    >>> named_shares(np.array([12, 15]), np.array([3.0, 1.0]))['shares']
+    {'poison': 0.75, 'infectious-substance': 0.25}
+    """
+    named = np.asarray(named, dtype=np.int64)
+    w = np.ones(len(named)) if w is None else np.asarray(w, dtype=float)
+    if len(named) == 0 or w.sum() <= 0:
+        return None
+    totals: dict[str, float] = {}
+    for k in np.unique(named):
+        name = "missed" if k == MISSED else RESCUE_CLASSES[int(k)]
+        totals[name] = float(w[named == k].sum() / w.sum())
+    order = sorted(totals, key=lambda c: (-totals[c], c))
+    return {
+        "n": int(len(named)),
+        "n_eff": round(kish_n_eff(w), 1),
+        "shares": {c: round(totals[c], 4) for c in order if totals[c] > 0},
+    }
 
 
 def _rates(side: Side, rng: np.random.Generator, labels: list[str]) -> dict:
@@ -615,6 +652,10 @@ def sim2real_card(
                 "covered_shape": None if cws.covered(j) is None else round(cws.covered(j), 4),
                 **_gap_entry("gap", rm, ph),
                 **_gap_entry("gap_shape", rs, ph),
+                "named": {
+                    "photos": named_shares(photos.named[sel_p]),
+                    "renders_matched": named_shares(renders.named[sel_r], w_r[sel_r]),
+                },
                 "too_few": bool(sel_p.sum() < TOO_FEW or sel_r.sum() < TOO_FEW),
             }
         )
@@ -731,6 +772,18 @@ def _points(gap: float | None, ci: list[float] | None) -> str:
     return signed_interval(100 * gap, 100 * ci[0], 100 * ci[1])
 
 
+def _named_cell(named: dict | None, label: str) -> str:
+    """The commonest outcomes of one label's placards on one side, its own label as 'right'.
+
+    >>> _named_cell({'n': 5, 'n_eff': 5.0, 'shares': {'poison': 0.6, 'missed': 0.4}}, 'poison')
+    'right 60%, missed 40%'
+    """
+    if named is None:
+        return "-"
+    top = list(named["shares"].items())[:NAMED_SHOWN]
+    return ", ".join(f"{'right' if c == label else c} {100 * v:.0f}%" for c, v in top)
+
+
 def format_card(card: dict) -> str:
     """The card as Markdown: the headline, the gaps per label, the size mix, the photometry."""
     o = card["overall"]
@@ -803,6 +856,17 @@ def format_card(card: dict) -> str:
             f"{_short_pct(m['recall_placard'])} | {p['false_per_image']['value']:.3f} / "
             f"{q['false_per_image']['value']:.3f} | {covered} |"
         )
+    out += [
+        "",
+        f"## What each label's placards were named: the {NAMED_SHOWN} commonest outcomes a side ('missed': "
+        "no detection paired; card.json has them all)",
+        "",
+        "| label | photos | renders at the photos' sizes |",
+        "|---|---|---|",
+    ]
+    for r in card["per_label"]:
+        cells = [_named_cell(r["named"][s], r["label"]) for s in ("photos", "renders_matched")]
+        out.append(f"| {r['label']}{' (too few)' if r['too_few'] else ''} | " + " | ".join(cells) + " |")
     out += [
         "",
         "## Box sizes (shorter side, px): placards and right-label recall, unweighted",

@@ -19,6 +19,7 @@ from eval.detector.quality import DetectorQualityError
 from eval.detector.sim2real import (
     TOO_FEW,
     cell_weights,
+    format_card,
     gap_parts,
     gap_parts_by_label,
     kish_n_eff,
@@ -141,6 +142,61 @@ def test_the_renders_at_the_photos_box_shapes_by_hand():
     keys = ("photos", "renders", "recall_photos", "recall_renders")
     mix = {m["shape"]: tuple(m[k] for k in keys) for m in card["shape_mix"]}
     assert mix == {"0-0.75": (0, 4, None, 0.0), "0.75-0.9": (0, 0, None, None), "0.9+": (4, 4, 0.5, 0.75)}
+
+
+def _named(label: str, side: float, named: str | None) -> ImageBoxes:
+    """One image holding one placard of ``label``, paired with a detection named ``named`` (None:
+    no detection)."""
+    box = np.array([[0.0, 0.0, side, side]])
+    return ImageBoxes(
+        gt_boxes=box,
+        gt_classes=np.array([C[label]]),
+        det_boxes=box if named else np.zeros((0, 4)),
+        det_classes=np.array([C[named]] if named else [], int),
+        det_scores=np.array([0.9] if named else []),
+    )
+
+
+def test_what_each_label_was_named_by_hand():
+    # photos: poison at 50 px, 3 named poison, 1 infectious-substance, 1 missed; at 100 px, 5 named
+    # poison. Renders: at 50 px, 1 poison, 3 infectious-substance; at 100 px, 1 poison, 1 missed.
+    photos = side_outcomes(
+        [_named("poison", 50, n) for n in ["poison"] * 3 + ["infectious-substance", None]]
+        + [_named("poison", 100, "poison")] * 5,
+        conf=0.5,
+    )
+    renders = side_outcomes(
+        [_named("poison", 50, n) for n in ["poison"] + ["infectious-substance"] * 3]
+        + [_named("poison", 100, n) for n in ("poison", None)],
+        conf=0.5,
+    )
+    card = sim2real_card(photos, renders, ["poison"], seed=0)
+    named = card["per_label"][0]["named"]
+    assert named["photos"]["shares"] == {"poison": 0.8, "infectious-substance": 0.1, "missed": 0.1}
+    # weights: 40-80 px 0.5 / (4/6) = 0.75, 80-160 px 0.5 / (2/6) = 1.5; total 4 * 0.75 + 2 * 1.5 = 6
+    # poison (0.75 + 1.5) / 6, infectious-substance 3 * 0.75 / 6, missed 1.5 / 6
+    assert named["renders_matched"]["shares"] == {"poison": 0.375, "infectious-substance": 0.375, "missed": 0.25}
+    assert named["renders_matched"]["n"] == 6
+    # the named shares hold the recalls: poison's share is the right-label recall on each side
+    matched = card["per_label"][0]["renders_matched"]
+    assert named["renders_matched"]["shares"]["poison"] == matched["recall_right"]["value"]
+    md = format_card(_card_for_markdown(card))
+    row = next(line for line in md.splitlines() if line.startswith("| poison (too few) | right 80%"))
+    assert row == (
+        "| poison (too few) | right 80%, infectious-substance 10%, missed 10% "
+        "| infectious-substance 38%, right 38%, missed 25% |"
+    )
+
+
+def _card_for_markdown(card: dict) -> dict:
+    """``card`` (sim2real_card's figures) with the fields the CLI adds, for format_card."""
+    return {
+        "model": "m.onnx",
+        "conf": 0.5,
+        "photos": {"folders": [{"name": "p"}], "images": 0, "placards": 0},
+        "renders": {"scenes": 1, "views": 1, "seed": 0, "images": 0, "placards": 0},
+        **card,
+    }
 
 
 def test_cells_without_renders_are_left_out_and_counted():
@@ -293,6 +349,8 @@ def test_sim2real_end_to_end(photos, tmp_path, capsys):
     ph = card["overall"]["photos"]
     assert (ph["recall_right"]["value"], ph["recall_right"]["n"]) == (0.25, 4)  # a's poison
     assert ph["recall_placard"]["value"] == 0.5  # and b's explosive, named poison
+    named = {r["label"]: r["named"]["photos"]["shares"] for r in card["per_label"]}
+    assert named["explosive"] == {"missed": 0.5, "poison": 0.5}
     assert ph["false_per_image"]["any"]["value"] == round(1 / 3, 4)  # c's
     assert ph["recall_right"]["ci95"] == [round(v, 4) for v in wilson(1, 4)]
     assert card["renders"]["placards"] >= 2
