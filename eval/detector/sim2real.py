@@ -502,10 +502,12 @@ def _side_shares(side: Side, sel: np.ndarray, w: np.ndarray | None) -> dict:
     return out
 
 
-def named_shares(named: np.ndarray, w: np.ndarray | None = None) -> dict:
+def named_shares(named: np.ndarray, w: np.ndarray | None = None) -> dict | None:
     """What a label's placards were named: the (weighted) share of each outcome, a class name or
-    ``"missed"`` (:data:`MISSED`), largest first (ties by name); None without placards or weight.
-    ``n`` placards, ``n_eff`` Kish's effective size of the weighted ones (:func:`kish_n_eff`).
+    ``"missed"`` (:data:`MISSED`), largest first (equal shares, as rounded, by name); None without
+    placards or weight. ``n`` counts every placard, those of weight 0 (sizes the photos lack)
+    included, as :func:`weighted_share` does; ``n_eff`` is Kish's effective size
+    (:func:`kish_n_eff`). Shares are rounded to 4 places and need not add up to exactly 1.
 
     >>> named_shares(np.array([12, 12, 12, 15, -1]))
     {'n': 5, 'n_eff': 5.0, 'shares': {'poison': 0.6, 'infectious-substance': 0.2, 'missed': 0.2}}
@@ -516,15 +518,15 @@ def named_shares(named: np.ndarray, w: np.ndarray | None = None) -> dict:
     w = np.ones(len(named)) if w is None else np.asarray(w, dtype=float)
     if len(named) == 0 or w.sum() <= 0:
         return None
-    totals: dict[str, float] = {}
+    shares: dict[str, float] = {}
     for k in np.unique(named):
         name = "missed" if k == MISSED else RESCUE_CLASSES[int(k)]
-        totals[name] = float(w[named == k].sum() / w.sum())
-    order = sorted(totals, key=lambda c: (-totals[c], c))
+        shares[name] = round(float(w[named == k].sum() / w.sum()), 4)
+    order = sorted(shares, key=lambda c: (-shares[c], c))
     return {
         "n": int(len(named)),
         "n_eff": round(kish_n_eff(w), 1),
-        "shares": {c: round(totals[c], 4) for c in order if totals[c] > 0},
+        "shares": {c: shares[c] for c in order if shares[c] > 0},
     }
 
 
@@ -858,8 +860,8 @@ def format_card(card: dict) -> str:
         )
     out += [
         "",
-        f"## What each label's placards were named: the {NAMED_SHOWN} commonest outcomes a side ('missed': "
-        "no detection paired; card.json has them all)",
+        f"## What each label's placards were named: the {NAMED_SHOWN} commonest outcomes a side ('right': "
+        "its own label; 'missed': no detection paired; card.json has them all)",
         "",
         "| label | photos | renders at the photos' sizes |",
         "|---|---|---|",

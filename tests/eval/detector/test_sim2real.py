@@ -167,7 +167,8 @@ def test_what_each_label_was_named_by_hand():
     )
     renders = side_outcomes(
         [_named("poison", 50, n) for n in ["poison"] + ["infectious-substance"] * 3]
-        + [_named("poison", 100, n) for n in ("poison", None)],
+        + [_named("poison", 100, n) for n in ("poison", None)]
+        + [_named("poison", 200, "corrosive")],  # a size the photos lack: weight 0
         conf=0.5,
     )
     card = sim2real_card(photos, renders, ["poison"], seed=0)
@@ -175,17 +176,21 @@ def test_what_each_label_was_named_by_hand():
     assert named["photos"]["shares"] == {"poison": 0.8, "infectious-substance": 0.1, "missed": 0.1}
     # weights: 40-80 px 0.5 / (4/6) = 0.75, 80-160 px 0.5 / (2/6) = 1.5; total 4 * 0.75 + 2 * 1.5 = 6
     # poison (0.75 + 1.5) / 6, infectious-substance 3 * 0.75 / 6, missed 1.5 / 6
-    assert named["renders_matched"]["shares"] == {"poison": 0.375, "infectious-substance": 0.375, "missed": 0.25}
-    assert named["renders_matched"]["n"] == 6
+    # the 200 px corrosive weighs 0: counted in n, in no share
+    assert named["renders_matched"]["shares"] == {"infectious-substance": 0.375, "poison": 0.375, "missed": 0.25}
+    assert named["renders_matched"]["n"] == 7
+    assert named["renders_matched"]["n_eff"] == round(36 / 6.75, 1)  # 6^2 / (4 * 0.75^2 + 2 * 1.5^2)
     # the named shares hold the recalls: poison's share is the right-label recall on each side
-    matched = card["per_label"][0]["renders_matched"]
-    assert named["renders_matched"]["shares"]["poison"] == matched["recall_right"]["value"]
-    md = format_card(_card_for_markdown(card))
-    row = next(line for line in md.splitlines() if line.startswith("| poison (too few) | right 80%"))
-    assert row == (
+    label = card["per_label"][0]
+    assert named["photos"]["shares"]["poison"] == label["photos"]["recall_right"]["value"]
+    assert named["renders_matched"]["shares"]["poison"] == label["renders_matched"]["recall_right"]["value"]
+    md = format_card(_card_for_markdown(card)).splitlines()
+    # equal shares by name: infectious-substance before poison (shown as 'right')
+    row = (
         "| poison (too few) | right 80%, infectious-substance 10%, missed 10% "
         "| infectious-substance 38%, right 38%, missed 25% |"
     )
+    assert row in md
 
 
 def _card_for_markdown(card: dict) -> dict:
