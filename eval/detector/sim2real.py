@@ -504,29 +504,34 @@ def _side_shares(side: Side, sel: np.ndarray, w: np.ndarray | None) -> dict:
 
 def named_shares(named: np.ndarray, w: np.ndarray | None = None) -> dict | None:
     """What a label's placards were named: the (weighted) share of each outcome, a class name or
-    ``"missed"`` (:data:`MISSED`), largest first (equal shares, as rounded, by name); None without
-    placards or weight. ``n`` counts every placard, those of weight 0 (sizes the photos lack)
-    included, as :func:`weighted_share` does; ``n_eff`` is Kish's effective size
-    (:func:`kish_n_eff`). Shares are rounded to 4 places and need not add up to exactly 1.
+    ``"missed"`` (:data:`MISSED`), with its 95% interval (:func:`weighted_share`: Wilson's at Kish's
+    effective n), largest first (equal shares, as rounded, by name); None without placards or
+    weight. ``n`` counts every placard, those of weight 0 (sizes the photos lack) included, as
+    :func:`weighted_share` does; ``n_eff`` is Kish's effective size (:func:`kish_n_eff`). Shares are
+    rounded to 4 places and need not add up to exactly 1.
 
-    >>> named_shares(np.array([12, 12, 12, 15, -1]))
-    {'n': 5, 'n_eff': 5.0, 'shares': {'poison': 0.6, 'infectious-substance': 0.2, 'missed': 0.2}}
-    >>> named_shares(np.array([12, 15]), np.array([3.0, 1.0]))['shares']
+    >>> out = named_shares(np.array([12, 12, 12, 15, -1]))
+    >>> out["n"], {c: s["value"] for c, s in out["shares"].items()}
+    (5, {'poison': 0.6, 'infectious-substance': 0.2, 'missed': 0.2})
+    >>> {c: s["value"] for c, s in named_shares(np.array([12, 15]), np.array([3.0, 1.0]))["shares"].items()}
     {'poison': 0.75, 'infectious-substance': 0.25}
     """
     named = np.asarray(named, dtype=np.int64)
-    w = np.ones(len(named)) if w is None else np.asarray(w, dtype=float)
-    if len(named) == 0 or w.sum() <= 0:
-        return None
-    shares: dict[str, float] = {}
+    shares: dict[str, Share] = {}
     for k in np.unique(named):
-        name = "missed" if k == MISSED else RESCUE_CLASSES[int(k)]
-        shares[name] = round(float(w[named == k].sum() / w.sum()), 4)
-    order = sorted(shares, key=lambda c: (-shares[c], c))
+        share = weighted_share(named == k, w)
+        if share is None:
+            return None
+        if share.value > 0:
+            shares["missed" if k == MISSED else RESCUE_CLASSES[int(k)]] = share
+    if not shares:
+        return None
+    order = sorted(shares, key=lambda c: (-round(shares[c].value, 4), c))
+    first = shares[order[0]]
     return {
-        "n": int(len(named)),
-        "n_eff": round(kish_n_eff(w), 1),
-        "shares": {c: shares[c] for c in order if shares[c] > 0},
+        "n": first.n,
+        "n_eff": round(first.n_eff, 1),
+        "shares": {c: {k: v for k, v in shares[c].to_dict().items() if k in ("value", "ci95")} for c in order},
     }
 
 
@@ -777,13 +782,14 @@ def _points(gap: float | None, ci: list[float] | None) -> str:
 def _named_cell(named: dict | None, label: str) -> str:
     """The commonest outcomes of one label's placards on one side, its own label as 'right'.
 
-    >>> _named_cell({'n': 5, 'n_eff': 5.0, 'shares': {'poison': 0.6, 'missed': 0.4}}, 'poison')
-    'right 60%, missed 40%'
+    >>> shares = {'poison': {'value': 0.6, 'ci95': [0.23, 0.88]}, 'missed': {'value': 0.4, 'ci95': [0.12, 0.77]}}
+    >>> _named_cell({'n': 5, 'n_eff': 5.0, 'shares': shares}, 'poison')
+    'right 60% (23-88), missed 40% (12-77)'
     """
     if named is None:
         return "-"
     top = list(named["shares"].items())[:NAMED_SHOWN]
-    return ", ".join(f"{'right' if c == label else c} {100 * v:.0f}%" for c, v in top)
+    return ", ".join(f"{'right' if c == label else c} {_short_pct(s)}" for c, s in top)
 
 
 def format_card(card: dict) -> str:
@@ -860,8 +866,8 @@ def format_card(card: dict) -> str:
         )
     out += [
         "",
-        f"## What each label's placards were named: the {NAMED_SHOWN} commonest outcomes a side ('right': "
-        "its own label; 'missed': no detection paired; card.json has them all)",
+        f"## What each label's placards were named: the {NAMED_SHOWN} commonest outcomes a side, with 95% "
+        "intervals ('right': its own label; 'missed': no detection paired; card.json has them all)",
         "",
         "| label | photos | renders at the photos' sizes |",
         "|---|---|---|",

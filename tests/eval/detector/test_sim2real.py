@@ -173,24 +173,37 @@ def test_what_each_label_was_named_by_hand():
     )
     card = sim2real_card(photos, renders, ["poison"], seed=0)
     named = card["per_label"][0]["named"]
-    assert named["photos"]["shares"] == {"poison": 0.8, "infectious-substance": 0.1, "missed": 0.1}
+    values = {side: {c: v["value"] for c, v in named[side]["shares"].items()} for side in named}
+    assert values["photos"] == {"poison": 0.8, "infectious-substance": 0.1, "missed": 0.1}
+    # each share with Wilson's interval (at Kish's n_eff on the renders)
+    assert named["photos"]["shares"]["poison"]["ci95"] == [round(v, 4) for v in wilson(8, 10)]
     # weights: 40-80 px 0.5 / (4/6) = 0.75, 80-160 px 0.5 / (2/6) = 1.5; total 4 * 0.75 + 2 * 1.5 = 6
     # poison (0.75 + 1.5) / 6, infectious-substance 3 * 0.75 / 6, missed 1.5 / 6
     # the 200 px corrosive weighs 0: counted in n, in no share
-    assert named["renders_matched"]["shares"] == {"infectious-substance": 0.375, "poison": 0.375, "missed": 0.25}
+    assert values["renders_matched"] == {"infectious-substance": 0.375, "poison": 0.375, "missed": 0.25}
+    n_eff = 36 / 6.75
+    assert named["renders_matched"]["shares"]["missed"]["ci95"] == [
+        round(v, 4) for v in wilson(0.25 * n_eff, n_eff)
+    ]
     assert named["renders_matched"]["n"] == 7
     assert named["renders_matched"]["n_eff"] == round(36 / 6.75, 1)  # 6^2 / (4 * 0.75^2 + 2 * 1.5^2)
     # the named shares hold the recalls: poison's share is the right-label recall on each side
     label = card["per_label"][0]
-    assert named["photos"]["shares"]["poison"] == label["photos"]["recall_right"]["value"]
-    assert named["renders_matched"]["shares"]["poison"] == label["renders_matched"]["recall_right"]["value"]
+    assert named["photos"]["shares"]["poison"]["value"] == label["photos"]["recall_right"]["value"]
+    assert named["renders_matched"]["shares"]["poison"] == {
+        k: label["renders_matched"]["recall_right"][k] for k in ("value", "ci95")
+    }
     md = format_card(_card_for_markdown(card)).splitlines()
     # equal shares by name: infectious-substance before poison (shown as 'right')
-    row = (
-        "| poison (too few) | right 80%, infectious-substance 10%, missed 10% "
-        "| infectious-substance 38%, right 38%, missed 25% |"
-    )
-    assert row in md
+    table = md[next(i for i, line in enumerate(md) if line.startswith("## What each label's placards")) :]
+    row = next(line for line in table if line.startswith("| poison (too few) |"))
+    cells = [c.strip() for c in row.split("|")[2:4]]
+    assert [[part.split(" (")[0] for part in c.split("), ")] for c in cells] == [
+        ["right 80%", "infectious-substance 10%", "missed 10%"],
+        ["infectious-substance 38%", "right 38%", "missed 25%"],
+    ]
+    lo, hi = (round(100 * v) for v in wilson(8, 10))
+    assert cells[0].startswith(f"right 80% ({lo}-{hi}), ")
 
 
 def _card_for_markdown(card: dict) -> dict:
@@ -355,7 +368,7 @@ def test_sim2real_end_to_end(photos, tmp_path, capsys):
     assert (ph["recall_right"]["value"], ph["recall_right"]["n"]) == (0.25, 4)  # a's poison
     assert ph["recall_placard"]["value"] == 0.5  # and b's explosive, named poison
     named = {r["label"]: r["named"]["photos"]["shares"] for r in card["per_label"]}
-    assert named["explosive"] == {"missed": 0.5, "poison": 0.5}
+    assert {c: v["value"] for c, v in named["explosive"].items()} == {"missed": 0.5, "poison": 0.5}
     assert ph["false_per_image"]["any"]["value"] == round(1 / 3, 4)  # c's
     assert ph["recall_right"]["ci95"] == [round(v, 4) for v in wilson(1, 4)]
     assert card["renders"]["placards"] >= 2
