@@ -169,23 +169,24 @@ def _evaluate(model, crops: CropSet, spec: LabelTrainSpec) -> np.ndarray:
 
 
 def train_labels(spec: LabelTrainSpec, log: Callable[[str], None] = print) -> Path:
-    """Train (or resume) and export; returns the path of ``label_model.onnx``."""
-    torch = torch_or_error()
+    """Train (or resume) and export; returns the path of ``label_model.onnx``. The data are
+    checked before torch is loaded or ``spec.out`` is made: a wrong ``--data`` costs one line and
+    leaves nothing behind."""
     out = Path(spec.out)
     onnx_path = out / ONNX_NAME
     if onnx_path.exists():
         log(f"{onnx_path} exists: the run is finished")
         return onnx_path
-    out.mkdir(parents=True, exist_ok=True)
-    torch.manual_seed(spec.seed)
-    torch.set_num_threads(spec.threads)
-    torch.use_deterministic_algorithms(True)
-
     log("cutting crops from " + ", ".join(str(d) for d in spec.data))
     try:
         images = training_images(spec.data, spec.holdout, spec.seed)
     except DetectorQualityError as e:
         raise TrainError(str(e)) from None
+    torch = torch_or_error()
+    out.mkdir(parents=True, exist_ok=True)
+    torch.manual_seed(spec.seed)
+    torch.set_num_threads(spec.threads)
+    torch.use_deterministic_algorithms(True)
     if images.holdout:
         held = write_holdout(out, images.holdout)
         spec.photo_folders = images.photo_folders
