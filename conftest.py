@@ -24,6 +24,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import mujoco
+import numpy as np
 import pytest
 
 import sim.render
@@ -96,13 +97,17 @@ def pytest_collection_modifyitems(config, items):
 
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_protocol(item, nextitem):
-    """Run an item (its fixtures' setup, the test, the teardown) under the tier guards."""
+    """Run an item (its fixtures' setup, the test, the teardown) under the tier guards, and give
+    the next one numpy's print options as they were: Ultralytics sets its own when imported (the
+    ``train`` extra's tests import it), which would change how later doctests print arrays."""
     mp = pytest.MonkeyPatch()
     _guards(mp, item)
+    printoptions = np.get_printoptions()
     try:
         yield
     finally:
         mp.undo()
+        np.set_printoptions(**printoptions)
 
 
 @pytest.fixture(autouse=True, scope="session")
