@@ -38,16 +38,22 @@ import onnx_models  # noqa: E402
 C = CLASS_INDEX
 
 
-def _placard(label: str, side: float, hit: bool) -> ImageBoxes:
-    """One image holding one placard of ``side`` px, found with its label or not at all."""
+def _named(label: str, side: float, named: str | None) -> ImageBoxes:
+    """One image holding one placard of ``label``, ``side`` px, paired with a detection named
+    ``named`` (None: no detection)."""
     box = np.array([[0.0, 0.0, side, side]])
     return ImageBoxes(
         gt_boxes=box,
         gt_classes=np.array([C[label]]),
-        det_boxes=box if hit else np.zeros((0, 4)),
-        det_classes=np.array([C[label]] if hit else [], int),
-        det_scores=np.array([0.9] if hit else []),
+        det_boxes=box if named else np.zeros((0, 4)),
+        det_classes=np.array([C[named]] if named else [], int),
+        det_scores=np.array([0.9] if named else []),
     )
+
+
+def _placard(label: str, side: float, hit: bool) -> ImageBoxes:
+    """One image holding one placard of ``side`` px, found with its label or not at all."""
+    return _named(label, side, label if hit else None)
 
 
 def _side(rows: list[tuple[str, float, int, int]], false_images: int = 0):
@@ -142,19 +148,6 @@ def test_the_renders_at_the_photos_box_shapes_by_hand():
     keys = ("photos", "renders", "recall_photos", "recall_renders")
     mix = {m["shape"]: tuple(m[k] for k in keys) for m in card["shape_mix"]}
     assert mix == {"0-0.75": (0, 4, None, 0.0), "0.75-0.9": (0, 0, None, None), "0.9+": (4, 4, 0.5, 0.75)}
-
-
-def _named(label: str, side: float, named: str | None) -> ImageBoxes:
-    """One image holding one placard of ``label``, paired with a detection named ``named`` (None:
-    no detection)."""
-    box = np.array([[0.0, 0.0, side, side]])
-    return ImageBoxes(
-        gt_boxes=box,
-        gt_classes=np.array([C[label]]),
-        det_boxes=box if named else np.zeros((0, 4)),
-        det_classes=np.array([C[named]] if named else [], int),
-        det_scores=np.array([0.9] if named else []),
-    )
 
 
 def test_what_each_label_was_named_by_hand():
