@@ -531,7 +531,7 @@ def named_shares(named: np.ndarray, w: np.ndarray | None = None) -> dict | None:
     return {
         "n": first.n,
         "n_eff": round(first.n_eff, 1),
-        "shares": {c: {k: v for k, v in shares[c].to_dict().items() if k in ("value", "ci95")} for c in order},
+        "shares": {c: {key: shares[c].to_dict()[key] for key in ("value", "ci95")} for c in order},
     }
 
 
@@ -793,7 +793,8 @@ def _named_cell(named: dict | None, label: str) -> str:
 
 
 def format_card(card: dict) -> str:
-    """The card as Markdown: the headline, the gaps per label, the size mix, the photometry."""
+    """The card as Markdown: the headline, the gaps per label, what each label was named, the size
+    and shape mixes, the photometry and, with --decompose, where the gap lies."""
     o = card["overall"]
     ph, rd, rm, rs = o["photos"], o["renders"], o["renders_matched"], o["renders_matched_shape"]
     src = card["photos"]
