@@ -779,6 +779,11 @@ def _points(gap: float | None, ci: list[float] | None) -> str:
     return signed_interval(100 * gap, 100 * ci[0], 100 * ci[1])
 
 
+def _label_cell(row: dict) -> str:
+    """A per-label row's first cell: the label, marked when it has too few placards on a side."""
+    return f"{row['label']}{' (too few)' if row['too_few'] else ''}"
+
+
 def _named_cell(named: dict | None, label: str) -> str:
     """The commonest outcomes of one label's placards on one side, its own label as 'right'.
 
@@ -857,7 +862,7 @@ def format_card(card: dict) -> str:
         n_r = q["recall_right"]["n"] if q["recall_right"] else 0
         covered = "-" if r["covered"] is None else f"{100 * r['covered']:.0f}%"
         out.append(
-            f"| {r['label']}{' (too few)' if r['too_few'] else ''} | {n_p} / {n_r} "
+            f"| {_label_cell(r)} | {n_p} / {n_r} "
             f"| {_short_pct(p['recall_right'])} "
             f"| {_short_pct(q['recall_right'])} | {_short_pct(m['recall_right'])} "
             f"| {_points(r['gap'], r['gap_ci95'])} | {_points(r['gap_shape'], r['gap_shape_ci95'])} "
@@ -875,7 +880,7 @@ def format_card(card: dict) -> str:
     ]
     for r in card["per_label"]:
         cells = [_named_cell(r["named"][s], r["label"]) for s in ("photos", "renders_matched")]
-        out.append(f"| {r['label']}{' (too few)' if r['too_few'] else ''} | " + " | ".join(cells) + " |")
+        out.append(f"| {_label_cell(r)} | " + " | ".join(cells) + " |")
     out += [
         "",
         "## Box sizes (shorter side, px): placards and right-label recall, unweighted",
