@@ -3,13 +3,15 @@ test tiers honest.
 
 The tiers (docs/guides/testing.md): a test marked ``slow`` builds a simulation, renders, or runs
 the CLI in a subprocess; ``browser`` drives the live view in Chromium; ``ros`` reads or writes
-ROS logs. ``python -m pytest -m "not slow and not browser and not ros"`` is the fast tier.
+ROS logs; ``train`` needs the train extra (torch, Ultralytics). ``python -m pytest -m "not slow
+and not browser and not ros"`` is the fast tier.
 
 Markers are written by hand (a module-level ``pytestmark`` where a whole file is slow), but a
 hand-written marker goes stale as tests are added, so every unmarked test runs under a guard:
 building a ``Simulation``, a renderer (``sim.render.SceneRenderer``, ``mujoco.Renderer``), a
-process pool, a Playwright browser or a ``poibench`` subprocess fails it, naming the marker it
-lacks. A name
+process pool, a Playwright browser or a ``poibench`` subprocess fails it, and so does
+``pytest.importorskip`` of torch or Ultralytics (a test that would be skipped everywhere but in
+the train extra's environment, which runs only ``-m train``), naming the marker it lacks. A name
 rule (say, "a test using the fixture ``sim``") would miss the many tests that build their
 simulation inline or through the CLI; the guard sees what a test does, whichever way it does it.
 Every ``tests/eval/ros/`` test is marked ``ros`` by its folder (they all need the ``ros``
@@ -31,6 +33,8 @@ import sim.render
 import sim.simulator
 
 ROS_TESTS = Path(__file__).parent / "tests" / "eval" / "ros"
+# what the train extra brings; .ci/run runs the tests marked train in an environment that has it
+TRAIN_MODULES = ("torch", "ultralytics")
 
 # (class, what building one means, the marker it needs)
 _GUARDED = (
@@ -77,6 +81,15 @@ def _guards(mp: pytest.MonkeyPatch, item: pytest.Item) -> None:
             popen_init(self, args, *rest, **kwargs)
 
         mp.setattr(subprocess.Popen, "__init__", guarded_popen)
+    if item.get_closest_marker("train") is None:
+        importorskip = pytest.importorskip
+
+        def guarded_importorskip(modname, *args, **kwargs):
+            if modname.split(".")[0] in TRAIN_MODULES:
+                raise _refusal(nodeid, f"needs {modname} (the train extra)", "train")
+            return importorskip(modname, *args, **kwargs)
+
+        mp.setattr(pytest, "importorskip", guarded_importorskip)
     if item.get_closest_marker("browser") is None:
         try:
             import playwright.sync_api as sync_api

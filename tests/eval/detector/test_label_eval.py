@@ -148,6 +148,7 @@ def test_train_labels_checks_the_holdout_before_needing_torch(tmp_path, capsys):
     assert "is a folder of photos (no train/val splits): give --holdout" in err and len(err.splitlines()) == 1
 
 
+@pytest.mark.train
 def test_train_labels_on_photos_holds_back_and_names_them(tmp_path):
     """One tiny epoch on 10 photos: the run lists the 2 held-back images, the model names the folder,
     and a rerun with another seed is refused (torch: the 'train' extra)."""
@@ -183,6 +184,7 @@ def test_train_labels_refuses_a_crop_size_its_stages_cannot_halve(tmp_path, caps
     assert "--imgsz 80 does not halve 5 times" in err and len(err.splitlines()) == 1
 
 
+@pytest.mark.train
 def test_train_labels_at_another_crop_size_exports_it_and_resumes_only_at_it(tmp_path):
     """A 96 px classifier of three stages: the ONNX reads 96 x 96 crops and says so in its
     metadata; resuming its run at 64 px is refused in one line (torch: the 'train' extra)."""
@@ -378,6 +380,7 @@ def test_training_images_take_route_frames_folders_for_training_only(tmp_path):
         training_images([bad], None, 0)
 
 
+@pytest.mark.train
 def test_train_labels_fine_tunes_from_a_checkpoint_and_keeps_its_shape_and_seeds(tmp_path, capsys):
     """A run's label_model.pt starts a second run: its weights are the start (at a learning rate
     of ~0 the second run ends with the first's convolution and linear weights; only the batch
@@ -417,6 +420,7 @@ def test_train_labels_fine_tunes_from_a_checkpoint_and_keeps_its_shape_and_seeds
     assert "none.pt: no such checkpoint" in capsys.readouterr().err
 
 
+@pytest.mark.train
 def test_train_labels_starts_from_a_float_onnx_export_at_the_exported_function(tmp_path):
     """A label_model.onnx (BatchNorms folded into the convolutions) read back as a checkpoint
     computes what onnxruntime computes; with its BatchNorm statistics estimated on a batch, the
