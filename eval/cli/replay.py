@@ -36,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=[],
         metavar="NAME=/TOPIC",
         help="where a stream is: color, color_info, depth, depth_info, odom, thermal, thermal_info, tf, "
-        "tf_static (default: realsense-ros names, or the RealSense Viewer's layout); repeatable",
+        "tf_static (default: realsense-ros names, or the RealSense Viewer's layout; an image stream's "
+        "camera info defaults to camera_info beside it); repeatable",
     )
     p.add_argument(
         "--set", action="append", default=[], metavar="KEY=VALUE", help="a pipeline setting; repeatable"

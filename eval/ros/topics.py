@@ -19,6 +19,7 @@ Full entries in docs/SOURCES.md.
 .. [RealsenseRos] Intel RealSense, "realsense-ros: ROS wrapper for Intel RealSense cameras"
    (realsense2_camera), topic names of its launch files.
 .. [IntelRosbag] Intel RealSense, librealsense "ROS bag" recording format (src/media/ros).
+.. [ImageTransport] ROS, "image_transport" (``camera_common``: ``getCameraInfoTopic``).
 """
 
 from __future__ import annotations
@@ -73,12 +74,29 @@ class FrameNames:
     thermal: str = "thermal_optical_frame"
 
 
+# each image stream and the stream of its camera's intrinsics
+IMAGE_INFO = {"color": "color_info", "depth": "depth_info", "thermal": "thermal_info"}
+
+
+def camera_info_topic(image_topic: str) -> str:
+    """The ``camera_info`` topic beside an image topic: the image's namespace plus ``camera_info``,
+    where image_transport's camera publisher puts it ([ImageTransport]_, ``getCameraInfoTopic``) and
+    realsense-ros has it ([RealsenseRos]_).
+
+    >>> camera_info_topic("/cam/color/image_raw"), camera_info_topic("/rgb")
+    ('/cam/color/camera_info', '/camera_info')
+    """
+    return image_topic.rsplit("/", 1)[0] + "/camera_info"
+
+
 def parse_overrides(items: list[str], base: Topics | None = None, flag: str = "--topic") -> Topics:
     """``Topics`` with ``NAME=/topic`` overrides applied, e.g. ``["color=/front/rgb"]``; errors name
-    ``flag``, the option the items came from.
+    ``flag``, the option the items came from. An image stream named without its camera info
+    (``color`` without ``color_info``) has the info beside it (:func:`camera_info_topic`).
 
-    >>> parse_overrides(["color=/front/rgb"]).color
-    '/front/rgb'
+    >>> t = parse_overrides(["color=/cam/color/image_raw"])
+    >>> t.color, t.color_info, t.depth_info
+    ('/cam/color/image_raw', '/cam/color/camera_info', '/camera/aligned_depth_to_color/camera_info')
     >>> parse_overrides(["colour=/x"])
     Traceback (most recent call last):
     ...
@@ -94,6 +112,9 @@ def parse_overrides(items: list[str], base: Topics | None = None, flag: str = "-
         if name not in names:
             raise TopicError(f"{flag} {item}: unknown stream {name!r}; expected one of {', '.join(names)}")
         changes[name] = value
+    for image, info in IMAGE_INFO.items():
+        if image in changes and info not in changes:
+            changes[info] = camera_info_topic(changes[image])
     return dataclasses.replace(topics, **changes)
 
 

@@ -374,6 +374,31 @@ def test_renamed_topics_and_the_tf_chain_give_the_pose_and_mount(tmp_path):
     assert abs(base[2, 3]) < 1e-12 and np.allclose(base[:3, 2], [0, 0, 1])  # the base on the floor, upright
 
 
+def test_an_image_topic_named_alone_has_its_camera_info_beside_it(tmp_path):
+    """`--log-topic color=/front/color/image_raw` writes the colour camera's info on
+    /front/color/camera_info, and `replay --topic color=/front/color/image_raw` (the README's
+    example) reads it there without naming it; a depth topic named alone likewise."""
+    from eval.ros.reader import open_recording
+    from eval.ros.topics import Topics, parse_overrides
+    from eval.ros.writer import LogWriter
+    from poi.core.types import Frame, Intrinsics
+
+    names = ["color=/front/color/image_raw", "depth=/front/depth/image_rect_raw"]
+    topics = parse_overrides(names)
+    assert (topics.color_info, topics.depth_info) == ("/front/color/camera_info", "/front/depth/camera_info")
+    assert topics.thermal_info == Topics().thermal_info  # a stream not named keeps its default
+    k = Intrinsics(width=8, height=6, fx=10.0, fy=10.0, ppx=3.5, ppy=2.5)
+    bag = tmp_path / "t.bag"
+    w = LogWriter(bag, "bag", start_ns=START_NS, T_tracker_camera=np.eye(4), truth=[], topics=topics)
+    rgb = np.full((6, 8, 3), 77, np.uint8)
+    w.write(Frame(index=0, timestamp_s=0.0, rgb=rgb, intrinsics=k, depth_m=np.ones((6, 8), np.float32)), [], [])
+    w.close()
+    assert w.stats.counts["/front/color/camera_info"] == 1 and Topics().color_info not in w.stats.counts
+    rec = open_recording(bag, topics, {"color", "depth"})
+    (frame,) = rec.frames()
+    assert frame.intrinsics.fx == 10.0 and frame.rgb[0, 0, 0] == 77
+
+
 def _full_frame_log(path: Path, fmt: str, n: int) -> None:
     """A log of ``n`` 640x480 frames, each its own grey, depth and pose: a frame and a half a chunk
     (rosbags closes a chunk of either format past 1 MiB)."""
