@@ -110,6 +110,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     lt.set_defaults(func=cmd_train_labels)
 
+    ex = sub.add_parser(
+        "export-detector",
+        help="export a detector checkpoint (.pt) to ONNX at another fixed input size (extra 'train')",
+    )
+    ex.add_argument("--model", required=True, help="a YOLO checkpoint, e.g. poi/models/default.pt")
+    ex.add_argument(
+        "--imgsz",
+        type=int,
+        nargs=2,
+        required=True,
+        metavar=("H", "W"),
+        help="the input height and width, multiples of 32; e.g. 288 384 takes a 640x480 frame at 0.6",
+    )
+    ex.add_argument("--out", required=True, help="the ONNX model to write")
+    ex.set_defaults(func=cmd_export, out_is_file=True)
+
 
 def cmd_train(args) -> int:
     from eval.detector.train import TrainSpec, exported_checkpoint, train
@@ -165,4 +181,21 @@ def cmd_train_labels(args) -> int:
         "to use it with the default detector: cp it to poi/models/default_labels.onnx and "
         f"{out.parent}/label_model.pt to poi/models/default_labels.pt"
     )
+    return 0
+
+
+def cmd_export(args) -> int:
+    from pathlib import Path
+
+    from eval.detector.train import TrainError, check_export_size, export_detector, export_of
+
+    check_export_size(tuple(args.imgsz), "--imgsz")
+    model = Path(args.model)
+    if model.suffix != ".pt" or not model.is_file():
+        raise TrainError(f"--model {args.model}: expected a YOLO checkpoint (.pt) that exists")
+    start = export_of(model)
+    out = export_detector(model, tuple(args.imgsz), Path(args.out), start=start)
+    said = f"; what it trained on copied from {start}" if start is not None else ""
+    print(f"{out}: {args.imgsz[0]}x{args.imgsz[1]} input{said}")
+    print("quantise it for the pipeline's speed: poibench quantize-detector --model OUT --data DIR --out Q.onnx")
     return 0

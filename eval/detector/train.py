@@ -102,18 +102,22 @@ class TrainSpec:
             raise TrainError(f"--holdout must be between 0 and 1 (both excluded), got {self.holdout}")
         if self.imgsz % 32:
             raise TrainError(f"--imgsz must be a multiple of 32 (the model's stride), got {self.imgsz}")
-        if self.export_imgsz is not None and (
-            len(self.export_imgsz) != 2 or any(v < 32 or v % 32 for v in self.export_imgsz)
-        ):
-            raise TrainError(
-                f"--export-imgsz must be two sides H W, each a positive multiple of 32 (the model's stride), "
-                f"got {' '.join(map(str, self.export_imgsz))}"
-            )
+        if self.export_imgsz is not None:
+            check_export_size(self.export_imgsz, "--export-imgsz")
 
     @property
     def export_size_hw(self) -> tuple[int, int]:
         """The exported model's input (H, W): ``export_imgsz``, else the square training size."""
         return tuple(self.export_imgsz) if self.export_imgsz is not None else (self.imgsz, self.imgsz)
+
+
+def check_export_size(size_hw: tuple[int, ...], flag: str) -> None:
+    """Refuse an export input that is not two sides H W, each a positive multiple of the stride 32."""
+    if len(size_hw) != 2 or any(v < 32 or v % 32 for v in size_hw):
+        raise TrainError(
+            f"{flag} must be two sides H W, each a positive multiple of 32 (the model's stride), "
+            f"got {' '.join(map(str, size_hw))}"
+        )
 
 
 def data_yaml(data: str | Path) -> Path:
@@ -248,8 +252,8 @@ def _ultralytics():
         import ultralytics
     except ImportError:
         raise TrainError(
-            "poibench train needs the 'train' extra (Ultralytics and torch): pip install -e '.[train]' "
-            "in its own environment (see the README)"
+            "training and exporting detectors need the 'train' extra (Ultralytics and torch): "
+            "pip install -e '.[train]' in its own environment (see the README)"
         ) from None
     return ultralytics
 
@@ -367,11 +371,35 @@ def train(spec: TrainSpec) -> Path:
     best = exported_checkpoint(spec)
     if not best.exists():
         raise TrainError(f"{best}: training ended without that checkpoint")
-    size = list(spec.export_size_hw)
-    exported = Path(ul.YOLO(str(best)).export(format="onnx", imgsz=size, dynamic=False, simplify=False))
     photo_roots = [str(Path(d).resolve()) for d in sources_of(spec) if is_photo_folder(d)]
-    _stamp_metadata(exported, onnx_path, sources, photo_roots, start_export(spec))
-    return onnx_path
+    return export_detector(best, spec.export_size_hw, onnx_path, sources, photo_roots, start_export(spec))
+
+
+def export_detector(
+    checkpoint: Path,
+    size_hw: tuple[int, int],
+    out: Path,
+    data: list[Path] = (),
+    photo_folders: list[str] = (),
+    start: Path | None = None,
+) -> Path:
+    """Export ``checkpoint`` to ONNX at a fixed input of ``size_hw`` (height, width; multiples
+    of the stride 32) as ``out``, stamped with what it was trained on (:func:`_stamp_metadata`).
+    Ultralytics writes its export beside the checkpoint, where ``X.pt`` may have its shipped
+    ``X.onnx``: it exports a copy in a folder of its own."""
+    import shutil
+    import tempfile
+
+    ul = _ultralytics()
+    out = Path(out)
+    with tempfile.TemporaryDirectory() as tmp:
+        copy = Path(tmp) / Path(checkpoint).name
+        shutil.copyfile(checkpoint, copy)
+        exported = ul.YOLO(str(copy)).export(format="onnx", imgsz=list(size_hw), dynamic=False, simplify=False)
+        exported = Path(exported)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        _stamp_metadata(exported, out, list(data), list(photo_folders), start)
+    return out
 
 
 def exported_checkpoint(spec: TrainSpec) -> Path:
@@ -398,9 +426,14 @@ def start_export(spec: TrainSpec) -> Path | None:
     if not spec.fine_tune:
         return None
     start = Path(spec.model)
-    if start.suffix == ".onnx":
-        return start
-    return next((p for p in (start.with_suffix(".onnx"), start.parent.parent / "model.onnx") if p.is_file()), None)
+    return start if start.suffix == ".onnx" else export_of(start)
+
+
+def export_of(checkpoint: Path) -> Path | None:
+    """The ONNX export of a checkpoint: ``X.onnx`` beside ``X.pt`` (as ``poi/models`` ships them)
+    or its run's ``RUN/model.onnx`` for ``RUN/weights/*.pt``; None where neither exists."""
+    beside = (Path(checkpoint).with_suffix(".onnx"), Path(checkpoint).parent.parent / "model.onnx")
+    return next((p for p in beside if p.is_file()), None)
 
 
 def _stamp_metadata(

@@ -138,3 +138,45 @@ def test_poibench_train_fine_tunes_the_shipped_onnx_from_its_own_function(tmp_pa
     # the epoch moves the BatchNorms' running statistics a little (towards 64 px images), no weight
     assert np.abs(got[:, :4] - want[:, :4]).transpose(0, 2, 1)[sure].max() < 1.5  # px
     assert np.abs(got[:, 4:] - want[:, 4:]).max() < 0.15
+
+
+@pytest.mark.train
+def test_export_detector_gives_the_shipped_float_model_from_the_shipped_checkpoint(tmp_path, capsys):
+    """`poibench export-detector` of default.pt at the shipped float model's input computes what
+    default_fp32.onnx computes, with its training stamps (copied from the export beside the
+    checkpoint, which stays as it was: Ultralytics would have written its export there)."""
+    pytest.importorskip("torch")
+    pytest.importorskip("ultralytics")
+    import shutil
+
+    import onnxruntime as ort
+
+    from eval.cli.main import main
+    from eval.detector.quality import model_metadata
+
+    ckpt = tmp_path / "default.pt"
+    shutil.copyfile(SHIPPED.with_name("default.pt"), ckpt)
+    shutil.copyfile(SHIPPED.with_name("default.onnx"), tmp_path / "default.onnx")
+    beside = (tmp_path / "default.onnx").read_bytes()
+    h, w = read_onnx(SHIPPED).imgsz
+    out = tmp_path / "out" / "x.onnx"
+    assert main(["export-detector", "--model", str(ckpt), "--imgsz", str(h), str(w), "--out", str(out)]) == 0
+    assert (tmp_path / "default.onnx").read_bytes() == beside and sorted(p.name for p in tmp_path.iterdir()) == [
+        "default.onnx",
+        "default.pt",
+        "out",
+    ]
+    shipped, got = model_metadata(SHIPPED), model_metadata(out)
+    for key in ("names", "imgsz", "poibench_dataset_seeds", "poibench_photo_folders"):
+        assert got[key] == shipped[key], key
+    x = np.random.default_rng(0).random((1, 3, h, w), dtype=np.float32)
+
+    def run(path: Path) -> np.ndarray:
+        return ort.InferenceSession(str(path), providers=["CPUExecutionProvider"]).run(None, {"images": x})[0]
+
+    assert np.abs(run(out) - run(SHIPPED)).max() < 1e-3
+    # a size off the stride is one line, and nothing is written
+    off_stride = ["export-detector", "--model", str(ckpt), "--imgsz", "300", "400", "--out", str(tmp_path / "y")]
+    assert main(off_stride) == 2
+    assert "--imgsz must be two sides H W, each a positive multiple of 32" in capsys.readouterr().err
+    assert not (tmp_path / "y").exists()

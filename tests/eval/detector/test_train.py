@@ -184,3 +184,18 @@ def test_the_export_is_made_from_last_pt_when_held_back_photos_validate():
     run exports (and names, for poi/models/default.pt) last.pt then, best.pt otherwise."""
     assert exported_checkpoint(TrainSpec(data="d", out="o")) == Path("o/weights/best.pt")
     assert exported_checkpoint(TrainSpec(data="d", out="o", holdout=0.2)) == Path("o/weights/last.pt")
+
+
+def test_export_detector_without_the_train_extra_says_what_to_install(tmp_path, capsys):
+    import importlib.util
+
+    from eval.cli.main import main
+
+    if importlib.util.find_spec("ultralytics") is not None:
+        pytest.skip("the train extra is installed here")
+    model = Path(__file__).resolve().parents[3] / "poi" / "models" / "default.pt"
+    argv = ["export-detector", "--model", str(model), "--imgsz", "288", "384", "--out", str(tmp_path / "x")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "need the 'train' extra" in err and "pip install -e '.[train]'" in err
+    assert not (tmp_path / "x").exists()
