@@ -95,7 +95,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=[],
         metavar="NAME=/TOPIC",
         help="a log topic name other than realsense-ros's (color, depth, odom, thermal, truth, detections, "
-        "confirmed, ... ); repeatable",
+        "confirmed, ... ; an image's camera info goes beside it unless named too); repeatable",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", action="store_true", help="serve the live view on 127.0.0.1 while the trial runs")

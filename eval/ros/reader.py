@@ -400,10 +400,8 @@ def _index(path: Path, topics: Topics, given: set[str], names: FrameNames) -> Re
             depth, depth_info = topics.depth, topics.depth_info
             aligned = True
             # image_transport's compressed topics (poibench run --log-images png) when the raw ones are absent
-            if "color" not in given:
-                color = _compressed_topic(color, by_topic, (COMPRESSED_SUFFIX,))
-            if "depth" not in given:
-                depth = _compressed_topic(depth, by_topic, (DEPTH_SUFFIX, COMPRESSED_SUFFIX))
+            color = _compressed_topic(color, by_topic, (COMPRESSED_SUFFIX,))
+            depth = _compressed_topic(depth, by_topic, (DEPTH_SUFFIX, COMPRESSED_SUFFIX))
             if "depth" not in given and depth not in by_topic and UNALIGNED_DEPTH[0] in by_topic:
                 depth, depth_info = UNALIGNED_DEPTH
                 aligned = False
@@ -418,6 +416,9 @@ def _index(path: Path, topics: Topics, given: set[str], names: FrameNames) -> Re
         ):
             if topic not in by_topic:
                 what = "no camera info" if kinds == (CAMERA_INFO,) else "missing topic"
+                stream = "color" if role.startswith("colour") else "depth"
+                if kinds == (CAMERA_INFO,) and stream in given and f"{stream}_info" not in given:
+                    what += f" beside --topic {stream}"
                 raise RecordingError(
                     f"{path}: {what}: no {role} on {topic} (--topic to name another; topics: "
                     f"{_topic_list(available)})"

@@ -81,11 +81,17 @@ IMAGE_INFO = {"color": "color_info", "depth": "depth_info", "thermal": "thermal_
 def camera_info_topic(image_topic: str) -> str:
     """The ``camera_info`` topic beside an image topic: the image's namespace plus ``camera_info``,
     where image_transport's camera publisher puts it ([ImageTransport]_, ``getCameraInfoTopic``) and
-    realsense-ros has it ([RealsenseRos]_).
+    realsense-ros has it ([RealsenseRos]_); for a transport's topic (``.../image_raw/compressed``,
+    ``.../compressedDepth``), beside its base topic.
 
-    >>> camera_info_topic("/cam/color/image_raw"), camera_info_topic("/rgb")
-    ('/cam/color/camera_info', '/camera_info')
+    >>> camera_info_topic("/cam/color/image_raw"), camera_info_topic("/cam/depth/image_raw/compressedDepth")
+    ('/cam/color/camera_info', '/cam/depth/camera_info')
     """
+    from eval.ros.compression import COMPRESSED_SUFFIX, DEPTH_SUFFIX
+
+    for suffix in (COMPRESSED_SUFFIX, DEPTH_SUFFIX):
+        if image_topic.endswith(suffix):
+            image_topic = image_topic[: -len(suffix)]
     return image_topic.rsplit("/", 1)[0] + "/camera_info"
 
 
@@ -107,15 +113,29 @@ def parse_overrides(items: list[str], base: Topics | None = None, flag: str = "-
     changes = {}
     for item in items:
         name, sep, value = item.partition("=")
-        if not sep or not value.startswith("/"):
+        if not sep or not value.startswith("/") or value.endswith("/"):
             raise TopicError(f"{flag} {item}: expected NAME=/topic/name, e.g. color=/camera/color/image_raw")
         if name not in names:
             raise TopicError(f"{flag} {item}: unknown stream {name!r}; expected one of {', '.join(names)}")
         changes[name] = value
+    named = set(changes)
     for image, info in IMAGE_INFO.items():
-        if image in changes and info not in changes:
+        if image in named and info not in named:
             changes[info] = camera_info_topic(changes[image])
-    return dataclasses.replace(topics, **changes)
+    out = dataclasses.replace(topics, **changes)
+    first_of: dict[str, str] = {}  # topic -> the first stream on it
+    for name in names:
+        topic = getattr(out, name)
+        first = first_of.setdefault(topic, name)
+        if first != name and {first, name} & set(changes):
+            derived = [n for n in (first, name) if n in changes and n not in named]
+            hint = (
+                f" ({', '.join(derived)}: beside its image topic unless named, {flag} {derived[0]}=/...)"
+                if derived
+                else ""
+            )
+            raise TopicError(f"{flag}: {first} and {name} would both be {topic}{hint}")
+    return out
 
 
 _VIEWER = re.compile(r"^/device_(\d+)/sensor_(\d+)/(\w+?)_(\d+)/image/data$")

@@ -375,11 +375,14 @@ def test_renamed_topics_and_the_tf_chain_give_the_pose_and_mount(tmp_path):
 
 
 def test_an_image_topic_named_alone_has_its_camera_info_beside_it(tmp_path):
-    """`--log-topic color=/front/color/image_raw` writes the colour camera's info on
-    /front/color/camera_info, and `replay --topic color=/front/color/image_raw` (the README's
-    example) reads it there without naming it; a depth topic named alone likewise."""
-    from eval.ros.reader import open_recording
-    from eval.ros.topics import Topics, parse_overrides
+    """`--log-topic color=/front/color/image_raw --log-images png` writes the colour camera's info on
+    /front/color/camera_info (beside the image, not its compressed transport topic), and `replay
+    --topic color=/front/color/image_raw` (the README's example) reads the log there without naming
+    the info or the transport; an info that is not beside its image is said to be looked for there,
+    and two streams that would share a topic are refused."""
+    from eval.cli.main import main
+    from eval.ros.reader import RecordingError, open_recording
+    from eval.ros.topics import TopicError, Topics, parse_overrides
     from eval.ros.writer import LogWriter
     from poi.core.types import Frame, Intrinsics
 
@@ -388,15 +391,33 @@ def test_an_image_topic_named_alone_has_its_camera_info_beside_it(tmp_path):
     assert (topics.color_info, topics.depth_info) == ("/front/color/camera_info", "/front/depth/camera_info")
     assert topics.thermal_info == Topics().thermal_info  # a stream not named keeps its default
     k = Intrinsics(width=8, height=6, fx=10.0, fy=10.0, ppx=3.5, ppy=2.5)
-    bag = tmp_path / "t.bag"
-    w = LogWriter(bag, "bag", start_ns=START_NS, T_tracker_camera=np.eye(4), truth=[], topics=topics)
-    rgb = np.full((6, 8, 3), 77, np.uint8)
-    w.write(Frame(index=0, timestamp_s=0.0, rgb=rgb, intrinsics=k, depth_m=np.ones((6, 8), np.float32)), [], [])
-    w.close()
+
+    def write(bag: Path, topics: Topics) -> LogWriter:
+        w = LogWriter(
+            bag, "bag", start_ns=START_NS, T_tracker_camera=np.eye(4), truth=[], topics=topics, images="png"
+        )
+        rgb = np.full((6, 8, 3), 77, np.uint8)
+        w.write(
+            Frame(index=0, timestamp_s=0.0, rgb=rgb, intrinsics=k, depth_m=np.ones((6, 8), np.float32)), [], []
+        )
+        w.close()
+        return w
+
+    w = write(tmp_path / "t.bag", topics)
     assert w.stats.counts["/front/color/camera_info"] == 1 and Topics().color_info not in w.stats.counts
-    rec = open_recording(bag, topics, {"color", "depth"})
-    (frame,) = rec.frames()
+    assert w.stats.counts["/front/color/image_raw/compressed"] == 1
+    (frame,) = open_recording(tmp_path / "t.bag", topics, {"color", "depth"}).frames()
     assert frame.intrinsics.fx == 10.0 and frame.rgb[0, 0, 0] == 77
+    # the info written elsewhere: the reader names where it looked and why
+    write(tmp_path / "u.bag", parse_overrides([*names, "color_info=/front/rgb_info"]))
+    with pytest.raises(
+        RecordingError, match=r"no camera info beside --topic color: no colour camera info on /front/"
+    ):
+        open_recording(tmp_path / "u.bag", topics, {"color", "depth"})
+    with pytest.raises(TopicError, match="color_info and thermal_info would both be /front/camera_info"):
+        parse_overrides(["color=/front/rgb", "thermal=/front/thermal"])
+    argv = ["replay", str(tmp_path / "t.bag"), "--topic", "color=/front/rgb", "--topic", "depth=/front/rgb_info"]
+    assert main([*argv, "--out", str(tmp_path / "r")]) == 2  # depth's info would be color's: refused, one line
 
 
 def _full_frame_log(path: Path, fmt: str, n: int) -> None:
