@@ -191,11 +191,22 @@ def cmd_export(args) -> int:
 
     check_export_size(tuple(args.imgsz), "--imgsz")
     model = Path(args.model)
+    if model.suffix == ".onnx":
+        raise TrainError(
+            f"--model {args.model}: an export; give its checkpoint (.pt; the shipped detector's is "
+            "poi/models/default.pt), or rebuild one from it with poibench train --model"
+        )
     if model.suffix != ".pt" or not model.is_file():
         raise TrainError(f"--model {args.model}: expected a YOLO checkpoint (.pt) that exists")
     start = export_of(model)
+    if start is not None and Path(args.out).resolve() == start.resolve():
+        raise TrainError(
+            f"--out {args.out}: the checkpoint's own export, whose stamps it copies; give another name"
+        )
     out = export_detector(model, tuple(args.imgsz), Path(args.out), start=start)
     said = f"; what it trained on copied from {start}" if start is not None else ""
     print(f"{out}: {args.imgsz[0]}x{args.imgsz[1]} input{said}")
-    print("quantise it for the pipeline's speed: poibench quantize-detector --model OUT --data DIR --out Q.onnx")
+    print(
+        f"quantise it for the pipeline's speed: poibench quantize-detector --model {out} --data DIR --out Q.onnx"
+    )
     return 0

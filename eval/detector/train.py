@@ -273,6 +273,19 @@ def _use_threads(model, threads: int) -> None:
     model.add_callback("on_train_epoch_start", set_threads)
 
 
+def load_yolo(ul, path: str | Path, what: str):
+    """Ultralytics' YOLO model of ``path``, or one line naming ``what`` where it is not a YOLO model
+    or not a detector (a label classifier's checkpoint, a segmentation model)."""
+    try:
+        model = ul.YOLO(str(path))
+    except Exception as e:  # Ultralytics' own errors for a file that is not a checkpoint
+        reason = (str(e).splitlines() or [type(e).__name__])[0]
+        raise TrainError(f"{what}: not a loadable YOLO model ({reason[:150]})") from None
+    if Path(path).suffix != ".yaml" and model.task != "detect":
+        raise TrainError(f"{what}: a YOLO {model.task} model, not a detector")
+    return model
+
+
 def start_model(spec: TrainSpec, data: Path, out: Path) -> str:
     """What training starts from: the yaml, a checkpoint, or the checkpoint rebuilt from an
     exported ONNX model (``RUN/rebuilt.pt``, its BatchNorms estimated on the dataset's
@@ -337,11 +350,7 @@ def train(spec: TrainSpec) -> Path:
         model.train(resume=True)
     else:
         start = start_model(spec, data, out)
-        try:
-            model = ul.YOLO(start)
-        except Exception as e:  # Ultralytics' own errors for a file that is not a checkpoint
-            reason = (str(e).splitlines() or [type(e).__name__])[0]
-            raise TrainError(f"--model {spec.model}: not a loadable YOLO model ({reason[:150]})") from None
+        model = load_yolo(ul, start, f"--model {spec.model}")
         _use_threads(model, spec.threads)
         schedule = {}
         if spec.fine_tune or spec.lr0 is not None:
@@ -395,7 +404,8 @@ def export_detector(
     with tempfile.TemporaryDirectory() as tmp:
         copy = Path(tmp) / Path(checkpoint).name
         shutil.copyfile(checkpoint, copy)
-        exported = ul.YOLO(str(copy)).export(format="onnx", imgsz=list(size_hw), dynamic=False, simplify=False)
+        model = load_yolo(ul, copy, f"--model {checkpoint}")
+        exported = model.export(format="onnx", imgsz=list(size_hw), dynamic=False, simplify=False)
         exported = Path(exported)
         out.parent.mkdir(parents=True, exist_ok=True)
         _stamp_metadata(exported, out, list(data), list(photo_folders), start)
@@ -432,7 +442,10 @@ def start_export(spec: TrainSpec) -> Path | None:
 def export_of(checkpoint: Path) -> Path | None:
     """The ONNX export of a checkpoint: ``X.onnx`` beside ``X.pt`` (as ``poi/models`` ships them)
     or its run's ``RUN/model.onnx`` for ``RUN/weights/*.pt``; None where neither exists."""
-    beside = (Path(checkpoint).with_suffix(".onnx"), Path(checkpoint).parent.parent / "model.onnx")
+    checkpoint = Path(checkpoint)
+    beside = [checkpoint.with_suffix(".onnx")]
+    if checkpoint.parent.name == "weights":
+        beside.append(checkpoint.parent.parent / "model.onnx")
     return next((p for p in beside if p.is_file()), None)
 
 

@@ -175,8 +175,14 @@ def test_export_detector_gives_the_shipped_float_model_from_the_shipped_checkpoi
         return ort.InferenceSession(str(path), providers=["CPUExecutionProvider"]).run(None, {"images": x})[0]
 
     assert np.abs(run(out) - run(SHIPPED)).max() < 1e-3
-    # a size off the stride is one line, and nothing is written
-    off_stride = ["export-detector", "--model", str(ckpt), "--imgsz", "300", "400", "--out", str(tmp_path / "y")]
-    assert main(off_stride) == 2
-    assert "--imgsz must be two sides H W, each a positive multiple of 32" in capsys.readouterr().err
-    assert not (tmp_path / "y").exists()
+    # H x W in that order: a 4:3 input
+    wide = tmp_path / "wide.onnx"
+    assert main(["export-detector", "--model", str(ckpt), "--imgsz", "288", "384", "--out", str(wide)]) == 0
+    session = ort.InferenceSession(str(wide), providers=["CPUExecutionProvider"])
+    assert session.get_inputs()[0].shape == [1, 3, 288, 384] and model_metadata(wide)["imgsz"] == "[288, 384]"
+    # a checkpoint that is not a YOLO detector's (the label classifier's) is one line
+    labels = ["export-detector", "--model", str(SHIPPED.with_name("default_labels.pt")), "--imgsz", "320", "320"]
+    capsys.readouterr()
+    assert main([*labels, "--out", str(tmp_path / "z.onnx")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "default_labels.pt: not a loadable YOLO model" in err and len(err.splitlines()) == 1

@@ -199,3 +199,33 @@ def test_export_detector_without_the_train_extra_says_what_to_install(tmp_path, 
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "need the 'train' extra" in err and "pip install -e '.[train]'" in err
     assert not (tmp_path / "x").exists()
+
+
+def test_export_detector_refuses_what_it_cannot_export_before_writing(tmp_path, capsys):
+    """An input off the stride, an export given for its checkpoint, or --out over the export whose
+    stamps it copies: one line each, nothing written (no train extra needed to say so)."""
+    from eval.cli.main import main
+
+    ckpt = tmp_path / "m.pt"
+    ckpt.write_bytes(b"a checkpoint")
+    (tmp_path / "m.onnx").write_bytes(b"its export")
+    cases = [
+        (
+            ["--model", str(ckpt), "--imgsz", "300", "400", "--out", str(tmp_path / "y")],
+            "--imgsz must be two sides H W",
+        ),
+        (
+            ["--model", str(tmp_path / "m.onnx"), "--imgsz", "288", "384", "--out", str(tmp_path / "y")],
+            "an export; give",
+        ),
+        (
+            ["--model", str(ckpt), "--imgsz", "288", "384", "--out", str(tmp_path / "m.onnx")],
+            "whose stamps it copies",
+        ),
+    ]
+    for argv, said in cases:
+        assert main(["export-detector", *argv]) == 2
+        err = capsys.readouterr().err.strip()
+        assert said in err and len(err.splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.onnx", "m.pt"]
+    assert (tmp_path / "m.onnx").read_bytes() == b"its export"
