@@ -483,4 +483,11 @@ def _stamp_metadata(
     for key, value in stamps.items():
         if value is not None:
             model.metadata_props.add(key=key, value=value)
-    onnx.save(model, str(dst))
+    # whole or not at all: a resumed run takes an existing model.onnx as its finished export
+    partial = Path(dst).with_name(f".{Path(dst).name}.partial")
+    try:
+        onnx.save(model, str(partial))
+        os.replace(partial, dst)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise

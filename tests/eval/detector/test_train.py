@@ -229,3 +229,34 @@ def test_export_detector_refuses_what_it_cannot_export_before_writing(tmp_path, 
         assert said in err and len(err.splitlines()) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.onnx", "m.pt"]
     assert (tmp_path / "m.onnx").read_bytes() == b"its export"
+
+
+def test_a_stamped_export_is_written_whole_or_not_at_all(tmp_path, monkeypatch):
+    """A write that fails half way (a full disk, a kill) leaves no model.onnx, which a resumed run
+    would take for its finished export, and no partial file."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    from eval.detector.train import _stamp_metadata
+
+    graph = helper.make_graph(
+        [helper.make_node("Relu", ["x"], ["y"])],
+        "g",
+        [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1])],
+    )
+    src = tmp_path / "export.onnx"
+    onnx.save(helper.make_model(graph), str(src))
+    _stamp_metadata(src, tmp_path / "model.onnx", [], ["/photos"])
+    meta = {p.key: p.value for p in onnx.load(str(tmp_path / "model.onnx")).metadata_props}
+    assert meta["poibench_photo_folders"] == "/photos"
+    (tmp_path / "model.onnx").unlink()
+
+    def half_a_save(model, path):
+        Path(path).write_bytes(model.SerializeToString()[:10])
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(onnx, "save", half_a_save)
+    with pytest.raises(OSError, match="No space left"):
+        _stamp_metadata(src, tmp_path / "model.onnx", [], [])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["export.onnx"]
