@@ -408,17 +408,17 @@ def _index(path: Path, topics: Topics, given: set[str], names: FrameNames) -> Re
             elif "aligned_depth" not in depth and "depth" in given:
                 aligned = False  # a depth topic given by name: aligned only if its info says so (below)
             unit_topic = fps_topic = None
-        for role, topic, kinds in (
-            ("colour image", color, (IMAGE, COMPRESSED_IMAGE)),
-            ("colour camera info", color_info, (CAMERA_INFO,)),
-            ("depth image", depth, (IMAGE, COMPRESSED_IMAGE)),
-            ("depth camera info", depth_info, (CAMERA_INFO,)),
+        for stream, role, topic, kinds in (
+            ("color", "colour image", color, (IMAGE, COMPRESSED_IMAGE)),
+            ("color_info", "colour camera info", color_info, (CAMERA_INFO,)),
+            ("depth", "depth image", depth, (IMAGE, COMPRESSED_IMAGE)),
+            ("depth_info", "depth camera info", depth_info, (CAMERA_INFO,)),
         ):
             if topic not in by_topic:
                 what = "no camera info" if kinds == (CAMERA_INFO,) else "missing topic"
-                stream = "color" if role.startswith("colour") else "depth"
-                if kinds == (CAMERA_INFO,) and stream in given and f"{stream}_info" not in given:
-                    what += f" beside --topic {stream}"
+                image = stream.removesuffix("_info")
+                if image != stream and image in given and stream not in given:  # put beside the named image
+                    what += f" beside --topic {image}"
                 raise RecordingError(
                     f"{path}: {what}: no {role} on {topic} (--topic to name another; topics: "
                     f"{_topic_list(available)})"
