@@ -527,11 +527,12 @@ def named_shares(named: np.ndarray, w: np.ndarray | None = None) -> dict | None:
     if not shares:
         return None
     order = sorted(shares, key=lambda c: (-round(shares[c].value, 4), c))
-    first = shares[order[0]]
+    rows = {c: shares[c].to_dict() for c in order}  # every share has the label's n and n_eff
+    first = rows[order[0]]
     return {
-        "n": first.n,
-        "n_eff": round(first.n_eff, 1),
-        "shares": {c: {key: shares[c].to_dict()[key] for key in ("value", "ci95")} for c in order},
+        "n": first["n"],
+        "n_eff": first["n_eff"],
+        "shares": {c: {"value": row["value"], "ci95": row["ci95"]} for c, row in rows.items()},
     }
 
 
