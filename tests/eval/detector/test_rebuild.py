@@ -107,11 +107,11 @@ def test_poibench_train_fine_tunes_the_shipped_onnx_from_its_own_function(tmp_pa
     way misplaces those boxes by 95-143 px and its scores by 0.87-0.96)."""
     pytest.importorskip("torch")
     pytest.importorskip("ultralytics")
-    import onnx
     import onnxruntime as ort
 
     from eval.cli.main import main
     from eval.detector.dataset import DatasetSpec, write_dataset
+    from eval.detector.quality import model_metadata
     from eval.detector.rebuild import image_batches
 
     data = tmp_path / "ds"
@@ -122,8 +122,7 @@ def test_poibench_train_fine_tunes_the_shipped_onnx_from_its_own_function(tmp_pa
     assert main(argv + ["--batch", "64", "--workers", "0", "--threads", "1"]) == 0
     assert (run / "rebuilt.pt").is_file() and (run / "weights" / "best.pt").is_file()
     tuned = run / "model.onnx"
-    meta = {p.key: p.value for p in onnx.load(str(tuned)).metadata_props}
-    assert meta["names"] == {p.key: p.value for p in onnx.load(str(SHIPPED)).metadata_props}["names"]
+    assert model_metadata(tuned)["names"] == model_metadata(SHIPPED)["names"]
     images = sorted((data / "images" / "val").glob("*.jpg"))
     x = next(image_batches(images, (320, 320), batch=len(images))).numpy()
 
