@@ -76,7 +76,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     ls.set_defaults(func=cmd_suite_list)
     r = ssub.add_parser("run", help="run a suite and print its table")
     r.add_argument("name", help="shipped suite name or suite file")
-    r.add_argument("--out", help="folder for trials.csv and each trial's files (default: a temporary one)")
+    r.add_argument(
+        "--out",
+        help="folder for trials.csv, funnel.csv, points.png and each trial's files (default: a temporary one)",
+    )
     r.add_argument("--resume", action="store_true", help="continue a killed run in --out")
     r.add_argument(
         "--set",
@@ -305,7 +308,10 @@ def cmd_suite_run(args) -> int:
         if args.shard is not None:
             print(shard_note(args, out, len(df)))
         elif args.out:
-            print(f"trials.csv and each trial's files in {out}; rank runs with poibench suite compare {out} OTHER")
+            print(
+                f"trials.csv, funnel.csv, points.png (each maze's lost points by cause) and each trial's files "
+                f"in {out}; rank runs with poibench suite compare {out} OTHER"
+            )
     return 0 if (df["error"] == "").all() else 1
 
 
@@ -324,7 +330,7 @@ def cmd_suite_merge(args) -> int:
     else:
         print_suite_table(f"suite {', '.join(suites) or '-'}: {len(args.shards)} shards merged", df, out)
     n = f"{counted(len(df), 'trial')} of {len(args.shards)} shards"
-    print(f"{n}: trials.csv, aggregate.csv and funnel.csv in {out}")
+    print(f"{n}: trials.csv, aggregate.csv, funnel.csv and points.png in {out}")
     return 0 if (df["error"] == "").all() else 1
 
 

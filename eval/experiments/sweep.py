@@ -638,6 +638,7 @@ def write_summaries(out: Path, keys: list[str]) -> tuple[object, object]:
     agg.to_csv(out / "aggregate.csv", index=False)
     funnel_table(df, keys, out).to_csv(out / "funnel.csv", index=False)
     plot_sweep(out, agg, keys)
+    plot_points(out, df, keys)
     return df, agg
 
 
@@ -685,6 +686,51 @@ def setting_groups(df, keys: list[str]) -> Iterator[tuple[dict, object]]:
     groups = df.groupby(cols, sort=False, dropna=False) if cols else [((), df)]
     for key, g in groups:
         yield dict(zip(cols, key if isinstance(key, tuple) else (key,), strict=True)), g
+
+
+def points_bars(df, keys: list[str], out_dir: Path) -> tuple[list, dict[str, dict[str, float]]]:
+    """(bars, the per-type funnel summed over them) of ``points.png``
+    (:mod:`eval.experiments.points_plot`): a bar a finished trial when nothing was swept (its
+    scenario's name), else a bar a setting combination, its trials summed; trials that failed
+    or have no funnel line are left out."""
+    from eval.experiments.points_plot import PointsBar, lost_by_cause
+    from eval.scoring.funnel import sum_per_type
+
+    funnels = read_funnels(Path(out_dir) / FUNNEL_LINES)
+    ok = df[(df["error"] == "") & df["trial"].isin(list(funnels))] if len(df) else df
+    bars, tables = [], []
+    for rec, g in setting_groups(ok, keys) if len(ok) else ():
+        groups = (
+            [(str(row["scenario"]), row.to_frame().T) for _, row in g.iterrows()]
+            if not keys
+            else [(", ".join(f"{k}={rec[SET_PREFIX + k]}" for k in keys), g)]
+        )
+        for label, rows in groups:
+            per_type = sum_per_type([funnels[t] for t in rows["trial"]])
+            tables.append(per_type)
+            bars.append(
+                PointsBar(
+                    label=label,
+                    score=float(rows["score"].astype(float).sum()),
+                    max_score=float(rows["max_score"].astype(float).sum()),
+                    lost=lost_by_cause(per_type),
+                )
+            )
+    return bars, sum_per_type(tables)
+
+
+def plot_points(out: Path, df, keys: list[str]) -> None:
+    """``points.png`` in ``out`` (:mod:`eval.experiments.points_plot`) when a trial finished with its funnel."""
+    from eval.experiments.points_plot import POINTS_PNG, write_points_png
+
+    bars, per_type = points_bars(df, keys, out)
+    failed = int((df["error"] != "").sum()) if len(df) else 0
+    suite = str(df["suite"].iloc[0]) if len(df) and "suite" in df else ""
+    score, top = sum(b.score for b in bars), sum(b.max_score for b in bars)
+    title = f"{suite}: {score:g} of {top:g} points, {top - score:g} lost" + (
+        f" ({failed} failed {'trial' if failed == 1 else 'trials'} left out)" if failed else ""
+    )
+    write_points_png(Path(out) / POINTS_PNG, bars, per_type, title)
 
 
 def funnel_table(df, keys: list[str], out_dir: Path):

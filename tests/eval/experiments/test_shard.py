@@ -168,7 +168,7 @@ def test_two_shards_of_a_suite_run_merge_into_the_rows_of_one_run(tmp_path, caps
     one, merged = tmp_path / "one", tmp_path / "m"
     assert len(_table(one / "trials.csv")[1]) == 2
     assert _untimed(merged / "trials.csv") == _untimed(one / "trials.csv")
-    for name in ("sweep.yaml", "funnel.jsonl", "funnel.csv"):
+    for name in ("sweep.yaml", "funnel.jsonl", "funnel.csv", "points.png"):
         assert (merged / name).read_bytes() == (one / name).read_bytes(), name
     timing_means = ("wall_s_mean", "cpu_s_mean", "cpu_s_per_sim_s_mean")
     assert _untimed(merged / "aggregate.csv", timing_means) == _untimed(one / "aggregate.csv", timing_means)
@@ -202,4 +202,5 @@ def test_three_shards_of_a_sweep_merge_into_its_rows_in_its_order(tmp_path):
     assert _untimed(merged / "trials.csv") == _untimed(one / "trials.csv")
     assert [r[5] for r in _table(merged / "trials.csv")[1]] == ["4", "4", "9", "9"]  # set.tracker.gate
     assert (merged / "funnel.csv").read_bytes() == (one / "funnel.csv").read_bytes()
+    assert (merged / "points.png").read_bytes() == (one / "points.png").read_bytes()
     assert (merged / "score.png").exists()

@@ -1,0 +1,174 @@
+"""``points.png``: where a suite's points went, every lost point of each maze by its cause.
+
+The funnel (eval/scoring/funnel.py; docs/RULES.md "The funnel") charges each point a trial
+lost to one cause, so that a trial's score and its lost points add up to its maximum:
+
+    max - score = sum over the false-report causes + sum over the object causes   (funnel check)
+
+Each bar of the upper panel is that sum laid end to end: first the points the false reports
+took back, then the points the objects never won, each cause its own segment and colour, with
+the score and maximum written beside it. Points lost but charged to no cause, which the
+funnel's check reports as a fault, are drawn as a white segment so that a fault shows.
+
+A suite run draws a bar a maze, in its trials.csv order; a sweep a bar a setting combination,
+its mazes summed. The lower panel sums the bars' lost points per object type: where the
+points went.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from eval.scoring.funnel import CAUSES, FALSE_CAUSES, OBJECT_CAUSES
+
+POINTS_PNG = "points.png"
+UNCHARGED = "not charged to a cause"
+# a colour a cause: the object causes in blues and greys by stage, the false reports in reds and oranges
+CAUSE_COLOURS: dict[str, str] = {
+    "not in view": "#c7c7c7",
+    "not boxed": "#1f4e79",
+    "wrong type": "#2e75b6",
+    "not localised": "#5b9bd5",
+    "not read": "#9dc3e6",
+    "not confirmed": "#7f6fb0",
+    "reported wrong": "#b4a7d6",
+    "misplaced": "#8c564b",
+    "taken": "#c49c94",
+    "not located": "#bcbd22",
+    "autonomy withheld": "#dbdb8d",
+    "false: background": "#d62728",
+    "false: other object": "#ff7f0e",
+    "false: wrong label": "#f4a261",
+    "false: duplicate": "#e377c2",
+    "false: misplaced": "#9e3d3d",
+    "false: unknown": "#7f7f7f",
+}
+assert set(CAUSE_COLOURS) == set(CAUSES), "a colour for every funnel cause"
+
+
+@dataclass(kw_only=True)
+class PointsBar:
+    """One bar: a label, the score and maximum, and the points lost per cause."""
+
+    label: str
+    score: float
+    max_score: float
+    lost: dict[str, float]  # cause -> points, causes that lost nothing left out
+
+    @property
+    def uncharged(self) -> float:
+        """max - score - the charged points: 0 when the funnel's check holds."""
+        return self.max_score - self.score - sum(self.lost.values())
+
+    def segments(self) -> list[tuple[str, float, float]]:
+        """(name, left, width) of each segment, left to right (module docstring)."""
+        out, x = [], 0.0
+        for cause in (*FALSE_CAUSES, *OBJECT_CAUSES):
+            if self.lost.get(cause):
+                out.append((cause, x, self.lost[cause]))
+                x += self.lost[cause]
+        if self.uncharged > 1e-9:
+            out.append((UNCHARGED, x, self.uncharged))
+        return out
+
+
+def lost_by_cause(per_type: dict[str, dict[str, float]]) -> dict[str, float]:
+    """Points lost per cause, summed over a funnel's types (``Funnel.per_type`` or a sum of them).
+
+    >>> lost_by_cause({"qr": {"objects": 2, "in_view": 2, "not read": 2}, "door": {"false: background": 5}})
+    {'not read': 2.0, 'false: background': 5.0}
+    """
+    out: dict[str, float] = {}
+    for cause in CAUSES:
+        total = sum(float(row.get(cause, 0) or 0) for row in per_type.values())
+        if total:
+            out[cause] = total
+    return out
+
+
+def lost_by_type(per_type: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+    """Type -> cause -> points lost, types that lost nothing left out."""
+    out = {t: lost_by_cause({t: row}) for t, row in per_type.items()}
+    return {t: lost for t, lost in out.items() if lost}
+
+
+def points_figure(bars: list[PointsBar], per_type: dict[str, dict[str, float]], title: str):
+    """The matplotlib Figure of ``bars`` above and the lost points of ``per_type`` (summed
+    over the bars) below (module docstring); None without bars."""
+    if not bars:
+        return None
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    by_type = sorted(lost_by_type(per_type).items(), key=lambda kv: (-sum(kv[1].values()), kv[0]))
+    rows_top, rows_bottom = len(bars), max(len(by_type), 1)
+    fig = Figure(figsize=(9, 1.6 + 0.32 * (rows_top + rows_bottom) + 1.2))
+    FigureCanvasAgg(fig)
+    top, bottom = fig.subplots(2, 1, gridspec_kw={"height_ratios": [rows_top + 1, rows_bottom + 1]})
+    used: list[str] = []
+    for i, bar in enumerate(bars):
+        x = 0.0
+        for name, left, width in bar.segments():
+            top.barh(
+                i,
+                width,
+                left=left,
+                color=CAUSE_COLOURS.get(name, "white"),
+                height=0.75,
+                edgecolor="black" if name == UNCHARGED else "white",
+                linewidth=0.5,
+            )
+            x = left + width
+            if name not in used:
+                used.append(name)
+        note = "" if abs(bar.uncharged) < 1e-9 else f", {bar.uncharged:+g} not charged"
+        top.text(x, i, f"  {bar.score:g} / {bar.max_score:g}{note}", va="center", fontsize=8)
+    top.set_yticks(range(rows_top), [b.label for b in bars], fontsize=8)
+    top.invert_yaxis()  # the first bar on top, as trials.csv lists it
+    top.set_xlabel("points lost, by cause (the score / the maximum at the right)")
+    top.set_xlim(0.0, 1.25 * max([1.0, *(sum(w for _, _, w in b.segments()) for b in bars)]) + 1.0)
+    top.set_title(title, fontsize=10)
+    for j, (_, lost) in enumerate(by_type):
+        x = 0.0
+        for cause in (*FALSE_CAUSES, *OBJECT_CAUSES):
+            if lost.get(cause):
+                bottom.barh(
+                    j,
+                    lost[cause],
+                    left=x,
+                    color=CAUSE_COLOURS[cause],
+                    edgecolor="white",
+                    linewidth=0.5,
+                    height=0.75,
+                )
+                x += lost[cause]
+                if cause not in used:
+                    used.append(cause)
+        bottom.text(x, j, f"  {x:g}", va="center", fontsize=8)
+    if by_type:
+        bottom.set_yticks(range(len(by_type)), [t for t, _ in by_type], fontsize=8)
+        bottom.set_xlim(0.0, 1.12 * max(sum(lost.values()) for _, lost in by_type) + 1.0)
+    else:
+        bottom.set_yticks([])
+        bottom.text(0.5, 0.5, "no point lost", ha="center", va="center", transform=bottom.transAxes)
+    bottom.invert_yaxis()
+    bottom.set_xlabel("points lost per type, all bars above summed")
+    order = [c for c in (*FALSE_CAUSES, *OBJECT_CAUSES, UNCHARGED) if c in used]
+    handles = [
+        Patch(facecolor=CAUSE_COLOURS.get(c, "white"), edgecolor="black" if c == UNCHARGED else "none", label=c)
+        for c in order
+    ]
+    fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.74, 0.5), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0.0, 0.0, 0.74, 1.0))
+    return fig
+
+
+def write_points_png(path: Path, bars: list[PointsBar], per_type: dict[str, dict[str, float]], title: str) -> bool:
+    """Write :func:`points_figure` to ``path``; False (nothing written) without bars."""
+    fig = points_figure(bars, per_type, title)
+    if fig is None:
+        return False
+    fig.savefig(path, dpi=100)
+    return True
