@@ -50,6 +50,7 @@ import numpy as np
 from maze_assets.mjcf import SceneAssets, fmt
 from maze_assets.models import TEXTURE_PX
 from maze_assets.qr import QUIET_MODULES, draw_qr, qr_modules
+from poi.core.in_view import boxable_view
 from poi.core.motion_blur import CameraMotion, camera_motion
 from poi.core.types import Intrinsics
 from sim.camera import d435_intrinsics, mujoco_camera_attrs
@@ -61,8 +62,6 @@ from sim.world.world import LAMP_WHITE_LEVEL, LIGHT_LEVEL_LUX, lux_of_decoded_on
 CARD_SPACING_M = 4.0  # cards side by side along y, far enough apart that one fills a crop
 WALL_GREY = 0.55
 MAX_YAW_JITTER_DEG = 3.0
-MIN_VISIBLE_FRACTION = 0.35  # the oracle's and the funnel's in-view test (sim/oracle.py, eval/scoring/funnel.py)
-MIN_BOX_PX = 12.0
 MARGIN_FRAC = 0.15  # crop margin, as poi/detectors/qr.py
 
 
@@ -290,11 +289,9 @@ def trial_views(sc: Scenario, step: int = 1) -> list[dict]:
             gray = None
             for v in truth.visible:
                 x1, y1, x2, y2 = v.box_xyxy
-                if (
-                    v.type != "qr"
-                    or v.visible_fraction < MIN_VISIBLE_FRACTION
-                    or min(x2 - x1, y2 - y1) < MIN_BOX_PX
-                ):
+                shown = dict(visible_fraction=v.visible_fraction, image_fraction=v.image_fraction)
+                # the views the oracle boxes and the funnel counts (poi.core.in_view)
+                if v.type != "qr" or not boxable_view(v.type, **shown, min_side_px=min(x2 - x1, y2 - y1)):
                     continue
                 if gray is None:
                     gray = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY)

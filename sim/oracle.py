@@ -4,8 +4,10 @@ For benchmarking the rest of the pipeline alone (issue: "Oracle detector"). It
 lives with the simulator because it reads ground truth, which ``poi`` never
 sees. Per visible object it
 
-* skips objects smaller than ``min_box_px`` or less visible than
-  ``min_visible_fraction``, and misses the rest with probability ``miss_rate``;
+* skips the views the in-view test fails (:func:`poi.core.in_view.boxable_view`: a box under
+  ``min_box_px``, or less than ``min_visible_fraction`` of the object visible, unless a type not
+  read off its face covers ``min_image_fraction`` of the image), and misses the rest with
+  probability ``miss_rate``;
 * moves the box centre by N(0, sigma^2) per axis with sigma_u = a + b w,
   sigma_v = a + b h (the form [Avevor2022]_ section 2.1.4 fits; a and b default to the
   pipeline's model of it, :mod:`poi.core.sensor_noise`) and jitters its size;
@@ -39,6 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from poi.core.in_view import IN_VIEW_FRACTION, IN_VIEW_IMAGE_FRACTION, IN_VIEW_MIN_PX, boxable_view
 from poi.core.names import (
     ARENA_TYPES,
     CLASS_INDEX,
@@ -64,8 +67,9 @@ ARENA_MIN_BOX_PX = 4.0
 class OracleSettings:
     seed: int = 0
     miss_rate: float = 0.05
-    min_box_px: float = 12.0
-    min_visible_fraction: float = 0.35
+    min_box_px: float = IN_VIEW_MIN_PX
+    min_visible_fraction: float = IN_VIEW_FRACTION
+    min_image_fraction: float = IN_VIEW_IMAGE_FRACTION  # a large view of an unread type (boxable_view)
     center_sigma_a_px: float = CENTER_SIGMA_A_PX
     center_sigma_b: float = CENTER_SIGMA_B
     size_jitter: float = 0.05
@@ -184,7 +188,15 @@ class OracleDetector:
             w, h = x2 - x1, y2 - y1
             draws = rng.random(3)
             noise = rng.standard_normal(4)
-            if min(w, h) < s.min_box_px or v.visible_fraction < s.min_visible_fraction:
+            if not boxable_view(
+                v.type,
+                visible_fraction=v.visible_fraction,
+                image_fraction=v.image_fraction,
+                min_side_px=min(w, h),
+                min_visible_fraction=s.min_visible_fraction,
+                min_image_fraction=s.min_image_fraction,
+                min_box_px=s.min_box_px,
+            ):
                 continue
             if draws[0] < s.miss_rate:
                 continue

@@ -517,7 +517,8 @@ def label_boxes(
 ) -> list[tuple[int, tuple[float, float, float, float]]]:
     """(class, (x1, y1, x2, y2) pixels) of the objects that show enough; with ``ignored``, of
     those big enough in pixels that show less than ``min_visible_fraction`` of themselves (a door
-    filling the frame from close by) and of the QR chart pages in view (``qr``: the sheet and its
+    filling the frame from close by, which the oracle boxes and the funnel counts in view:
+    :mod:`poi.core.in_view`) and of the QR chart pages in view (``qr``: the sheet and its
     codes, which a detector may box as one code): evaluation neither wants nor penalises
     detections of them, and the label classifier learns them as background
     (:mod:`eval.detector.label_data`)."""

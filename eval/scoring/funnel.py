@@ -41,13 +41,14 @@ from eval.scoring.map_error import MapErrorResult
 from eval.scoring.pairing import STATUS_FALSE, STATUS_IGNORED, STATUS_MISSED, ObjectOutcome, ReportOutcome
 from eval.scoring.rules import Rules
 from eval.scoring.scorer import ScoreResult, identity_of
-from poi.core.names import in_type_order
+from poi.core.in_view import IN_VIEW_FRACTION, IN_VIEW_IMAGE_FRACTION, IN_VIEW_MIN_PX, boxable_view
+from poi.core.names import TEXT_IDENTITY_TYPES, in_type_order
 
 # The stages, in the order an object passes them (Funnel.per_type counts the objects that passed each)
 STAGES = ("in_view", "boxed", "typed", "localised", "read", "confirmed", "paired", "located")
 # What an object's lost points are charged to; the first six are the first stage it did not pass
 OBJECT_CAUSES = (
-    "not in view",  # the tour never showed it (at least IN_VIEW_FRACTION visible, a box of IN_VIEW_MIN_PX)
+    "not in view",  # the tour never showed it well enough for a perfect detector (poi.core.in_view)
     "not boxed",  # in view, but no box overlapped it with IoU >= BOX_IOU
     "wrong type",  # boxed, never as its own type
     "not localised",  # boxed as its type, no box gave an observation (depth, border)
@@ -68,10 +69,6 @@ FALSE_CAUSES = (
     "false: unknown",  # no track behind the row (an unreadable row, a team's file)
 )
 CAUSES = OBJECT_CAUSES + FALSE_CAUSES
-# The in-view test: the oracle detector's own (sim/oracle.py OracleSettings): a perfect detector
-# boxes what passes it, so an object that never does is lost to the tour, not to perception
-IN_VIEW_FRACTION = 0.35
-IN_VIEW_MIN_PX = 12.0
 BOX_IOU = 0.5  # a box is on an object when their IoU is at least this ([Bolya2020]'s t_f)
 # a false report's box lies on the object it overlaps most from this IoU on, on the background
 # below it everywhere ([Bolya2020]'s t_b)
@@ -80,7 +77,6 @@ QR_MIN_MODULE_PX = 3.0  # a QR view counts towards the read rate from this many 
 # A QR code is read from its three finder patterns and every module between them ([ISO18004]): a view
 # cut by the image border is unreadable by any decoder
 QR_WHOLE_FRACTION = 0.9
-TEXT_TYPES = ("hazmat", "qr", "landolt-c")  # their identity includes what was read
 
 
 @dataclass(kw_only=True)
@@ -98,6 +94,8 @@ class ObjectView:
     # recording gives; in view when it projects into the image with nothing nearer in the depth,
     # boxed by a box that holds that point (eval.trial.funnel_recorder.projected_views)
     point: bool = False
+    type: str = ""  # the object's type (the in-view test's large views are for some types only)
+    image_fraction: float = 0.0  # the share of the image its visible pixels cover
 
     @property
     def min_side_px(self) -> float:
@@ -105,10 +103,16 @@ class ObjectView:
         return min(x2 - x1, y2 - y1)
 
     def in_view(self) -> bool:
-        """The in-view test (module constants); a point view is in view by construction."""
+        """The in-view test (:func:`poi.core.in_view.boxable_view`, the oracle's); a point view is in
+        view by construction. A view without its type is judged by its visible share alone."""
         if self.point:
             return True
-        return self.visible_fraction >= IN_VIEW_FRACTION and self.min_side_px >= IN_VIEW_MIN_PX
+        return boxable_view(
+            self.type,
+            visible_fraction=self.visible_fraction,
+            image_fraction=self.image_fraction if self.type else 0.0,
+            min_side_px=self.min_side_px,
+        )
 
 
 @dataclass(kw_only=True)
@@ -277,7 +281,10 @@ def _perception_detail(cause: str, o: ObjectTrace) -> str:
     if cause == "not in view":
         if o.by_pose:
             return "its point never in view by the recording's pose (inside the image, before the depth there)"
-        return f"never at least {IN_VIEW_FRACTION:.0%} visible with a box of {IN_VIEW_MIN_PX:g} px"
+        whole = f"never at least {IN_VIEW_FRACTION:.0%} visible with a box of {IN_VIEW_MIN_PX:g} px"
+        if o.type in TEXT_IDENTITY_TYPES:
+            return whole
+        return f"{whole}, nor over {IN_VIEW_IMAGE_FRACTION:.0%} of the image"
     blur = sorted(o.blur_px)
     median_blur = blur[len(blur) // 2] if blur else 0.0
     if o.by_pose:
@@ -659,6 +666,26 @@ def format_funnel(per_type: dict[str, dict[str, float]], lost: float, max_minus_
 
 def _g(v: float) -> str:
     return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def lost_by_cause(per_type: dict[str, dict[str, float]]) -> dict[str, float]:
+    """Points lost per cause, summed over a funnel's types (``Funnel.per_type`` or a sum of them).
+
+    >>> lost_by_cause({"qr": {"objects": 2, "in_view": 2, "not read": 2}, "door": {"false: background": 5}})
+    {'not read': 2.0, 'false: background': 5.0}
+    """
+    out: dict[str, float] = {}
+    for cause in CAUSES:
+        total = sum(float(row.get(cause) or 0.0) for row in per_type.values())
+        if total and math.isfinite(total):
+            out[cause] = total
+    return out
+
+
+def lost_by_type(per_type: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+    """Type -> cause -> points lost, types that lost nothing left out."""
+    out = {t: lost_by_cause({t: row}) for t, row in per_type.items()}
+    return {t: lost for t, lost in out.items() if lost}
 
 
 def sum_per_type(tables: list[dict[str, dict[str, float]]]) -> dict[str, dict[str, float]]:

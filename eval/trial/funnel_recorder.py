@@ -5,8 +5,8 @@ Per frame, :meth:`FunnelRecorder.on_frame` takes the ground truth's views of the
 perception record), the camera's blur and the pipeline's :class:`poi.pipeline.FrameResult`,
 and
 
-1. counts each object in view (the oracle's own test: at least ``IN_VIEW_FRACTION`` visible,
-   a box of ``IN_VIEW_MIN_PX``), with its box size, distance, viewing angle and the blur;
+1. counts each object in view (the oracle's own test, :func:`poi.core.in_view.in_view`), with its
+   box size, distance, viewing angle and the blur;
 2. pairs the frame's boxes with the objects' visible boxes one to one, greedily by IoU, at
    IoU >= ``BOX_IOU`` (the usual detection match, [Bolya2020]_), and counts per object the
    frames it was boxed, boxed as its type, localised (the box gave an observation; if not,
@@ -38,7 +38,6 @@ from eval.scoring.funnel import (
     BOX_IOU,
     QR_MIN_MODULE_PX,
     QR_WHOLE_FRACTION,
-    TEXT_TYPES,
     DetectorActivity,
     Funnel,
     ObjectTrace,
@@ -50,6 +49,7 @@ from eval.scoring.map_error import MapErrorResult
 from eval.scoring.rules import AnyRules
 from eval.scoring.scorer import ScoreResult
 from poi.core.geometry import greedy_pairs, iou_matrix
+from poi.core.names import TEXT_IDENTITY_TYPES
 from poi.core.types import Detection, Frame, TrackSnapshot
 from poi.estimation.box_depth import box_depth
 
@@ -163,7 +163,7 @@ class FunnelRecorder:
         """Whether a box's type and text are the object's identity (docs/RULES.md rule 1)."""
         if det.type != o.type:
             return False
-        if o.type not in TEXT_TYPES:
+        if o.type not in TEXT_IDENTITY_TYPES:
             return True
         if o.type == "landolt-c" and hasattr(self.rules, "landolt_identity") and self.rules.landolt_rings:
             mine = self.rules.landolt_identity(o.text)

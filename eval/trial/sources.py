@@ -33,6 +33,8 @@ def object_views(truth) -> list[ObjectView]:
             visible_fraction=round(float(v.visible_fraction), 4),
             distance_m=round(float(np.linalg.norm(v.position_cam)), 4),
             angle_deg=round(float(v.view_angle_deg), 2),
+            type=v.type,
+            image_fraction=round(float(v.image_fraction), 4),
         )
         for v in truth.visible
     ]

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from eval.scoring.funnel import (
-    IN_VIEW_FRACTION,
     DetectorActivity,
     ObjectView,
     format_funnel,
@@ -20,6 +19,7 @@ from eval.scoring.rules import load_rules
 from eval.scoring.scorer import score
 from eval.trial.funnel_recorder import FunnelRecorder, match_boxes
 from poi.config import load_config
+from poi.core.in_view import IN_VIEW_FRACTION
 from poi.core.poi_file import PoiHeader, PoiRow, format_poi_text, parse_poi_text
 from poi.core.types import Detection, Frame, Intrinsics, TrackSnapshot
 from poi.pipeline import FrameResult
@@ -329,6 +329,28 @@ def test_a_qr_code_never_seen_at_3_px_a_module_is_said_so() -> None:
     o = ObjectTrace(id=4, type="qr", text="Chart A", modules=29, best_px=32.0, localised_frames=6)
     assert _perception_detail("not read", o) == (
         "localised 6 frames; no view at >= 3 px a module (best 1.1 px a module); the pipeline's reads: none right"
+    )
+
+
+def test_a_door_larger_than_the_frame_is_in_view_a_placard_so_seen_is_not() -> None:
+    """Close by, a door fills the frame with a quarter of itself: in view by the share of the image
+    it covers; a placard needs its face (the in-view test, poi.core.in_view), and the cause of one
+    never in view says which test it failed."""
+    from eval.scoring.funnel import ObjectTrace, _perception_detail
+
+    frame_filling = dict(
+        box_xyxy=(0.0, 0.0, 640.0, 480.0), visible_fraction=0.26, distance_m=0.6, image_fraction=1.0
+    )
+    rec = FunnelRecorder([(0, "door", "", None), (1, "hazmat", "poison", None)], load_config(), EX3)
+    views = [ObjectView(id=0, type="door", **frame_filling), ObjectView(id=1, type="hazmat", **frame_filling)]
+    for k in range(3):
+        rec.on_frame(views, 0.0, frame(k), result(k, [], []))
+    assert (rec.traces[0].in_view_frames, rec.traces[1].in_view_frames) == (3, 0)
+    assert _perception_detail("not in view", ObjectTrace(id=0, type="door", text="")) == (
+        "never at least 35% visible with a box of 12 px, nor over 10% of the image"
+    )
+    assert _perception_detail("not in view", ObjectTrace(id=1, type="hazmat", text="poison")) == (
+        "never at least 35% visible with a box of 12 px"
     )
 
 
