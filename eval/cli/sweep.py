@@ -308,9 +308,10 @@ def cmd_suite_run(args) -> int:
         if args.shard is not None:
             print(shard_note(args, out, len(df)))
         elif args.out:
+            drawn = " points.png (each maze's lost points by cause)," if (out / "points.png").exists() else ""
             print(
-                f"trials.csv, funnel.csv, points.png (each maze's lost points by cause) and each trial's files "
-                f"in {out}; rank runs with poibench suite compare {out} OTHER"
+                f"trials.csv, funnel.csv,{drawn} and each trial's files in {out}; "
+                f"rank runs with poibench suite compare {out} OTHER"
             )
     return 0 if (df["error"] == "").all() else 1
 
@@ -330,7 +331,8 @@ def cmd_suite_merge(args) -> int:
     else:
         print_suite_table(f"suite {', '.join(suites) or '-'}: {len(args.shards)} shards merged", df, out)
     n = f"{counted(len(df), 'trial')} of {len(args.shards)} shards"
-    print(f"{n}: trials.csv, aggregate.csv, funnel.csv and points.png in {out}")
+    drawn = ", points.png" if (out / "points.png").exists() else ""
+    print(f"{n}: trials.csv, aggregate.csv, funnel.csv{drawn} in {out}")
     return 0 if (df["error"] == "").all() else 1
 
 

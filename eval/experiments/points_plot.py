@@ -8,7 +8,8 @@ lost to one cause, so that a trial's score and its lost points add up to its max
 Each bar of the upper panel is that sum laid end to end: first the points the false reports
 took back, then the points the objects never won, each cause its own segment and colour, with
 the score and maximum written beside it. Points lost but charged to no cause, which the
-funnel's check reports as a fault, are drawn as a white segment so that a fault shows.
+funnel's check reports as a fault, are drawn as a white segment, and points charged beyond
+what was lost are written beside the bar, so that a fault shows.
 
 A suite run draws a bar a maze, in its trials.csv order; a sweep a bar a setting combination,
 its mazes summed. The lower panel sums the bars' lost points per object type: where the
@@ -19,8 +20,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from eval.scoring.funnel import CAUSES, FALSE_CAUSES, OBJECT_CAUSES
+from eval.scoring.funnel import FALSE_CAUSES, OBJECT_CAUSES, lost_by_type
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 POINTS_PNG = "points.png"
 UNCHARGED = "not charged to a cause"
@@ -44,7 +49,8 @@ CAUSE_COLOURS: dict[str, str] = {
     "false: misplaced": "#9e3d3d",
     "false: unknown": "#7f7f7f",
 }
-assert set(CAUSE_COLOURS) == set(CAUSES), "a colour for every funnel cause"
+# the segments' order along a bar: what false reports took back, then what objects never won
+BAR_ORDER = (*FALSE_CAUSES, *OBJECT_CAUSES)
 
 
 @dataclass(kw_only=True)
@@ -64,7 +70,7 @@ class PointsBar:
     def segments(self) -> list[tuple[str, float, float]]:
         """(name, left, width) of each segment, left to right (module docstring)."""
         out, x = [], 0.0
-        for cause in (*FALSE_CAUSES, *OBJECT_CAUSES):
+        for cause in BAR_ORDER:
             if self.lost.get(cause):
                 out.append((cause, x, self.lost[cause]))
                 x += self.lost[cause]
@@ -73,27 +79,7 @@ class PointsBar:
         return out
 
 
-def lost_by_cause(per_type: dict[str, dict[str, float]]) -> dict[str, float]:
-    """Points lost per cause, summed over a funnel's types (``Funnel.per_type`` or a sum of them).
-
-    >>> lost_by_cause({"qr": {"objects": 2, "in_view": 2, "not read": 2}, "door": {"false: background": 5}})
-    {'not read': 2.0, 'false: background': 5.0}
-    """
-    out: dict[str, float] = {}
-    for cause in CAUSES:
-        total = sum(float(row.get(cause, 0) or 0) for row in per_type.values())
-        if total:
-            out[cause] = total
-    return out
-
-
-def lost_by_type(per_type: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
-    """Type -> cause -> points lost, types that lost nothing left out."""
-    out = {t: lost_by_cause({t: row}) for t, row in per_type.items()}
-    return {t: lost for t, lost in out.items() if lost}
-
-
-def points_figure(bars: list[PointsBar], per_type: dict[str, dict[str, float]], title: str):
+def points_figure(bars: list[PointsBar], per_type: dict[str, dict[str, float]], title: str) -> Figure | None:
     """The matplotlib Figure of ``bars`` above and the lost points of ``per_type`` (summed
     over the bars) below (module docstring); None without bars."""
     if not bars:
@@ -132,7 +118,7 @@ def points_figure(bars: list[PointsBar], per_type: dict[str, dict[str, float]], 
     top.set_title(title, fontsize=10)
     for j, (_, lost) in enumerate(by_type):
         x = 0.0
-        for cause in (*FALSE_CAUSES, *OBJECT_CAUSES):
+        for cause in BAR_ORDER:
             if lost.get(cause):
                 bottom.barh(
                     j,
@@ -155,7 +141,7 @@ def points_figure(bars: list[PointsBar], per_type: dict[str, dict[str, float]], 
         bottom.text(0.5, 0.5, "no point lost", ha="center", va="center", transform=bottom.transAxes)
     bottom.invert_yaxis()
     bottom.set_xlabel("points lost per type, all bars above summed")
-    order = [c for c in (*FALSE_CAUSES, *OBJECT_CAUSES, UNCHARGED) if c in used]
+    order = [c for c in (*BAR_ORDER, UNCHARGED) if c in used]
     handles = [
         Patch(facecolor=CAUSE_COLOURS.get(c, "white"), edgecolor="black" if c == UNCHARGED else "none", label=c)
         for c in order

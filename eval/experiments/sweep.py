@@ -636,9 +636,10 @@ def write_summaries(out: Path, keys: list[str]) -> tuple[object, object]:
     df = read_rows(out / "trials.csv")
     agg = aggregate(df, keys)
     agg.to_csv(out / "aggregate.csv", index=False)
-    funnel_table(df, keys, out).to_csv(out / "funnel.csv", index=False)
+    funnels = read_funnels(out / FUNNEL_LINES)
+    funnel_table(df, keys, out, funnels).to_csv(out / "funnel.csv", index=False)
     plot_sweep(out, agg, keys)
-    plot_points(out, df, keys)
+    plot_points(out, df, keys, funnels)
     return df, agg
 
 
@@ -670,11 +671,12 @@ def read_funnels(path: Path) -> dict[str, dict]:
     return out
 
 
-def summed_funnel(rows, out: Path) -> dict[str, dict[str, float]]:
-    """The per-type funnel (eval.scoring.funnel.Funnel.per_type) summed over ``rows``' trials."""
+def summed_funnel(rows, out: Path, funnels: dict[str, dict] | None = None) -> dict[str, dict[str, float]]:
+    """The per-type funnel (eval.scoring.funnel.Funnel.per_type) summed over ``rows``' trials;
+    ``funnels``: the run's :func:`read_funnels`, where the caller has read them already."""
     from eval.scoring.funnel import sum_per_type
 
-    funnels = read_funnels(Path(out) / FUNNEL_LINES)
+    funnels = read_funnels(Path(out) / FUNNEL_LINES) if funnels is None else funnels
     trials = list(rows["trial"]) if "trial" in rows else []
     return sum_per_type([funnels[t] for t in trials if t in funnels])
 
@@ -688,52 +690,61 @@ def setting_groups(df, keys: list[str]) -> Iterator[tuple[dict, object]]:
         yield dict(zip(cols, key if isinstance(key, tuple) else (key,), strict=True)), g
 
 
-def points_bars(df, keys: list[str], out_dir: Path) -> tuple[list, dict[str, dict[str, float]]]:
+def points_bars(df, keys: list[str], out: Path, funnels: dict[str, dict]):
     """(bars, the per-type funnel summed over them) of ``points.png``
-    (:mod:`eval.experiments.points_plot`): a bar a finished trial when nothing was swept (its
-    scenario's name), else a bar a setting combination, its trials summed; trials that failed
-    or have no funnel line are left out."""
-    from eval.experiments.points_plot import PointsBar, lost_by_cause
-    from eval.scoring.funnel import sum_per_type
+    (:mod:`eval.experiments.points_plot`): a bar a trial (its scenario's name) when the run holds
+    one setting combination (a suite run, with ``--set`` or without), else a bar a combination
+    (``key=value, ...``), its trials summed. Only trials that finished with a funnel line count;
+    ``funnels`` is the run's :func:`read_funnels`."""
+    from eval.experiments.points_plot import PointsBar
+    from eval.scoring.funnel import lost_by_cause, sum_per_type
 
-    funnels = read_funnels(Path(out_dir) / FUNNEL_LINES)
     ok = df[(df["error"] == "") & df["trial"].isin(list(funnels))] if len(df) else df
-    bars, tables = [], []
-    for rec, g in setting_groups(ok, keys) if len(ok) else ():
-        groups = (
-            [(str(row["scenario"]), row.to_frame().T) for _, row in g.iterrows()]
-            if not keys
-            else [(", ".join(f"{k}={rec[SET_PREFIX + k]}" for k in keys), g)]
-        )
-        for label, rows in groups:
-            per_type = sum_per_type([funnels[t] for t in rows["trial"]])
-            tables.append(per_type)
-            bars.append(
-                PointsBar(
-                    label=label,
-                    score=float(rows["score"].astype(float).sum()),
-                    max_score=float(rows["max_score"].astype(float).sum()),
-                    lost=lost_by_cause(per_type),
-                )
+    groups = list(setting_groups(ok, keys)) if len(ok) else []
+    if len(groups) == 1:
+        rows = groups[0][1]
+        parts = [(str(rows["scenario"].iloc[i]), rows.iloc[[i]]) for i in range(len(rows))]
+    else:
+        parts = [(", ".join(f"{k}={rec[SET_PREFIX + k]}" for k in keys), g) for rec, g in groups]
+    bars: list[PointsBar] = []
+    tables = []
+    for label, rows in parts:
+        per_type = summed_funnel(rows, out, funnels)
+        tables.append(per_type)
+        score = float(rows["score"].astype(float).sum())
+        bars.append(
+            PointsBar(
+                label=label,
+                score=score,
+                max_score=float(rows["max_score"].astype(float).sum()),
+                lost=lost_by_cause(per_type),
             )
+        )
     return bars, sum_per_type(tables)
 
 
-def plot_points(out: Path, df, keys: list[str]) -> None:
-    """``points.png`` in ``out`` (:mod:`eval.experiments.points_plot`) when a trial finished with its funnel."""
+def plot_points(out: Path, df, keys: list[str], funnels: dict[str, dict] | None = None) -> bool:
+    """``points.png`` in ``out`` (:mod:`eval.experiments.points_plot`); False (none written)
+    when no trial finished with its funnel. The title says how many trials were left out."""
     from eval.experiments.points_plot import POINTS_PNG, write_points_png
+    from eval.text import counted
 
-    bars, per_type = points_bars(df, keys, out)
+    funnels = read_funnels(Path(out) / FUNNEL_LINES) if funnels is None else funnels
+    bars, per_type = points_bars(df, keys, out, funnels)
+    drawn = int((df["error"].eq("") & df["trial"].isin(list(funnels))).sum()) if len(df) else 0
     failed = int((df["error"] != "").sum()) if len(df) else 0
     suite = str(df["suite"].iloc[0]) if len(df) and "suite" in df else ""
     score, top = sum(b.score for b in bars), sum(b.max_score for b in bars)
-    title = f"{suite}: {score:g} of {top:g} points, {top - score:g} lost" + (
-        f" ({failed} failed {'trial' if failed == 1 else 'trials'} left out)" if failed else ""
-    )
-    write_points_png(Path(out) / POINTS_PNG, bars, per_type, title)
+    left_out = [
+        counted(failed, "failed trial") if failed else "",
+        counted(len(df) - failed - drawn, "trial") + " without a funnel" if len(df) - failed - drawn else "",
+    ]
+    note = "; ".join(x for x in left_out if x)
+    title = f"{suite}: {score:g} of {top:g} points, {top - score:g} lost" + (f" ({note} left out)" if note else "")
+    return write_points_png(Path(out) / POINTS_PNG, bars, per_type, title)
 
 
-def funnel_table(df, keys: list[str], out_dir: Path):
+def funnel_table(df, keys: list[str], out_dir: Path, funnels: dict[str, dict] | None = None):
     """``funnel.csv`` of a sweep: per setting combination and type, the objects, how many
     passed each stage and the points lost to each cause, summed over its trials."""
     import pandas as pd
@@ -744,7 +755,7 @@ def funnel_table(df, keys: list[str], out_dir: Path):
         return pd.DataFrame()
     out = []
     for rec, g in setting_groups(df, keys):
-        for t, row in sorted(summed_funnel(g[g["error"] == ""], out_dir).items()):
+        for t, row in sorted(summed_funnel(g[g["error"] == ""], out_dir, funnels).items()):
             out.append(
                 {
                     **rec,

@@ -3,12 +3,17 @@ or a setting combination (sweep), and a fault in the funnel's sum shows."""
 
 import pandas as pd
 
-from eval.experiments.points_plot import UNCHARGED, PointsBar, lost_by_type, points_figure
-from eval.experiments.sweep import FUNNEL_LINES, append_funnel, plot_points, points_bars, read_rows
+from eval.experiments.points_plot import CAUSE_COLOURS, UNCHARGED, PointsBar, points_figure
+from eval.experiments.sweep import FUNNEL_LINES, append_funnel, plot_points, points_bars, read_funnels, read_rows
+from eval.scoring.funnel import CAUSES, lost_by_type
 
 QR_READ_FAIL = {"qr": {"objects": 2, "in_view": 2, "boxed": 2, "not read": 2.0}}
 DOOR_FALSE = {"door": {"objects": 1, "in_view": 1, "false: background": 5.0}}
 VALVE_MISS = {"valve": {"objects": 1, "not boxed": 6.0}}
+
+
+def _bars(df, keys, folder):
+    return points_bars(df, keys, folder, read_funnels(folder / FUNNEL_LINES))
 
 
 def _run_folder(tmp_path, rows: list[dict], funnels: dict[str, dict]):
@@ -39,7 +44,7 @@ def test_a_suite_gives_a_bar_a_finished_maze_and_sums_its_types(tmp_path):
         {"trial": "c", "scenario": "m3", "score": 0, "max_score": 60, "error": "RuntimeError: boom"},
     ]
     df = _run_folder(tmp_path, rows, {"a": {**QR_READ_FAIL, **DOOR_FALSE}, "b": VALVE_MISS})
-    bars, per_type = points_bars(df, [], tmp_path)
+    bars, per_type = _bars(df, [], tmp_path)
     assert [(b.label, b.score, b.max_score, b.lost) for b in bars] == [
         ("m1", 53.0, 60.0, {"not read": 2.0, "false: background": 5.0}),
         ("m2", 48.0, 54.0, {"not boxed": 6.0}),
@@ -58,11 +63,37 @@ def test_a_sweep_gives_a_bar_a_setting_its_mazes_summed(tmp_path):
         {"trial": "c", "scenario": "m1", "score": 58, "max_score": 60, "set.tracker.gate": 9},
     ]
     funnels = {"a": {**QR_READ_FAIL, **DOOR_FALSE}, "b": VALVE_MISS, "c": QR_READ_FAIL}
-    bars, _ = points_bars(_run_folder(tmp_path, rows, funnels), ["tracker.gate"], tmp_path)
+    bars, _ = _bars(_run_folder(tmp_path, rows, funnels), ["tracker.gate"], tmp_path)
     assert [(b.label, b.score, b.max_score, b.lost) for b in bars] == [
         ("tracker.gate=4", 101.0, 114.0, {"not read": 2.0, "not boxed": 6.0, "false: background": 5.0}),
         ("tracker.gate=9", 58.0, 60.0, {"not read": 2.0}),
     ]
+
+
+def test_a_suite_run_with_a_setting_still_gives_a_bar_a_maze(tmp_path):
+    """`suite run --set K=V` writes a one-combination grid: a bar a maze, as without it; a trial that
+    finished without a funnel line is left out."""
+    rows = [
+        {"trial": "a", "scenario": "m1", "score": 53, "max_score": 60, "set.detector.conf": 0.3},
+        {"trial": "b", "scenario": "m2", "score": 48, "max_score": 54, "set.detector.conf": 0.3},
+        {"trial": "c", "scenario": "m3", "score": 60, "max_score": 60, "set.detector.conf": 0.3},
+    ]
+    df = _run_folder(tmp_path, rows, {"a": QR_READ_FAIL, "b": VALVE_MISS})
+    bars, _ = _bars(df, ["detector.conf"], tmp_path)
+    assert [(b.label, b.score) for b in bars] == [("m1", 53.0), ("m2", 48.0)]
+
+
+def test_a_sweep_over_two_settings_labels_each_bar_with_both(tmp_path):
+    rows = [
+        {"trial": "a", "scenario": "m1", "score": 53, "max_score": 60, "set.x": 1, "set.y": "p"},
+        {"trial": "b", "scenario": "m1", "score": 50, "max_score": 60, "set.x": 2, "set.y": "p"},
+    ]
+    bars, _ = _bars(_run_folder(tmp_path, rows, {"a": QR_READ_FAIL, "b": VALVE_MISS}), ["x", "y"], tmp_path)
+    assert [b.label for b in bars] == ["x=1, y=p", "x=2, y=p"]
+
+
+def test_every_funnel_cause_has_a_colour():
+    assert set(CAUSE_COLOURS) == set(CAUSES)
 
 
 def test_the_figure_draws_each_cause_its_points_and_writes_the_score_beside_it():
@@ -86,10 +117,10 @@ def test_points_png_is_written_with_a_finished_trial_and_not_without(tmp_path):
     """(A run writes it with its summaries: test_shard.py compares a merged run's with one run's.)"""
     rows = [{"trial": "a", "scenario": "m1", "score": 53, "max_score": 60}]
     df = _run_folder(tmp_path, rows, {"a": {**QR_READ_FAIL, **DOOR_FALSE}})
-    plot_points(tmp_path, df, [])
+    assert plot_points(tmp_path, df, [])
     assert (tmp_path / "points.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     failed = tmp_path / "failed"
     failed.mkdir()
     df = _run_folder(failed, [{**rows[0], "error": "RuntimeError: boom"}], {})
-    plot_points(failed, df, [])
+    assert not plot_points(failed, df, [])
     assert not (failed / "points.png").exists()
