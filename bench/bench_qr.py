@@ -289,7 +289,7 @@ def trial_views(sc: Scenario, step: int = 1) -> list[dict]:
             gray = None
             for v in truth.visible:
                 x1, y1, x2, y2 = v.box_xyxy
-                shown = dict(visible_fraction=v.visible_fraction, image_fraction=v.image_fraction)
+                shown = dict(visible_fraction=v.visible_fraction, pixels=v.pixels)
                 # the views the oracle boxes and the funnel counts (poi.core.in_view)
                 if v.type != "qr" or not boxable_view(v.type, **shown, min_side_px=min(x2 - x1, y2 - y1)):
                     continue

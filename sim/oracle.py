@@ -6,7 +6,7 @@ sees. Per visible object it
 
 * skips the views the in-view test fails (:func:`poi.core.in_view.boxable_view`: a box under
   ``min_box_px``, or less than ``min_visible_fraction`` of the object visible, unless a type not
-  read off its face covers ``min_image_fraction`` of the image), and misses the rest with
+  read off its face shows over ``min_large_pixels``), and misses the rest with
   probability ``miss_rate``;
 * moves the box centre by N(0, sigma^2) per axis with sigma_u = a + b w,
   sigma_v = a + b h (the form [Avevor2022]_ section 2.1.4 fits; a and b default to the
@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from poi.core.in_view import IN_VIEW_FRACTION, IN_VIEW_IMAGE_FRACTION, IN_VIEW_MIN_PX, boxable_view
+from poi.core.in_view import IN_VIEW_FRACTION, IN_VIEW_LARGE_PX, IN_VIEW_MIN_PX, boxable_view
 from poi.core.names import (
     ARENA_TYPES,
     CLASS_INDEX,
@@ -69,7 +69,7 @@ class OracleSettings:
     miss_rate: float = 0.05
     min_box_px: float = IN_VIEW_MIN_PX
     min_visible_fraction: float = IN_VIEW_FRACTION
-    min_image_fraction: float = IN_VIEW_IMAGE_FRACTION  # a large view of an unread type (boxable_view)
+    min_large_pixels: int = IN_VIEW_LARGE_PX  # a large view of a type read off no face (boxable_view)
     center_sigma_a_px: float = CENTER_SIGMA_A_PX
     center_sigma_b: float = CENTER_SIGMA_B
     size_jitter: float = 0.05
@@ -191,10 +191,10 @@ class OracleDetector:
             if not boxable_view(
                 v.type,
                 visible_fraction=v.visible_fraction,
-                image_fraction=v.image_fraction,
+                pixels=v.pixels,
                 min_side_px=min(w, h),
                 min_visible_fraction=s.min_visible_fraction,
-                min_image_fraction=s.min_image_fraction,
+                min_large_pixels=s.min_large_pixels,
                 min_box_px=s.min_box_px,
             ):
                 continue

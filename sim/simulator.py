@@ -133,7 +133,6 @@ class VisibleObject:
     # angle between a flat item's face normal and the ray from it to the camera (0: seen face-on);
     # NaN for a 3-D object, which has no one face
     view_angle_deg: float = float("nan")
-    image_fraction: float = 0.0  # its visible pixels over the image's
 
 
 @dataclass(kw_only=True)
@@ -838,8 +837,7 @@ class Simulation:
         ]
 
     def _visible_objects(self, objmap: np.ndarray, T_map_optical: np.ndarray) -> list[VisibleObject]:
-        """Box, pixel count, visible fraction and share of the image of every object with a pixel
-        in ``objmap``."""
+        """Box, pixel count and visible fraction of every object with a pixel in ``objmap``."""
         out: list[VisibleObject] = []
         regions = _regions(objmap)
         if not regions:
@@ -847,7 +845,6 @@ class Simulation:
         T_optical_map = invert_transform(T_map_optical)
         T_optical_world = T_optical_map @ self.T_map_world
         by_id = {o.id: o for o in self.objects}
-        image_px = float(objmap.size)
         for oid, box, n in regions:
             o = by_id[oid]
             p_world = self._reference_world[o.id]
@@ -870,7 +867,6 @@ class Simulation:
                     visible_fraction=float(min(1.0, n / full)) if full > 0 else 0.0,
                     position_cam=p_cam,
                     view_angle_deg=angle,
-                    image_fraction=n / image_px,
                 )
             )
         return out

@@ -41,7 +41,7 @@ from eval.scoring.map_error import MapErrorResult
 from eval.scoring.pairing import STATUS_FALSE, STATUS_IGNORED, STATUS_MISSED, ObjectOutcome, ReportOutcome
 from eval.scoring.rules import Rules
 from eval.scoring.scorer import ScoreResult, identity_of
-from poi.core.in_view import IN_VIEW_FRACTION, IN_VIEW_IMAGE_FRACTION, IN_VIEW_MIN_PX, boxable_view
+from poi.core.in_view import IN_VIEW_FRACTION, IN_VIEW_LARGE_PX, IN_VIEW_MIN_PX, boxable_view
 from poi.core.names import TEXT_IDENTITY_TYPES, in_type_order
 
 # The stages, in the order an object passes them (Funnel.per_type counts the objects that passed each)
@@ -95,7 +95,7 @@ class ObjectView:
     # boxed by a box that holds that point (eval.trial.funnel_recorder.projected_views)
     point: bool = False
     type: str = ""  # the object's type (the in-view test's large views are for some types only)
-    image_fraction: float = 0.0  # the share of the image its visible pixels cover
+    pixels: int = 0  # its visible pixels
 
     @property
     def min_side_px(self) -> float:
@@ -110,7 +110,7 @@ class ObjectView:
         return boxable_view(
             self.type,
             visible_fraction=self.visible_fraction,
-            image_fraction=self.image_fraction if self.type else 0.0,
+            pixels=self.pixels if self.type else 0,
             min_side_px=self.min_side_px,
         )
 
@@ -284,7 +284,7 @@ def _perception_detail(cause: str, o: ObjectTrace) -> str:
         whole = f"never at least {IN_VIEW_FRACTION:.0%} visible with a box of {IN_VIEW_MIN_PX:g} px"
         if o.type in TEXT_IDENTITY_TYPES:
             return whole
-        return f"{whole}, nor over {IN_VIEW_IMAGE_FRACTION:.0%} of the image"
+        return f"{whole}, nor a large view ({IN_VIEW_LARGE_PX} px or more)"
     blur = sorted(o.blur_px)
     median_blur = blur[len(blur) // 2] if blur else 0.0
     if o.by_pose:

@@ -34,7 +34,7 @@ def object_views(truth) -> list[ObjectView]:
             distance_m=round(float(np.linalg.norm(v.position_cam)), 4),
             angle_deg=round(float(v.view_angle_deg), 2),
             type=v.type,
-            image_fraction=round(float(v.image_fraction), 4),
+            pixels=int(v.pixels),
         )
         for v in truth.visible
     ]

@@ -333,13 +333,13 @@ def test_a_qr_code_never_seen_at_3_px_a_module_is_said_so() -> None:
 
 
 def test_a_door_larger_than_the_frame_is_in_view_a_placard_so_seen_is_not() -> None:
-    """Close by, a door fills the frame with a quarter of itself: in view by the share of the image
-    it covers; a placard needs its face (the in-view test, poi.core.in_view), and the cause of one
-    never in view says which test it failed."""
+    """Close by, a door fills the frame with a quarter of itself: in view as a large view; a placard
+    needs its face (the in-view test, poi.core.in_view), and the cause of one never in view says
+    which test it failed."""
     from eval.scoring.funnel import ObjectTrace, _perception_detail
 
     frame_filling = dict(
-        box_xyxy=(0.0, 0.0, 640.0, 480.0), visible_fraction=0.26, distance_m=0.6, image_fraction=1.0
+        box_xyxy=(0.0, 0.0, 640.0, 480.0), visible_fraction=0.26, distance_m=0.6, pixels=640 * 480
     )
     rec = FunnelRecorder([(0, "door", "", None), (1, "hazmat", "poison", None)], load_config(), EX3)
     views = [ObjectView(id=0, type="door", **frame_filling), ObjectView(id=1, type="hazmat", **frame_filling)]
@@ -347,7 +347,7 @@ def test_a_door_larger_than_the_frame_is_in_view_a_placard_so_seen_is_not() -> N
         rec.on_frame(views, 0.0, frame(k), result(k, [], []))
     assert (rec.traces[0].in_view_frames, rec.traces[1].in_view_frames) == (3, 0)
     assert _perception_detail("not in view", ObjectTrace(id=0, type="door", text="")) == (
-        "never at least 35% visible with a box of 12 px, nor over 10% of the image"
+        "never at least 35% visible with a box of 12 px, nor a large view (9216 px or more)"
     )
     assert _perception_detail("not in view", ObjectTrace(id=1, type="hazmat", text="poison")) == (
         "never at least 35% visible with a box of 12 px"
