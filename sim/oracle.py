@@ -6,7 +6,7 @@ sees. Per visible object it
 
 * skips the views the in-view test fails (:func:`poi.core.in_view.boxable_view`: a box under
   ``min_box_px``, or less than ``min_visible_fraction`` of the object visible, unless a type not
-  read off its face shows over ``min_large_pixels``), and misses the rest with
+  read off its face shows ``min_large_pixels`` or more), and misses the rest with
   probability ``miss_rate``;
 * moves the box centre by N(0, sigma^2) per axis with sigma_u = a + b w,
   sigma_v = a + b h (the form [Avevor2022]_ section 2.1.4 fits; a and b default to the

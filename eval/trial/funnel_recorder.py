@@ -5,7 +5,7 @@ Per frame, :meth:`FunnelRecorder.on_frame` takes the ground truth's views of the
 perception record), the camera's blur and the pipeline's :class:`poi.pipeline.FrameResult`,
 and
 
-1. counts each object in view (the oracle's own test, :func:`poi.core.in_view.in_view`), with its
+1. counts each object in view (the oracle's own test, :func:`poi.core.in_view.boxable_view`), with its
    box size, distance, viewing angle and the blur;
 2. pairs the frame's boxes with the objects' visible boxes one to one, greedily by IoU, at
    IoU >= ``BOX_IOU`` (the usual detection match, [Bolya2020]_), and counts per object the
