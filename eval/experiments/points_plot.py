@@ -69,14 +69,41 @@ class PointsBar:
 
     def segments(self) -> list[tuple[str, float, float]]:
         """(name, left, width) of each segment, left to right (module docstring)."""
-        out, x = [], 0.0
-        for cause in BAR_ORDER:
-            if self.lost.get(cause):
-                out.append((cause, x, self.lost[cause]))
-                x += self.lost[cause]
+        out = cause_segments(self.lost)
         if self.uncharged > 1e-9:
-            out.append((UNCHARGED, x, self.uncharged))
+            end = out[-1][1] + out[-1][2] if out else 0.0
+            out.append((UNCHARGED, end, self.uncharged))
         return out
+
+
+def cause_segments(lost: dict[str, float]) -> list[tuple[str, float, float]]:
+    """(cause, left, width) of each cause that lost points, laid end to end in :data:`BAR_ORDER`."""
+    out, x = [], 0.0
+    for cause in BAR_ORDER:
+        if lost.get(cause):
+            out.append((cause, x, lost[cause]))
+            x += lost[cause]
+    return out
+
+
+def _draw_bar(ax, row: int, segments: list[tuple[str, float, float]], used: list[str]) -> float:
+    """Draw one bar's segments on row ``row`` of ``ax``, add their names to ``used`` (the
+    legend's, in first-drawn order); returns where the bar ends."""
+    end = 0.0
+    for name, left, width in segments:
+        ax.barh(
+            row,
+            width,
+            left=left,
+            color=CAUSE_COLOURS.get(name, "white"),
+            height=0.75,
+            edgecolor="black" if name == UNCHARGED else "white",
+            linewidth=0.5,
+        )
+        end = left + width
+        if name not in used:
+            used.append(name)
+    return end
 
 
 def points_figure(bars: list[PointsBar], per_type: dict[str, dict[str, float]], title: str) -> Figure | None:
@@ -94,44 +121,19 @@ def points_figure(bars: list[PointsBar], per_type: dict[str, dict[str, float]], 
     FigureCanvasAgg(fig)
     top, bottom = fig.subplots(2, 1, gridspec_kw={"height_ratios": [rows_top + 1, rows_bottom + 1]})
     used: list[str] = []
+    ends = []
     for i, bar in enumerate(bars):
-        x = 0.0
-        for name, left, width in bar.segments():
-            top.barh(
-                i,
-                width,
-                left=left,
-                color=CAUSE_COLOURS.get(name, "white"),
-                height=0.75,
-                edgecolor="black" if name == UNCHARGED else "white",
-                linewidth=0.5,
-            )
-            x = left + width
-            if name not in used:
-                used.append(name)
+        x = _draw_bar(top, i, bar.segments(), used)
+        ends.append(x)
         note = "" if abs(bar.uncharged) < 1e-9 else f", {bar.uncharged:+g} not charged"
         top.text(x, i, f"  {bar.score:g} / {bar.max_score:g}{note}", va="center", fontsize=8)
     top.set_yticks(range(rows_top), [b.label for b in bars], fontsize=8)
     top.invert_yaxis()  # the first bar on top, as trials.csv lists it
     top.set_xlabel("points lost, by cause (the score / the maximum at the right)")
-    top.set_xlim(0.0, 1.25 * max([1.0, *(sum(w for _, _, w in b.segments()) for b in bars)]) + 1.0)
+    top.set_xlim(0.0, 1.25 * max([1.0, *ends]) + 1.0)
     top.set_title(title, fontsize=10)
     for j, (_, lost) in enumerate(by_type):
-        x = 0.0
-        for cause in BAR_ORDER:
-            if lost.get(cause):
-                bottom.barh(
-                    j,
-                    lost[cause],
-                    left=x,
-                    color=CAUSE_COLOURS[cause],
-                    edgecolor="white",
-                    linewidth=0.5,
-                    height=0.75,
-                )
-                x += lost[cause]
-                if cause not in used:
-                    used.append(cause)
+        x = _draw_bar(bottom, j, cause_segments(lost), used)
         bottom.text(x, j, f"  {x:g}", va="center", fontsize=8)
     if by_type:
         bottom.set_yticks(range(len(by_type)), [t for t, _ in by_type], fontsize=8)
