@@ -46,10 +46,9 @@ from eval.scoring.funnel import (
     attribute,
 )
 from eval.scoring.map_error import MapErrorResult
-from eval.scoring.rules import AnyRules
-from eval.scoring.scorer import ScoreResult
+from eval.scoring.rules import AnyRules, Rules
+from eval.scoring.scorer import ScoreResult, identity_of
 from poi.core.geometry import greedy_pairs, iou_matrix
-from poi.core.names import TEXT_IDENTITY_TYPES
 from poi.core.types import Detection, Frame, TrackSnapshot
 from poi.estimation.box_depth import box_depth
 
@@ -160,15 +159,16 @@ class FunnelRecorder:
         self.qr_reader = qr_reader
 
     def _same_identity(self, det: Detection, o: ObjectTrace) -> bool:
-        """Whether a box's type and text are the object's identity (docs/RULES.md rule 1)."""
+        """Whether a box's type and text are the object's identity as the trial's rules give it
+        (docs/RULES.md rule 1, :func:`eval.scoring.scorer.identity_of`: the text counts where the
+        type's ``identity_uses_text`` says so); under a map-error preset, or for a type the rules do
+        not score, the type alone."""
         if det.type != o.type:
             return False
-        if o.type not in TEXT_IDENTITY_TYPES:
+        if not isinstance(self.rules, Rules) or o.type not in self.rules.types:
             return True
-        if o.type == "landolt-c" and hasattr(self.rules, "landolt_identity") and self.rules.landolt_rings:
-            mine = self.rules.landolt_identity(o.text)
-            return mine is not None and self.rules.landolt_identity(det.text) == mine
-        return bool(det.text) and det.text == o.text
+        mine = identity_of(o.type, o.text, self.rules)
+        return mine is not None and identity_of(det.type, det.text, self.rules) == mine
 
     def _why_not_localised(self, det: Detection, frame: Frame, skipped: str | None) -> str:
         if skipped:

@@ -379,3 +379,26 @@ def test_the_funnel_lists_types_in_the_order_the_score_table_does() -> None:
     rows = {t: {"objects": 1, **{s: 1 for s in STAGES}} for t in ("qr", "door", "hazmat")}
     body = format_funnel(rows, 0.0, 0.0).splitlines()[3:6]
     assert [line.split()[0] for line in body] == ["hazmat", "qr", "door"]
+
+
+def test_the_read_stage_follows_the_rules_identity_uses_text(tmp_path) -> None:
+    """A rules file where a placard's text is not its identity and a door's is: a placard boxed
+    with the wrong label is read (the scorer pairs its report), a door boxed without text is not."""
+    path = tmp_path / "r.yaml"
+    path.write_text(
+        "name: r\nidentify_radius_m: 2.0\nfalse_report_penalty: type_points\nunscored_types: ignore\ntypes:\n"
+        "  hazmat: {points: 1, locate_radius_m: null, located_points: null, identity_uses_text: false}\n"
+        "  door: {points: 1, locate_radius_m: null, located_points: null, identity_uses_text: true}\n"
+    )
+    rules = load_rules(str(path))
+    truth = poi(row(0, "hazmat", 0.0, text="explosive"), row(1, "door", 5.0, text="left"))
+    rec = FunnelRecorder([(0, "hazmat", "explosive", None), (1, "door", "left", None)], load_config(), rules)
+    b1 = (300.0, 100.0, 360.0, 160.0)
+    dets = [det("hazmat", "poison", track=1), det("door", track=2, box=b1)]
+    rec.on_frame([view(0), view(1, box=b1)], 0.0, frame(0), result(0, dets, [0, 1]))
+    res = score(poi(row(1, "hazmat", 0.0, text="poison"), row(2, "door", 5.0)), truth, rules)
+    assert [o.status for o in res.objects] == ["identified", "missed"]  # as the scorer reads them
+    f = rec.funnel([snap(1, 1, "hazmat"), snap(2, 2, "door")], res)
+    assert (f.stages[0]["read"], f.stages[1]["read"]) == (True, False)
+    assert [c.cause for c in f.charges if c.object_id == 1] == ["not read"]
+    assert f.check_ok
