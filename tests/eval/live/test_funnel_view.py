@@ -13,13 +13,17 @@ import shutil
 import pytest
 
 from eval.live.server import NO_FUNNEL_NOTE, LiveServer, ReplaySource
-from eval.scoring.funnel import CSV_COLUMNS
+from eval.scoring.funnel import CSV_COLUMNS, ObjectTrace, _perception_detail
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-NOT_READ_DETAIL = "localised 50 frames; the reader was given 0 views at >= 3 px a module: none decoded"
+# the details as the funnel words them (eval.scoring.funnel), for a door never in view and the QR code below
+NOT_IN_VIEW_DETAIL = _perception_detail("not in view", ObjectTrace(id=0, type="door", text=""))
+NOT_READ_DETAIL = _perception_detail(
+    "not read", ObjectTrace(id=2, type="qr", text="0042", modules=29, best_px=33.0, localised_frames=50)
+)
 FUNNEL = [
     dict(kind="object", id=0, type="door", in_view=0, best_px=0.0, boxed=0, typed=0, localised=0, read=0, tracks=0)
-    | dict(points_lost=10.0, lost_to="not in view", detail="never at least 35% visible with a box of 12 px"),
+    | dict(points_lost=10.0, lost_to="not in view", detail=NOT_IN_VIEW_DETAIL),
     dict(kind="object", id=1, type="hazmat", text="blasting-agent", in_view=63, best_px=131.0, min_distance_m=1.03)
     | dict(min_angle_deg=56.1, median_blur_px=0.0, boxed=59, typed=59, localised=54, read=54, tracks=1)
     | dict(confirmed_frame=3, points_lost=0.0),
