@@ -40,6 +40,9 @@ def test_render_writes_frames_depth_overlays_and_truth(tmp_path):
     assert 200 < np.median(depth[depth > 0]) < 10000  # millimetres inside a 3.6 m maze
     lines = (out / "frames.jsonl").read_text().splitlines()
     assert len(lines) == 3 and "objects" in json.loads(lines[0])
+    # each object's visible pixel count: what the in-view test (poi.core.in_view.boxable_view) needs
+    objects = [o for line in lines for o in json.loads(line)["objects"]]
+    assert objects and all(isinstance(o["pixels"], int) and o["pixels"] > 0 for o in objects)
     truth = read_poi_file(out / "truth.csv")
     assert truth.problems == [] and all(r.mode == "GT" for r in truth.rows)
 
