@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from eval.detector.label_data import is_photo_folder
+from poi.core.atomic_file import atomic_path
 from poi.core.loader import safe_load_file
 from poi.core.names import HAZMAT_LABELS, RESCUE_CLASSES
 
@@ -484,10 +485,5 @@ def _stamp_metadata(
         if value is not None:
             model.metadata_props.add(key=key, value=value)
     # whole or not at all: a resumed run takes an existing model.onnx as its finished export
-    partial = Path(dst).with_name(f".{Path(dst).name}.partial")
-    try:
+    with atomic_path(dst) as partial:
         onnx.save(model, str(partial))
-        os.replace(partial, dst)
-    except BaseException:
-        partial.unlink(missing_ok=True)
-        raise

@@ -6,9 +6,9 @@ keeps going past a failure, and :meth:`TrialOutputs.check` ends with one line na
 file (or files) that could not be written.
 
 Each file is written whole or not at all: to a temporary name beside it, then renamed over
-it (``os.replace``). A full disk used to leave 0-byte ``score.json``, ``config.yaml``,
-``cost.json`` and ``map.png`` that looked like outputs; now a failed one is absent, and an
-older file of that name (an earlier run's) is removed with it. A full disk is named as such,
+it (:func:`poi.core.atomic_file.atomic_path`). A full disk used to leave 0-byte ``score.json``,
+``config.yaml``, ``cost.json`` and ``map.png`` that looked like outputs; now a failed one is
+absent, and an older file of that name (an earlier run's) is removed with it. A full disk is named as such,
 "no space left on device", even where the first write to fail was the video's (its encoder
 dies first, and the trial saw a broken pipe).
 """
@@ -17,11 +17,12 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import os
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from poi.core.atomic_file import atomic_path
 
 NO_SPACE = "no space left on device"
 FULL_DISK_FREE_BYTES = 1 << 20  # less free than this after a failed write: the disk was full
@@ -62,16 +63,16 @@ class TrialOutputs:
         makes its own file (the video, ``pois.csv``, ``live/``) and ignores ``path``.
         """
         final = self.folder / name
-        path = final.with_name(f".{final.stem}.partial{final.suffix}") if atomic else final
         try:
-            write(path)
             if atomic:
-                os.replace(path, final)
+                with atomic_path(final, temp_name=f".{final.stem}.partial{final.suffix}") as path:
+                    write(path)
+            else:
+                write(final)
         except OSError as e:
             if atomic:
-                for leftover in (path, final):
-                    with contextlib.suppress(OSError):
-                        leftover.unlink()
+                with contextlib.suppress(OSError):
+                    final.unlink()
             self.fail(name, e)
             return False
         if name not in self.written:

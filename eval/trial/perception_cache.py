@@ -47,7 +47,6 @@ import math
 import os
 import pickle
 import struct
-import tempfile
 import time
 import zlib
 from collections.abc import Callable, Iterator
@@ -57,6 +56,7 @@ from pathlib import Path
 import numpy as np
 
 from eval.scoring.funnel import ObjectView
+from poi.core.atomic_file import atomic_path
 from poi.core.depth_units import from_z16, to_z16
 from poi.core.types import Detection, Frame, Intrinsics
 
@@ -493,25 +493,17 @@ class PerceptionCache:
         return rec
 
     def store(self, key: str, record: PerceptionRecord) -> None:
-        """Write the record atomically: a temporary file in the folder, synced, renamed over the final name."""
+        """Write the record atomically (:func:`poi.core.atomic_file.atomic_path`)."""
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as e:
             raise PerceptionCacheError(f"--cache {self.folder}: cannot create the folder ({e.strerror})") from None
         payload = pickle.dumps(record, protocol=pickle.HIGHEST_PROTOCOL)
         header = HEADER.pack(MAGIC, CACHE_FORMAT, len(payload), zlib.crc32(payload))
-        fd, tmp = tempfile.mkstemp(dir=self.folder, prefix=f".{key}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                f.write(header)
-                f.write(payload)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, self.path(key))
-        except BaseException:
-            with _suppress_os():
-                os.unlink(tmp)
-            raise
+        # its temporary file, .NAME.RANDOM.tmp, is what _drop_stale_temps removes after a killed writer
+        with atomic_path(self.path(key)) as tmp, open(tmp, "xb") as f:
+            f.write(header)
+            f.write(payload)
         self._drop_stale_temps()
         self._evict(keep=self.path(key))
 

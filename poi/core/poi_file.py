@@ -63,12 +63,11 @@ from __future__ import annotations
 
 import csv
 import math
-import os
 import re
-import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from poi.core.atomic_file import atomic_path
 from poi.core.names import HAZMAT_LABELS, TYPES, canonical_label, canonical_type
 
 POI_MAGIC = "pois"
@@ -516,20 +515,6 @@ def write_poi_file(path: str | Path, header: PoiHeader, rows: list[PoiRow]) -> N
 
 def write_text_atomic(path: str | Path, text: str) -> None:
     """Replace ``path`` with ``text`` (UTF-8, line ends as given) so that a reader sees the old
-    file or the new one, never a part: a temporary file in the same folder, fsync, ``os.replace``.
-
-    The temporary file is created with mode 0666 less the umask, as ``open`` creates any new
-    file (``tempfile.mkstemp`` would make it 0600, and the rename would keep that).
-    """
-    path = Path(path)
-    tmp = path.parent / f".{path.name}.{secrets.token_hex(8)}.tmp"
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    file or the new one, never a part (:func:`poi.core.atomic_file.atomic_path`)."""
+    with atomic_path(path) as tmp, open(tmp, "x", encoding="utf-8", newline="") as fh:
+        fh.write(text)
