@@ -690,6 +690,11 @@ def setting_groups(df, keys: list[str]) -> Iterator[tuple[dict, object]]:
         yield dict(zip(cols, key if isinstance(key, tuple) else (key,), strict=True)), g
 
 
+def drawn_trials(df, funnels: dict[str, dict]):
+    """The rows of ``df`` that ``points.png`` draws: trials that finished with a funnel line."""
+    return df[(df["error"] == "") & df["trial"].isin(list(funnels))] if len(df) else df
+
+
 def points_bars(df, keys: list[str], out: Path, funnels: dict[str, dict]):
     """(bars, the per-type funnel summed over them) of ``points.png``
     (:mod:`eval.experiments.points_plot`): a bar a trial (its scenario's name) when the run holds
@@ -699,7 +704,7 @@ def points_bars(df, keys: list[str], out: Path, funnels: dict[str, dict]):
     from eval.experiments.points_plot import PointsBar
     from eval.scoring.funnel import lost_by_cause, sum_per_type
 
-    ok = df[(df["error"] == "") & df["trial"].isin(list(funnels))] if len(df) else df
+    ok = drawn_trials(df, funnels)
     groups = list(setting_groups(ok, keys)) if len(ok) else []
     if len(groups) == 1:
         rows = groups[0][1]
@@ -731,7 +736,7 @@ def plot_points(out: Path, df, keys: list[str], funnels: dict[str, dict] | None 
 
     funnels = read_funnels(Path(out) / FUNNEL_LINES) if funnels is None else funnels
     bars, per_type = points_bars(df, keys, out, funnels)
-    drawn = int((df["error"].eq("") & df["trial"].isin(list(funnels))).sum()) if len(df) else 0
+    drawn = len(drawn_trials(df, funnels))
     failed = int((df["error"] != "").sum()) if len(df) else 0
     suite = str(df["suite"].iloc[0]) if len(df) and "suite" in df else ""
     score, top = sum(b.score for b in bars), sum(b.max_score for b in bars)

@@ -77,8 +77,8 @@ TARGET_TYPES: tuple[str, ...] = ("landolt-c",)
 # and the class indices), then the arena's, then the map landmarks, then the targets.
 TYPES: tuple[str, ...] = RESCUE_TYPES + ARENA_TYPES + MAPPING_TYPES + TARGET_TYPES
 # types whose identity includes what is read off their face, a placard's label, a code's text, a
-# target's gaps, as the shipped rules score them (docs/RULES.md rule 1): the funnel reads their text,
-# and the in-view test needs their face (poi.core.in_view)
+# target's gaps, as the shipped rules score them (docs/RULES.md rule 1): the in-view test needs
+# their face (poi.core.in_view); the funnel's read stage takes identity from the trial's rules
 TEXT_IDENTITY_TYPES: tuple[str, ...] = ("hazmat", "qr", "landolt-c")
 
 HAZMAT_LABELS: tuple[str, ...] = (
